@@ -1,0 +1,320 @@
+"""The run's configuration: one TOML file, validated in full before anything is computed.
+
+Every key, its type, its allowed range and its default are declared once, in `SCHEMA`; the
+README's key table is generated from the same list (`python -m pipeline keys`). The paper's
+reported values live in `[expectations.*]` as checks, never as inputs to a stage.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import tomllib
+from collections.abc import Callable, Mapping
+from pathlib import Path
+from types import MappingProxyType
+from typing import Any
+
+
+class ConfigError(ValueError):
+    """A config key, value, type or combination that is not allowed. The CLI exits with code 2."""
+
+
+@dataclasses.dataclass(frozen=True)
+class Key:
+    """One config key: its dotted name, default, allowed values (as text) and validator."""
+
+    name: str
+    default: Any
+    allowed: str
+    check: Callable[[Any], bool]
+    doc: str
+
+
+def _is_number(v: Any) -> bool:
+    return isinstance(v, int | float) and not isinstance(v, bool) and math.isfinite(v)
+
+
+def _is_int(v: Any) -> bool:
+    return isinstance(v, int) and not isinstance(v, bool)
+
+
+def _open_unit(v: Any) -> bool:
+    return _is_number(v) and 0.0 < v < 1.0
+
+
+def _positive(v: Any) -> bool:
+    return _is_number(v) and v > 0
+
+
+LIBRARY_TERMS = ("1", "n", "1/n", "1/n^2", "n^2", "sqrt(n)", "log(n)")
+METRICS = ("relative_epicenter", "absolute", "rms")
+FITS = ("least_squares", "minimax")
+
+SCHEMA: tuple[Key, ...] = (
+    Key("run.name", "paper", "a name of letters, digits, '-', '_'",
+        lambda v: isinstance(v, str) and v != "" and all(c.isalnum() or c in "-_" for c in v),
+        "output folder name: outputs/<name>/"),
+    Key("run.question", "", "a string", lambda v: isinstance(v, str),
+        "the question this run answers, one sentence (printed in the report)"),
+    Key("derivation.n_min", 2, "an integer >= 1", lambda v: _is_int(v) and v >= 1,
+        "smallest specular exponent n (paper: 2)"),
+    Key("derivation.n_max", 1000, "an integer > n_min and <= 100000",
+        lambda v: _is_int(v) and 1 < v <= 100_000, "largest specular exponent n (paper: 1000)"),
+    Key("derivation.Q", "scan", 'a number in (0, 1), "scan" or "optimize"',
+        lambda v: _open_unit(v) or v in ("scan", "optimize"),
+        'shape parameter of f_Q used downstream: "scan" = best on the paper\'s grid, '
+        '"optimize" = continuous optimum of the metric'),
+    Key("derivation.metric", "relative_epicenter", " or ".join(f'"{m}"' for m in METRICS),
+        lambda v: v in METRICS,
+        "objective that picks Q: max relative error in the epicenter zone (paper), max absolute "
+        "error over [0, pi/2], or RMS error over the lobe"),
+    Key("derivation.fit", "least_squares", " or ".join(f'"{f}"' for f in FITS),
+        lambda v: v in FITS,
+        "line through k_Q(n): ordinary least squares (paper) or minimax relative error"),
+    Key("derivation.constants", "fitted", '"paper" or "fitted"', lambda v: v in ("paper", "fitted"),
+        'constants used downstream: the paper\'s rounded ones (only with the paper\'s settings) or '
+        "this run's full-precision fits"),
+    Key("paper_model.slope", 0.448, "a number > 0", _positive, "the paper's rounded slope of k_Q2(n)"),
+    Key("paper_model.intercept", 0.099, "a number", _is_number, "the paper's rounded intercept of k_Q2(n)"),
+    Key("paper_model.coef_scale", 0.214, "a number > 0", _positive, "the paper's coef(n) = scale (offset + n)"),
+    Key("paper_model.coef_offset", 0.807, "a number", _is_number, "the paper's coef(n) offset"),
+    Key("zone.level", "calibrate", 'a number in (0, 1) or "calibrate"',
+        lambda v: _open_unit(v) or v == "calibrate",
+        "epicenter zone = {x : cos(x)^n >= level}; \"calibrate\" solves for the level at which max d "
+        "of f_2 equals zone.calibration_target"),
+    Key("zone.calibration_target", 0.07924, "a number in (0, 1)", _open_unit,
+        "max relative error of f_2 in the zone that calibrates the level (paper P9: 7.924 %)"),
+    Key("zone.sensitivity_levels", [0.5, 0.55, 0.6, 0.65, 0.7], "a list of numbers in (0, 1)",
+        lambda v: isinstance(v, list) and len(v) >= 1 and all(_open_unit(x) for x in v),
+        "zone levels at which the report shows how the epicenter figures move"),
+    Key("scan.coarse_step", 0.1, "a number in (0, 0.5]", lambda v: _is_number(v) and 0 < v <= 0.5,
+        "step of the coarse Q grid (paper: 0.1)"),
+    Key("scan.fine_step", 0.01, "a number in (0, coarse_step)", lambda v: _is_number(v) and 0 < v < 0.5,
+        "step of the refined Q grid around the coarse optimum (paper: 0.01)"),
+    Key("scan.curve_points", 161, "an integer in [11, 2001]", lambda v: _is_int(v) and 11 <= v <= 2001,
+        "Q values on the curves of Figs. 2 and 3"),
+    Key("solver.rtol", 1e-13, "a number in (0, 1e-3]", lambda v: _is_number(v) and 0 < v <= 1e-3,
+        "relative tolerance of every root find"),
+    Key("solver.atol", 1e-15, "a number in (0, 1e-3]", lambda v: _is_number(v) and 0 < v <= 1e-3,
+        "absolute tolerance of every root find"),
+    Key("solver.max_steps", 256, "an integer in [8, 100000]", lambda v: _is_int(v) and 8 <= v <= 100_000,
+        "iteration cap of every solver; hitting it is an error"),
+    Key("energy.quadrature_nodes", 64, "an integer in [4, 4096]", lambda v: _is_int(v) and 4 <= v <= 4096,
+        "Gauss-Legendre nodes over [0, gran(n)] for Int(n)"),
+    Key("sample.consecutive_to", 31, "an integer >= n_min", _is_int,
+        "the 50-point sample takes every n from n_min to this value ..."),
+    Key("sample.spread_from", 74, "an integer > consecutive_to", _is_int,
+        "... then spread_count values evenly spaced (rounded) from this value to n_max"),
+    Key("sample.spread_count", 20, "an integer >= 2", lambda v: _is_int(v) and v >= 2,
+        "number of evenly spaced large n in the sample"),
+    Key("sample.y_decimals", 3, "an integer in [-1, 15] (-1: no rounding)",
+        lambda v: _is_int(v) and -1 <= v <= 15,
+        "decimals kept in the sample's y, as in the paper's newenergy.txt (3)"),
+    Key("regression.library", ["1", "n", "1/n", "1/n^2"],
+        "a list of distinct terms from " + ", ".join(LIBRARY_TERMS) + ', containing "1" and "n"',
+        lambda v: isinstance(v, list) and len(set(v)) == len(v) and {"1", "n"} <= set(v)
+        and all(t in LIBRARY_TERMS for t in v),
+        "candidate terms of coef(n) for the sparse regression"),
+    Key("regression.threshold_min", 1e-5, "a number > 0", _positive, "smallest STLSQ threshold of the sweep"),
+    Key("regression.threshold_max", 1.0, "a number > threshold_min", _positive,
+        "largest STLSQ threshold of the sweep"),
+    Key("regression.threshold_count", 80, "an integer in [2, 10000]",
+        lambda v: _is_int(v) and 2 <= v <= 10_000, "thresholds in the (log-spaced) sweep"),
+)
+KEYS: Mapping[str, Key] = MappingProxyType({k.name: k for k in SCHEMA})
+SECTIONS = tuple(dict.fromkeys(k.name.split(".")[0] for k in SCHEMA))
+EXPECTATION_FIELDS = ("quantity", "paper", "result", "tolerance", "reason")
+EXPECTATION_OPTIONAL = ("compare", "known_difference", "known_value", "known_tolerance")
+
+
+@dataclasses.dataclass(frozen=True)
+class Expectation:
+    """A reported value to check: |reproduced - paper| <= tolerance (elementwise for lists)."""
+
+    id: str
+    quantity: str
+    paper: Any
+    result: str
+    tolerance: float
+    reason: str
+    compare: str = "equal"
+    known_difference: str = ""
+    known_value: Any = None
+    known_tolerance: float = 0.0
+
+
+@dataclasses.dataclass(frozen=True)
+class Config:
+    """A validated configuration. `values` maps every dotted key of `SCHEMA` to its value."""
+
+    values: Mapping[str, Any]
+    expectations: tuple[Expectation, ...]
+    source: str
+
+    def __getitem__(self, key: str) -> Any:
+        return self.values[key]
+
+    @property
+    def name(self) -> str:
+        return self.values["run.name"]
+
+    def subset(self, patterns: tuple[str, ...]) -> dict[str, Any]:
+        """The keys a stage reads: exact names, or `section.*` for a whole section."""
+        out = {}
+        for p in patterns:
+            if p.endswith(".*"):
+                out.update({k: v for k, v in self.values.items() if k.startswith(p[:-1])})
+            else:
+                out[p] = self.values[p]
+        return dict(sorted(out.items()))
+
+    def uses_paper_settings(self) -> bool:
+        """Whether the derivation settings are the paper's, so that its rounded constants apply."""
+        v = self.values
+        return (v["derivation.n_min"] == 2 and v["derivation.n_max"] == 1000
+                and v["derivation.Q"] in ("scan", 0.64) and v["derivation.metric"] == "relative_epicenter"
+                and v["derivation.fit"] == "least_squares")
+
+
+def _fail(key: str, value: Any, allowed: str) -> ConfigError:
+    return ConfigError(f"config key '{key}' = {value!r} is not allowed: expected {allowed}")
+
+
+def parse_override(text: str) -> tuple[str, Any]:
+    """Reads one `--set KEY=VALUE`; VALUE is a TOML literal, or a string if it is a bare word."""
+    if "=" not in text:
+        raise ConfigError(f"--set {text!r} is not allowed: expected KEY=VALUE, e.g. derivation.Q=0.5")
+    key, raw = (s.strip() for s in text.split("=", 1))
+    try:
+        value = tomllib.loads(f"v = {raw}")["v"]
+    except tomllib.TOMLDecodeError:
+        value = raw
+    return key, value
+
+
+def _flatten(raw: Mapping[str, Any]) -> tuple[dict[str, Any], dict[str, Any]]:
+    values, expectations = {}, {}
+    for section, body in raw.items():
+        if section == "expectations":
+            if not isinstance(body, dict):
+                raise _fail("expectations", body, "a table of [expectations.ID] tables")
+            expectations = body
+            continue
+        if section not in SECTIONS:
+            raise ConfigError(f"config section '[{section}]' is unknown: allowed sections are "
+                              + ", ".join(SECTIONS + ("expectations",)))
+        if not isinstance(body, dict):
+            raise _fail(section, body, "a table")
+        for key, value in body.items():
+            values[f"{section}.{key}"] = value
+    return values, expectations
+
+
+def _check_expectations(raw: Mapping[str, Any]) -> tuple[Expectation, ...]:
+    out = []
+    for eid, body in raw.items():
+        where = f"expectations.{eid}"
+        if not isinstance(body, dict):
+            raise _fail(where, body, "a table with " + ", ".join(EXPECTATION_FIELDS))
+        missing = set(EXPECTATION_FIELDS) - set(body)
+        extra = set(body) - set(EXPECTATION_FIELDS) - set(EXPECTATION_OPTIONAL)
+        if extra:
+            raise ConfigError(f"config key '{where}.{sorted(extra)[0]}' is unknown: allowed keys are "
+                              + ", ".join(EXPECTATION_FIELDS + EXPECTATION_OPTIONAL))
+        if missing:
+            raise ConfigError(f"config table '{where}' lacks '{sorted(missing)[0]}'")
+        for field in ("quantity", "result", "reason"):
+            if not isinstance(body[field], str) or not body[field]:
+                raise _fail(f"{where}.{field}", body[field], "a non-empty string")
+        tol, paper = body["tolerance"], body["paper"]
+        if not (_is_number(tol) and tol >= 0):
+            raise _fail(f"{where}.tolerance", tol, "a number >= 0")
+        ok_paper = (_is_number(paper) or isinstance(paper, bool)
+                    or (isinstance(paper, list) and paper and all(_is_number(p) for p in paper)))
+        if not ok_paper:
+            raise _fail(f"{where}.paper", paper, "a number, a boolean or a list of numbers")
+        compare = body.get("compare", "equal")
+        if compare not in ("equal", "at_most"):
+            raise _fail(f"{where}.compare", compare, '"equal" or "at_most"')
+        if compare == "at_most" and not _is_number(paper):
+            raise _fail(f"{where}.paper", paper, 'a number (compare = "at_most")')
+        known = body.get("known_difference", "")
+        if not isinstance(known, str):
+            raise _fail(f"{where}.known_difference", known, "a string")
+        known_value, known_tol = body.get("known_value"), body.get("known_tolerance", 0.0)
+        if bool(known) != (known_value is not None):
+            raise ConfigError(f"config table '{where}': known_difference and known_value go together")
+        if known_value is not None and not (_is_number(known_value) and _is_number(known_tol) and known_tol >= 0):
+            raise _fail(f"{where}.known_value/known_tolerance", (known_value, known_tol), "numbers, tolerance >= 0")
+        out.append(Expectation(eid, body["quantity"], paper, body["result"], float(tol), body["reason"],
+                               compare, known, known_value, float(known_tol)))
+    return tuple(out)
+
+
+def validate(values: Mapping[str, Any], raw_expectations: Mapping[str, Any], source: str) -> Config:
+    """Checks every key, value, type and combination; raises `ConfigError` on the first problem."""
+    for key in values:
+        if key not in KEYS:
+            section = key.split(".")[0]
+            near = [k for k in KEYS if k.startswith(section + ".")]
+            raise ConfigError(f"config key '{key}' is unknown: allowed keys in [{section}] are "
+                              + ", ".join(k.split(".", 1)[1] for k in near))
+    full = {k.name: values.get(k.name, k.default) for k in SCHEMA}
+    for k in SCHEMA:
+        if not k.check(full[k.name]):
+            raise _fail(k.name, full[k.name], k.allowed)
+    if full["derivation.n_max"] <= full["derivation.n_min"]:
+        raise _fail("derivation.n_max", full["derivation.n_max"],
+                    f"an integer > derivation.n_min = {full['derivation.n_min']}")
+    if full["scan.fine_step"] >= full["scan.coarse_step"]:
+        raise _fail("scan.fine_step", full["scan.fine_step"],
+                    f"a number < scan.coarse_step = {full['scan.coarse_step']}")
+    if full["regression.threshold_max"] <= full["regression.threshold_min"]:
+        raise _fail("regression.threshold_max", full["regression.threshold_max"],
+                    f"a number > regression.threshold_min = {full['regression.threshold_min']}")
+    lo, hi = full["derivation.n_min"], full["derivation.n_max"]
+    if not lo <= full["sample.consecutive_to"] < full["sample.spread_from"] < hi:
+        raise _fail("sample.consecutive_to/spread_from",
+                    (full["sample.consecutive_to"], full["sample.spread_from"]),
+                    f"n_min = {lo} <= consecutive_to < spread_from < n_max = {hi}")
+    spread = [round(full["sample.spread_from"] + i * (hi - full["sample.spread_from"])
+                    / (full["sample.spread_count"] - 1)) for i in range(full["sample.spread_count"])]
+    if len(set(spread)) != len(spread):
+        raise _fail("sample.spread_count", full["sample.spread_count"],
+                    f"a count whose evenly spaced n from {full['sample.spread_from']} to {hi} do not repeat")
+    config = Config(MappingProxyType(full), _check_expectations(raw_expectations), source)
+    if full["derivation.constants"] == "paper" and not config.uses_paper_settings():
+        raise _fail("derivation.constants", "paper",
+                    '"fitted": the paper\'s rounded constants hold only with its settings '
+                    '(n in [2, 1000], Q = 0.64 or "scan", metric "relative_epicenter", fit "least_squares")')
+    return config
+
+
+def load_config(path: str | Path, overrides: tuple[str, ...] = (), name: str | None = None) -> Config:
+    """Reads a TOML config, applies `--set` overrides and an output name, and validates it all."""
+    path = Path(path)
+    try:
+        raw = tomllib.loads(path.read_text())
+    except FileNotFoundError:
+        raise ConfigError(f"config file '{path}' does not exist") from None
+    except tomllib.TOMLDecodeError as e:
+        raise ConfigError(f"config file '{path}' is not valid TOML: {e}") from None
+    values, expectations = _flatten(raw)
+    for text in overrides:
+        key, value = parse_override(text)
+        if key.startswith("expectations."):
+            raise ConfigError(f"--set {key}: expectations are set in the config file, not with --set")
+        values[key] = value
+    if name is not None:
+        values["run.name"] = name
+    return validate(values, expectations, str(path))
+
+
+def key_table() -> str:
+    """Markdown table of every key with its default and allowed values (for the README)."""
+    rows = ["| key | default | allowed | meaning |", "|---|---|---|---|"]
+    for k in SCHEMA:
+        default = f"`{k.default!r}`".replace("'", '"')
+        rows.append(f"| `{k.name}` | {default} | {k.allowed} | {k.doc} |")
+    return "\n".join(rows)

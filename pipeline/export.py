@@ -1,0 +1,31 @@
+"""Data files of a run: the energy dataset (as the paper's newenergy.txt) and the regression front."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+
+def write_tables(out: Path, results) -> None:
+    data, reg = results["energy_dataset"], results["sparse_regression"]
+    with open(out / "newenergy.csv", "w") as f:
+        f.write("n, y\n")
+        for n, y in zip(data["sample_n"], data["sample_y"]):
+            f.write(f"{int(n)}, {y:.12g}\n")
+    with open(out / "energy_all_n.csv", "w") as f:
+        f.write("n,Int,y,gran\n")
+        for n, i, y, g in zip(data["n"], data["Int"], data["y"], data["gran"]):
+            f.write(f"{int(n)},{i:.17g},{y:.17g},{g:.17g}\n")
+    with open(out / "regression_front.csv", "w") as f:
+        f.write("terms,expression,rms_sample,rms_all_n,threshold\n")
+        f.write(f"1,{reg['constant_model']:.6g},{reg['constant_model_rms']:.6g},,\n")
+        for m in reg["front"]:
+            f.write(f"{len(m['terms'])},{m['expression']},{m['rms']:.6g},{m['rms_all_n']:.6g},"
+                    f"{m['threshold']:.3g}\n")
+
+
+def front_markdown(reg) -> str:
+    rows = ["| terms | expression | RMS on the sample | RMS on every n |", "|---|---|---|---|",
+            f"| 1 | {reg['constant_model']:.6g} (sample mean) | {reg['constant_model_rms']:.6g} | |"]
+    for m in reg["front"]:
+        rows.append(f"| {len(m['terms'])} | {m['expression']} | {m['rms']:.6g} | {m['rms_all_n']:.6g} |")
+    return "\n".join(rows)

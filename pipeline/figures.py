@@ -1,0 +1,223 @@
+"""One PNG per paper figure, plus the zone-sensitivity figure. Every figure reads only results."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+
+PAPER = dict(color="black", marker="*", markersize=12, linestyle="none", zorder=5)
+
+
+def paper_value(config, result_path):
+    """The paper's value for a result, from the config's expectations (None if it has none)."""
+    for e in config.expectations:
+        if e.result == result_path:
+            return e.paper
+    return None
+
+
+def _save(fig, out: Path, name: str) -> str:
+    fig.tight_layout()
+    fig.savefig(out / name, dpi=110)
+    plt.close(fig)
+    return name
+
+
+def fig2(out, config, r):
+    s = r["q_scan"]
+    fig, ax = plt.subplots(figsize=(7, 4.2))
+    ax.plot(s["curve_Q"], 100 * s["curve_d"], label="max d of f_Q (this run)")
+    ax.axhline(100 * s["d_f2"], color="C1", ls="--", label=f"max d of f_2 = {100 * s['d_f2']:.3f} %")
+    ax.plot(s["coarse_Q"], 100 * s["coarse_objective"], "o", ms=4, color="C2", label="coarse grid") \
+        if s["objective"] == "d" else None
+    ax.plot(s["fine_Q"], 100 * s["fine_objective"], ".", color="C3", label="fine grid") \
+        if s["objective"] == "d" else None
+    ax.axvline(s["Q_continuous_best"], color="grey", lw=0.8,
+               label=f"continuous optimum of {s['metric']}: Q = {s['Q_continuous_best']:.4f}")
+    p = paper_value(config, "q_scan.d_fQ_at_Q")
+    if p is not None:
+        ax.plot([0.64], [100 * p], **PAPER, label=f"paper: Q = 0.64, d = {100 * p:.3f} %")
+    ax.set(xlabel="Q (level at which f_Q = cos^n)", ylabel="max relative error d in epicenter zone (%)",
+           title="Fig. 2: max d over n of f_Q and f_2 versus Q", ylim=(0, max(25, 110 * s["d_f2"])))
+    ax.legend(fontsize=8)
+    ax.grid(alpha=0.3)
+    return _save(fig, out, "fig2_d_vs_Q.png")
+
+
+def fig3(out, config, r):
+    s = r["q_scan"]
+    fig, ax = plt.subplots(figsize=(7, 4.2))
+    ax.plot(s["curve_Q"], s["curve_D"], label="max D of f_Q (this run)")
+    ax.axhline(s["D_f2"], color="C1", ls="--", label=f"max D of f_2 = {s['D_f2']:.4f}")
+    ax.axvline(s["Q_used"], color="grey", lw=0.8, label=f"Q used = {s['Q_used']:.4g}")
+    p = paper_value(config, "accuracy.D_f_2")
+    if p is not None:
+        ax.plot([0.99], [p], **PAPER, label=f"paper: max D of f_2 = {p}")
+    ax.set(xlabel="Q", ylabel="max absolute error D over x in [0, pi/2]",
+           title="Fig. 3: max D over n of f_Q and f_2 versus Q")
+    ax.legend(fontsize=8)
+    ax.grid(alpha=0.3)
+    return _save(fig, out, "fig3_D_vs_Q.png")
+
+
+def fig4(out, config, r):
+    s = r["linear_coefficient"]
+    fig, ax = plt.subplots(figsize=(7, 4.2))
+    ax.plot(s["n"], 100 * s["paper_line_rel_error"], label="paper's line 0.448 n + 0.099")
+    ax.plot(s["n"], 100 * s["lin_rel_error"], ls="--",
+            label=f"this run's {s['fit']} line {s['lin_slope']:.6f} n + {s['lin_intercept']:.6f}")
+    for b in (-0.5, 0.5):
+        ax.axhline(b, color="black", lw=0.8, ls=":")
+    ax.set(xscale="log", xlabel="specular exponent n", ylabel="relative error of the line vs k_Q(n) (%)",
+           title=f"Fig. 4: linear approximation of k_Q(n), Q = {s['Q']:.4g} (dotted: paper's 0.5 % bound)")
+    ax.legend(fontsize=8)
+    ax.grid(alpha=0.3)
+    return _save(fig, out, "fig4_linear_coefficient.png")
+
+
+def fig5(out, config, r):
+    s = r["accuracy"]
+    deg = np.degrees(s["fig5_x"])
+    fig, ax = plt.subplots(figsize=(7, 4.2))
+    ax.plot(deg, s["fig5_f_b"], "k", lw=2, label="f_b = cos^20 x (reference)")
+    ax.plot(deg, s["fig5_f_2"], label="f_2")
+    ax.plot(deg, s["fig5_f_Q2"], ls="--", label=f"f_Q2 (k = {s['slope_used']:.4g} n + {s['intercept_used']:.4g})")
+    ax.axvline(np.degrees(s["fig5_zone_edge_x"]), color="grey", lw=0.8, label="edge of the epicenter zone")
+    ax.set(xlim=(0, 45), xlabel="angle x (degrees)", ylabel="lobe value", title="Fig. 5: lobes at n = 20")
+    ax.legend(fontsize=8)
+    ax.grid(alpha=0.3)
+    return _save(fig, out, "fig5_lobes_n20.png")
+
+
+def fig6(out, config, r):
+    s = r["accuracy"]
+    fig, (a, b) = plt.subplots(1, 2, figsize=(11, 4.2))
+    a.plot(s["n"], 100 * s["d_f_Q2_curve"], label=f"f_Q2 (max {100 * s['d_f_Q2']:.3f} %)")
+    a.plot(s["n"], 100 * s["d_f_2_curve"], label=f"f_2 (max {100 * s['d_f_2']:.3f} %)")
+    p = paper_value(config, "accuracy.d_f_Q2")
+    if p is not None:
+        a.plot([s["n"][-1]], [100 * p], **PAPER, label=f"paper: {100 * p:.3f} %")
+    a.set(xscale="log", xlabel="n", ylabel="max relative error d in epicenter zone (%)",
+          title="Fig. 6a: max d over x, per n")
+    b.plot(s["n"], s["D_f_Q2_curve"], label=f"f_Q2 (max {s['D_f_Q2']:.4f})")
+    b.plot(s["n"], s["D_f_2_curve"], label=f"f_2 (max {s['D_f_2']:.4f})")
+    p = paper_value(config, "accuracy.D_f_Q2")
+    if p is not None:
+        b.plot([s["n"][-1]], [p], **PAPER, label=f"paper: {p}")
+    b.set(xscale="log", xlabel="n", ylabel="max absolute error D over [0, pi/2]",
+          title="Fig. 6b: max D over x, per n")
+    for ax in (a, b):
+        ax.legend(fontsize=8)
+        ax.grid(alpha=0.3)
+    return _save(fig, out, "fig6_fQ2_errors.png")
+
+
+def fig7(out, config, r):
+    s = r["energy_dataset"]
+    fig, ax = plt.subplots(figsize=(7, 4.2))
+    ax.plot(s["n"], s["y"], label="y(n) = 1 / (2 pi Int(n)), every n")
+    ax.plot(s["sample_n"], s["sample_y"], "o", ms=4, label=f"{s['sample_size']}-point sample (newenergy.csv)")
+    p = paper_value(config, "energy_dataset.y_n2_to_10")
+    if p is not None:
+        ax.plot(np.arange(2, 2 + len(p)), p, **{**PAPER, "markersize": 8}, label="paper's printed values, n = 2..10")
+    ax.set(xscale="log", yscale="log", xlabel="n", ylabel="ideal normalization y(n)",
+           title="Fig. 7: ideal energy-normalization coefficients of f_Q2")
+    ax.legend(fontsize=8)
+    ax.grid(alpha=0.3, which="both")
+    return _save(fig, out, "fig7_dataset.png")
+
+
+def fig9(out, config, r):
+    s = r["sparse_regression"]
+    fig, ax = plt.subplots(figsize=(7, 4.2))
+    sizes = [1] + [len(m["terms"]) for m in s["front"]]
+    rms = [s["constant_model_rms"]] + [m["rms"] for m in s["front"]]
+    ax.plot(sizes, rms, "o-", label="this run: pysindy STLSQ sweep (terms of the library)")
+    for size, m in zip(sizes[1:], s["front"]):
+        ax.annotate(m["expression"], (size, m["rms"]), fontsize=7, xytext=(4, 4), textcoords="offset points")
+    # TuringBot's rows by number of terms: constant, c n, c (a + n), c n + b + a / n.
+    keys = [(1, "sparse_regression.constant_model_rms"), (1, "sparse_regression.one_term_rms"),
+            (2, "sparse_regression.coef_rms"), (3, "sparse_regression.three_term_rms")]
+    pts = [(size, paper_value(config, key)) for size, key in keys]
+    pts = [(size, v) for size, v in pts if v is not None]
+    if pts:
+        ax.plot([p[0] for p in pts], [p[1] for p in pts], **{**PAPER, "markersize": 9},
+                label="paper (TuringBot), by number of terms")
+    ax.set(yscale="log", xlabel="number of terms", ylabel="RMS error on the sample",
+           title="Fig. 9: complexity / error front of coef(n)")
+    ax.set_xticks(sorted(set(sizes)))
+    ax.legend(fontsize=8)
+    ax.grid(alpha=0.3, which="both")
+    return _save(fig, out, "fig9_front.png")
+
+
+def fig10(out, config, r):
+    s, e, h = r["sparse_regression"], r["energy_dataset"], r["hemispherical"]
+    fig, (a, b) = plt.subplots(2, 1, figsize=(7, 6), sharex=True, height_ratios=(2, 1))
+    a.plot(e["sample_n"], e["sample_y"], "o", ms=4, label="sample")
+    fitted = s["coef_scale"] * (s["coef_offset"] + e["n"])
+    used = h["coef_scale_used"] * (h["coef_offset_used"] + e["n"])
+    a.plot(e["n"], fitted, label=f"fit: {s['coef_scale']:.6f} ({s['coef_offset']:.6f} + n)")
+    a.plot(e["n"], used, ls="--", label=f"used: {h['coef_scale_used']:.6g} ({h['coef_offset_used']:.6g} + n)")
+    a.set(xscale="log", yscale="log", ylabel="coef(n)", title="Fig. 10: dataset and fitted coef(n)")
+    a.legend(fontsize=8)
+    b.plot(e["n"], fitted - e["y"], label="fit - y(n)")
+    b.plot(e["n"], used - e["y"], ls="--", label="used - y(n)")
+    b.set(xlabel="n", ylabel="residual")
+    b.legend(fontsize=8)
+    for ax in (a, b):
+        ax.grid(alpha=0.3, which="both")
+    return _save(fig, out, "fig10_coef_fit.png")
+
+
+def fig11(out, config, r):
+    h = r["hemispherical"]
+    fig, ax = plt.subplots(figsize=(7, 4.2))
+    ax.plot(h["n"], h["deviation"], label="coef(n) 2 pi Int(n) - 1")
+    p = paper_value(config, "hemispherical.hemi_max_abs_dev")
+    if p is not None:
+        ax.plot([2], [-p], **PAPER, label=f"paper: max |deviation| = {p}")
+    ax.axhline(0, color="black", lw=0.8)
+    ax.set(xscale="log", xlabel="n", ylabel="hemispherical reflectivity - 1",
+           title=f"Fig. 11: deviation from 1 (max |dev| = {h['hemi_max_abs_dev']:.4g} at n = {h['hemi_n_at_max']:g})")
+    ax.legend(fontsize=8)
+    ax.grid(alpha=0.3)
+    return _save(fig, out, "fig11_hemispherical.png")
+
+
+def zone_sensitivity(out, config, r):
+    s, z = r["accuracy"], r["zone"]
+    fig, ax = plt.subplots(figsize=(7, 4.2))
+    for name in ("f_2", "f_Q", "f_Q2"):
+        ax.plot(s["zone_levels"], 100 * s[f"zone_d_{name}"], "o-", label=f"max d of {name}")
+    ax.axvline(z["level"], color="grey", lw=0.8, label=f"level used L = {z['level']:.5f}")
+    ax.set(yscale="log", xlabel="zone level L (epicenter = {cos^n x >= L})", ylabel="max d (%)",
+           title="Epicenter figures versus the zone's level")
+    ax.legend(fontsize=8)
+    ax.grid(alpha=0.3, which="both")
+    return _save(fig, out, "zone_sensitivity.png")
+
+
+CAPTIONS = {
+    "fig2_d_vs_Q.png": "Fig. 2: max relative error in the epicenter zone versus Q",
+    "fig3_D_vs_Q.png": "Fig. 3: max absolute error versus Q",
+    "fig4_linear_coefficient.png": "Fig. 4: relative error of the linear coefficient",
+    "fig5_lobes_n20.png": "Fig. 5: f_Q2, f_2 and f_b at n = 20",
+    "fig6_fQ2_errors.png": "Fig. 6: max d and max D of f_Q2 (and f_2) per n",
+    "fig7_dataset.png": "Fig. 7: the ideal normalization dataset",
+    "fig9_front.png": "Fig. 9: sparse-regression front",
+    "fig10_coef_fit.png": "Fig. 10: dataset and coef(n)",
+    "fig11_hemispherical.png": "Fig. 11: hemispherical reflectivity minus 1",
+    "zone_sensitivity.png": "Epicenter figures versus the zone level",
+}
+
+
+def draw_all(out: Path, config, results) -> list[str]:
+    """Draws every figure into `out`; returns the file names."""
+    return [f(out, config, results) for f in (fig2, fig3, fig4, fig5, fig6, fig7, fig9, fig10, fig11,
+                                              zone_sensitivity)]

@@ -1,0 +1,69 @@
+"""The specular lobes of the paper, as functions of x (radians) and of u = 1 - cos x.
+
+Every quadratic lobe of the paper has the form ((k (cos x - 1) + 1)^2, i.e. (1 - k u)^2, and is
+clamped to 0 beyond its zero crossing cos x = 1 - 1/k (u = 1/k). They differ only in k(n):
+
+- f_2  (Romanyuk & Lyashenko 2010): k_2(n) = n / 2, matches the curvature of cos^n at x = 0;
+- f_Q  (level-matched): k_Q(n) = (sqrt(Q) - 1) / (exp(ln(Q) / n) - 1), equals cos^n where cos^n = Q;
+- f_Q2 (the paper's model): k_Q2(n) = slope n + intercept (paper: 0.448 n + 0.099).
+
+The reference lobe f_b (Phong / Blinn-Phong) is cos(x)^n.
+"""
+
+import jax.numpy as jnp
+
+
+def k_2(n):
+    """Coefficient k of f_2: n / 2."""
+    return n / 2.0
+
+
+def k_Q(n, Q):
+    """Coefficient k of f_Q for Q in (0, 1); expm1 keeps precision where ln(Q)/n is small."""
+    return (jnp.sqrt(Q) - 1.0) / jnp.expm1(jnp.log(Q) / n)
+
+
+def k_Q2(n, slope, intercept):
+    """Coefficient k of f_Q2: the line slope * n + intercept."""
+    return slope * n + intercept
+
+
+def f_b_u(u, n):
+    """Reference lobe cos^n x at u = 1 - cos x, u in [0, 1]."""
+    return (1.0 - u) ** n
+
+
+def quadratic_u(u, k):
+    """Quadratic lobe (1 - k u)^2 at u = 1 - cos x, clamped to 0 for u >= 1/k."""
+    base = 1.0 - k * u
+    return jnp.where(base > 0.0, base * base, 0.0)
+
+
+def f_b(x, n):
+    """Reference lobe cos(x)^n for x in [0, pi/2]."""
+    return f_b_u(1.0 - jnp.cos(x), n)
+
+
+def quadratic(x, k):
+    """Quadratic lobe (k (cos x - 1) + 1)^2, clamped to 0 past its zero crossing."""
+    return quadratic_u(1.0 - jnp.cos(x), k)
+
+
+def f_2(x, n):
+    """The original cosine-quadratic lobe ((n/2)(cos x - 1) + 1)^2, clamped."""
+    return quadratic(x, k_2(n))
+
+
+def f_Q(x, n, Q):
+    """The level-matched lobe (k_Q(n)(cos x - 1) + 1)^2, clamped."""
+    return quadratic(x, k_Q(n, Q))
+
+
+def f_Q2(x, n, slope, intercept):
+    """The paper's model ((slope n + intercept)(cos x - 1) + 1)^2, clamped."""
+    return quadratic(x, k_Q2(n, slope, intercept))
+
+
+def gran(k):
+    """Zero crossing x of a quadratic lobe: arccos(1 - 1/k); exceeds pi/2 when k < 1."""
+    return jnp.arccos(1.0 - 1.0 / k)

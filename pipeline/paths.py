@@ -1,0 +1,16 @@
+"""Every path the pipeline reads or writes, in one place."""
+
+import os
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent.parent
+CONFIGS = ROOT / "configs"
+PAPER_CONFIG = CONFIGS / "paper.toml"
+OUTPUTS = Path(os.environ.get("PIPELINE_OUTPUTS_DIR", ROOT / "outputs"))
+# Stage results, content-addressed; `make clean` removes the folder.
+CACHE = Path(os.environ.get("PIPELINE_CACHE_DIR", ROOT / ".cache" / "stages"))
+
+
+def output_dir(name: str, outputs: Path = OUTPUTS) -> Path:
+    """The folder that one run (the paper's or a refit) writes: `outputs/<name>/`."""
+    return outputs / name

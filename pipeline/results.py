@@ -1,0 +1,66 @@
+"""The one writer of `results.json`: every reported number, and the `headline` object."""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+# headline key -> (stage, result key); fractions, not percent.
+HEADLINE = {
+    "zone_level": ("zone", "level"),
+    "Q_scan_best": ("q_scan", "Q_scan_best"),
+    "Q_continuous_best": ("q_scan", "Q_continuous_best"),
+    "Q_used": ("q_scan", "Q_used"),
+    "d_fQ_at_Q": ("q_scan", "d_fQ_at_Q"),
+    "D_fQ_at_Q": ("q_scan", "D_fQ_at_Q"),
+    "lin_slope": ("linear_coefficient", "lin_slope"),
+    "lin_intercept": ("linear_coefficient", "lin_intercept"),
+    "lin_max_rel_error": ("linear_coefficient", "lin_max_rel_error"),
+    "d_fQ2": ("accuracy", "d_f_Q2"),
+    "D_fQ2": ("accuracy", "D_f_Q2"),
+    "d_f2": ("accuracy", "d_f_2"),
+    "D_f2": ("accuracy", "D_f_2"),
+    "epicenter_gain": ("accuracy", "epicenter_gain"),
+    "coef_scale": ("sparse_regression", "coef_scale"),
+    "coef_offset": ("sparse_regression", "coef_offset"),
+    "coef_rms": ("sparse_regression", "coef_rms"),
+    "hemi_max_abs_dev": ("hemispherical", "hemi_max_abs_dev"),
+}
+
+
+def headline(results: dict[str, dict[str, Any]]) -> dict[str, float]:
+    return {name: results[stage][key] for name, (stage, key) in HEADLINE.items()}
+
+
+def _plain(value):
+    if isinstance(value, np.ndarray):
+        return _plain(value.tolist())
+    if isinstance(value, np.generic):
+        return _plain(value.item())
+    if isinstance(value, dict):
+        return {k: _plain(v) for k, v in value.items()}
+    if isinstance(value, list | tuple):
+        return [_plain(v) for v in value]
+    if isinstance(value, float) and not math.isfinite(value):
+        return None
+    return value
+
+
+def write(path: Path, config, stage_keys, results, checks) -> dict:
+    """Writes results.json: config, stage keys, headline, every stage's scalars, the checks."""
+    scalars = {stage: {k: v for k, v in r.items() if not (isinstance(v, np.ndarray) and v.size > 16)}
+               for stage, r in results.items()}
+    doc = dict(
+        name=config.name, config_file=config.source, config=dict(config.values),
+        headline=headline(results), stages=scalars, stage_keys=stage_keys,
+        checks=[dict(id=c.expectation.id, quantity=c.expectation.quantity, paper=c.expectation.paper,
+                     reproduced=c.reproduced, tolerance=c.expectation.tolerance, verdict=c.verdict)
+                for c in checks],
+    )
+    doc = _plain(doc)
+    path.write_text(json.dumps(doc, indent=1, allow_nan=False))
+    return doc

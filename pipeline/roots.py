@@ -1,0 +1,54 @@
+"""Bracketed scalar root finding with optimistix, safe under `jax.vmap`.
+
+Solver failure is never turned into a silent NaN: every call returns a success flag, and the
+stages raise `SolverError` naming the inputs where any flag is false.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import jax.numpy as jnp
+import optimistix as optx
+
+
+class SolverError(RuntimeError):
+    """A root find or fit that did not converge; the message names the inputs."""
+
+
+@dataclasses.dataclass(frozen=True)
+class SolverSettings:
+    """Tolerances and iteration cap shared by every solve of a run (config section [solver])."""
+
+    rtol: float
+    atol: float
+    max_steps: int
+
+    @classmethod
+    def from_config(cls, section: dict) -> SolverSettings:
+        return cls(section["solver.rtol"], section["solver.atol"], section["solver.max_steps"])
+
+
+def bracketed_root(fn, lower, upper, args, settings: SolverSettings):
+    """Root of `fn(y, args)` in [lower, upper], by bisection.
+
+    Returns `(root, has_root, ok)`. Where `fn` has no sign change on the bracket there is no root
+    to find: `has_root` is False and `root` is `lower` (callers evaluate the endpoints anyway).
+    `ok` is False only where the solver failed on a bracket that did contain a root.
+    """
+    f_lo = fn(lower, args)
+    f_hi = fn(upper, args)
+    has_root = (f_lo <= 0.0) != (f_hi <= 0.0)
+    # Orient the function so that it is negative at `lower`; with no root, solve y - lower = 0.
+    sign = jnp.where(f_hi > 0.0, 1.0, -1.0)
+
+    def oriented(y, a):
+        inner_args, lo, s, root_exists = a
+        return jnp.where(root_exists, s * fn(y, inner_args), y - lo)
+
+    solver = optx.Bisection(rtol=settings.rtol, atol=settings.atol, flip=False)
+    sol = optx.root_find(oriented, solver, 0.5 * (lower + upper), args=(args, lower, sign, has_root),
+                         options=dict(lower=lower, upper=upper), max_steps=settings.max_steps,
+                         throw=False)
+    ok = sol.result == optx.RESULTS.successful
+    return sol.value, has_root, ok | ~has_root

@@ -1,0 +1,48 @@
+"""Helpers shared by the stages: the exponent range and the vectorized error measures."""
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from ..error_measures import absolute_parts, relative_parts, rms_relative
+from ..roots import SolverError, SolverSettings
+
+RANGE_KEYS = ("derivation.n_min", "derivation.n_max")
+
+
+def n_range(config) -> jnp.ndarray:
+    """Every integer exponent n in [n_min, n_max], as float64."""
+    return jnp.arange(config["derivation.n_min"], config["derivation.n_max"] + 1, dtype=jnp.float64)
+
+
+def lobe_measures(n, k, level, settings: SolverSettings):
+    """Per-n error measures of the quadratic lobe with coefficients k (arrays over n).
+
+    Returns a dict of arrays over n: d (relative, epicenter zone) and D (absolute, [0, pi/2]) with
+    their signed parts and the u = 1 - cos x where each is attained, the relative RMS error, and
+    the solver success flags.
+    """
+    d_over, d_under, d_u_over, d_u_under = jax.vmap(relative_parts, (0, 0, None))(n, k, level)
+    D_over, D_under, D_u_over, D_u_under, ok = jax.vmap(
+        lambda n_, k_: absolute_parts(n_, k_, settings))(n, k)
+    return dict(d_over=d_over, d_under=d_under, d=jnp.maximum(d_over, d_under),
+                d_u=jnp.where(d_over >= d_under, d_u_over, d_u_under),
+                D_over=D_over, D_under=D_under, D=jnp.maximum(D_over, D_under),
+                D_u=jnp.where(D_over >= D_under, D_u_over, D_u_under),
+                rms=jax.vmap(rms_relative)(n, k), ok=ok)
+
+
+def require_converged(ok, what: str, **inputs) -> None:
+    """Raises `SolverError` naming the first inputs at which a solve failed."""
+    ok = np.asarray(ok)
+    if ok.all():
+        return
+    where = np.argwhere(~ok)[0]
+    named = ", ".join(f"{name}={np.asarray(v)[tuple(where[:np.ndim(v)])]:.6g}" for name, v in inputs.items())
+    raise SolverError(f"{what}: the root finder did not converge at {named} "
+                      f"({int((~ok).sum())} failures); raise solver.max_steps or loosen solver.rtol/atol")
+
+
+def to_numpy(tree):
+    """The stage's result arrays as numpy (float64), for storage."""
+    return jax.tree_util.tree_map(lambda a: np.asarray(a), tree)

@@ -1,0 +1,80 @@
+"""Linear coefficient (Fig. 4): k_Q(n) replaced by slope * n + intercept.
+
+"least_squares" (the paper's linear regression) minimizes sum_n (slope n + intercept - k_Q(n))^2
+over every integer n in range, with optimistix. "minimax" minimizes the worst relative error
+max_n |(slope n + intercept) / k_Q(n) - 1|, a linear program (scipy's HiGHS).
+This stage also fixes the constants the later stages use: the paper's rounded ones or this fit.
+"""
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import optimistix as optx
+from scipy.optimize import linprog
+
+from ..lobes import k_Q
+from ..roots import SolverError
+from .common import RANGE_KEYS, n_range
+
+READS = RANGE_KEYS + ("derivation.fit", "derivation.constants", "paper_model.slope",
+                      "paper_model.intercept", "solver.*")
+UPSTREAM = ("q_scan",)
+
+
+def least_squares_line(n, k, rtol, atol, max_steps):
+    """(slope, intercept) minimizing sum (slope n + intercept - k)^2, by Gauss-Newton."""
+    scale = float(jnp.max(n))
+
+    def residuals(p, args):
+        n_, k_ = args
+        # The slope is solved for in units of 1/max(n), so that both unknowns are O(1).
+        return p[0] * (n_ / scale) + p[1] - k_
+
+    sol = optx.least_squares(residuals, optx.GaussNewton(rtol=rtol, atol=atol), jnp.zeros(2),
+                             args=(n, k), max_steps=max_steps, throw=False)
+    if sol.result != optx.RESULTS.successful:
+        raise SolverError(f"least-squares line through k_Q(n), n in [{float(n[0]):g}, "
+                          f"{float(n[-1]):g}]: {optx.RESULTS[sol.result]}")
+    return float(sol.value[0]) / scale, float(sol.value[1])
+
+
+def minimax_line(n, k):
+    """(slope, intercept) minimizing max |(slope n + intercept) / k - 1|, as a linear program."""
+    n, k = np.asarray(n), np.asarray(k)
+    # Variables (slope, intercept, t); minimize t s.t. -t <= (slope n + intercept)/k - 1 <= t.
+    a = np.column_stack([n / k, 1.0 / k])
+    A_ub = np.block([[a, -np.ones((len(n), 1))], [-a, -np.ones((len(n), 1))]])
+    b_ub = np.concatenate([np.ones(len(n)), -np.ones(len(n))])
+    res = linprog(c=[0.0, 0.0, 1.0], A_ub=A_ub, b_ub=b_ub, bounds=[(None, None)] * 3, method="highs")
+    if res.status != 0:
+        raise SolverError(f"minimax line through k_Q(n), n in [{n[0]:g}, {n[-1]:g}]: {res.message}")
+    return float(res.x[0]), float(res.x[1])
+
+
+def run(config, upstream):
+    n = n_range(config)
+    Q = upstream["q_scan"]["Q_used"]
+    k = jax.jit(k_Q)(n, Q)
+    fit = config["derivation.fit"]
+    if fit == "least_squares":
+        slope, intercept = least_squares_line(n, k, config["solver.rtol"], config["solver.atol"],
+                                              config["solver.max_steps"])
+    else:
+        slope, intercept = minimax_line(n, k)
+    rel = np.asarray((slope * n + intercept) / k - 1.0)
+    paper_slope, paper_intercept = config["paper_model.slope"], config["paper_model.intercept"]
+    rel_paper = np.asarray((paper_slope * n + paper_intercept) / k - 1.0)
+    use_paper = config["derivation.constants"] == "paper"
+    # The large-n asymptote of k_Q(n), a check on the fit: k_Q(n) = n (1 - sqrt Q) / (-ln Q)
+    # + (1 - sqrt Q) / 2 + O(1/n).
+    return dict(
+        Q=Q, fit=fit, n=np.asarray(n), k=np.asarray(k),
+        lin_slope=slope, lin_intercept=intercept, lin_max_rel_error=float(np.max(np.abs(rel))),
+        lin_rel_error=rel, paper_line_rel_error=rel_paper,
+        paper_line_max_rel_error=float(np.max(np.abs(rel_paper))),
+        asymptotic_slope=float((1.0 - np.sqrt(Q)) / -np.log(Q)),
+        asymptotic_intercept=float((1.0 - np.sqrt(Q)) / 2.0),
+        constants="paper" if use_paper else "fitted",
+        slope_used=paper_slope if use_paper else slope,
+        intercept_used=paper_intercept if use_paper else intercept,
+    )
