@@ -86,8 +86,11 @@ def absolute_parts(n, k, settings: SolverSettings):
 
 def _power_moment(a, b, m, v0):
     """int_{v0}^{1} (a + b v)^2 v^m dv, exactly."""
+    # v0 = 0 (lobe reaching the horizon) must not give 0 * log(0) = NaN in gradients.
+    safe = jnp.where(v0 > 0.0, v0, 1.0)
+
     def mono(p):
-        return (1.0 - v0 ** (p + 1.0)) / (p + 1.0)
+        return (1.0 - jnp.where(v0 > 0.0, safe ** (p + 1.0), 0.0)) / (p + 1.0)
     return a * a * mono(m) + 2.0 * a * b * mono(m + 1.0) + b * b * mono(m + 2.0)
 
 
@@ -100,4 +103,7 @@ def rms_relative(n, k):
     ff = (1.0 - (1.0 - k * c) ** 5) / (5.0 * k)          # int_0^c (1 - k u)^4 du
     fb = 1.0 / (2.0 * n + 1.0)                            # int_0^1 (1 - u)^(2n) du
     cross = _power_moment(a, b, n, v0)                    # int_0^c (1 - k u)^2 (1 - u)^n du
-    return jnp.sqrt(jnp.maximum(ff - 2.0 * cross + fb, 0.0) / fb)
+    ratio = (ff - 2.0 * cross + fb) / fb
+    # Where the lobe is exact (n = 2, k = 1) the ratio is 0; keep sqrt's gradient finite there.
+    positive = ratio > 0.0
+    return jnp.where(positive, jnp.sqrt(jnp.where(positive, ratio, 1.0)), 0.0)

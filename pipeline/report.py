@@ -89,7 +89,10 @@ def _sample_table(reg) -> list[str]:
 def _comparison(doc, baseline) -> list[str]:
     from .results import headline
     base = headline(baseline.results)
-    rows = ["## Compared with the paper's run", "", "| quantity | paper's run | this run |", "|---|---|---|"]
+    changed = [f"`{k}`: {baseline.config[k]!r} -> {v!r}" for k, v in doc["config"].items()
+               if k != "run.question" and baseline.config[k] != v]
+    rows = ["## Compared with the paper's run", "", "Changed from the paper's config: " + "; ".join(changed) + ".",
+            "", "| quantity | paper's run | this run |", "|---|---|---|"]
     for key in HEADLINE:
         a, b = base[key], doc["headline"][key]
         rows.append(f"| {key} | {a:.6g} | {b:.6g} |" if isinstance(a, float | int) else f"| {key} | {a} | {b} |")

@@ -43,11 +43,14 @@ def bracketed_root(fn, lower, upper, args, settings: SolverSettings):
     sign = jnp.where(f_hi > 0.0, 1.0, -1.0)
 
     def oriented(y, a):
-        inner_args, lo, s, root_exists = a
-        return jnp.where(root_exists, s * fn(y, inner_args), y - lo)
+        inner_args, lo, s, root_exists, half_atol = a
+        # Bisection's guarantee is the bracket's width; it uses only the sign of the residual. The
+        # residual passed on is sign * atol/2, so that optimistix's |f| < atol test always holds
+        # and the width (atol + rtol |y|) alone decides convergence, whatever the residual's scale.
+        return jnp.where(root_exists, half_atol * jnp.sign(s * fn(y, inner_args)), y - lo)
 
     solver = optx.Bisection(rtol=settings.rtol, atol=settings.atol, flip=False)
-    sol = optx.root_find(oriented, solver, 0.5 * (lower + upper), args=(args, lower, sign, has_root),
+    sol = optx.root_find(oriented, solver, 0.5 * (lower + upper), args=(args, lower, sign, has_root, 0.5 * settings.atol),
                          options=dict(lower=lower, upper=upper), max_steps=settings.max_steps,
                          throw=False)
     ok = sol.result == optx.RESULTS.successful

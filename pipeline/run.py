@@ -30,6 +30,7 @@ class RunOutcome:
     computed: list[str]
     checks: list[checks_mod.Check]
     out_dir: Path | None
+    config: Config
 
     @property
     def failed(self) -> list[checks_mod.Check]:
@@ -66,10 +67,11 @@ def run_stages(config: Config, cache: Cache, log: Callable[[str], None] = print)
     return results, keys, computed
 
 
-def _outputs_key(config: Config, keys: dict[str, str]) -> str:
+def _outputs_key(config: Config, keys: dict[str, str], baseline: RunOutcome | None) -> str:
     code = "".join(code_hash(m) for m in ("pipeline.figures", "pipeline.report", "pipeline.results",
                                           "pipeline.checks", "pipeline.export"))
-    blob = json.dumps(dict(keys=keys, config=dict(config.values), source=config.source,
+    blob = json.dumps(dict(keys=keys, baseline=baseline.keys if baseline else None,
+                           config=dict(config.values), source=config.source,
                            expectations=[dataclasses.asdict(e) for e in config.expectations], code=code),
                       sort_keys=True, default=str)
     return hashlib.sha256(blob.encode()).hexdigest()[:32]
@@ -84,13 +86,13 @@ def run_derivation(config: Config, cache_dir: Path = paths.CACHE, outputs: Path 
     checks = checks_mod.evaluate(config.expectations, results)
     out_dir = paths.output_dir(config.name, outputs) if write_outputs else None
     if out_dir is not None:
-        stamp_key = _outputs_key(config, keys)
+        stamp_key = _outputs_key(config, keys, baseline)
         stamp = out_dir / ".stamp"
         if stamp.exists() and stamp.read_text() == stamp_key:
             log(f"outputs in {out_dir} are up to date")
         else:
             _write_outputs(out_dir, stamp_key, config, results, keys, checks, baseline, log)
-    return RunOutcome(results, keys, computed, checks, out_dir)
+    return RunOutcome(results, keys, computed, checks, out_dir, config)
 
 
 def _write_outputs(out_dir, stamp_key, config, results, keys, checks, baseline, log):

@@ -1,0 +1,114 @@
+"""Refits: derived constants against independent numpy/scipy computations, and cache reuse."""
+
+import shutil
+
+import numpy as np
+import pytest
+from scipy.optimize import minimize
+
+import pipeline
+from pipeline import paths
+from pipeline.cache import Cache
+from pipeline.run import run_derivation, run_stages
+
+from .oracles import dense_max_errors, k_Q_np
+
+N = np.arange(2.0, 1001.0)
+N_SPOT = (2.0, 5.0, 20.0, 100.0, 400.0, 1000.0)
+
+
+@pytest.fixture(scope="module")
+def cache(paper_run, paper_cache, tmp_path_factory):
+    target = tmp_path_factory.mktemp("refit") / "cache"
+    shutil.copytree(paper_cache, target)
+    return Cache(target)
+
+
+def refit(name, cache):
+    config = pipeline.load_config(paths.CONFIGS / f"{name}.toml")
+    results, keys, computed = run_stages(config, cache, log=lambda s: None)
+    return results, computed
+
+
+def test_q_0_5_against_numpy(cache):
+    r, computed = refit("q_0_5", cache)
+    # Changing Q recomputes the stages that depend on it and reuses the zone from cache.
+    assert "zone" not in computed and "q_scan" in computed
+    lin = r["linear_coefficient"]
+    slope, intercept = np.polyfit(N, k_Q_np(N, 0.5), 1)
+    assert (lin["lin_slope"], lin["lin_intercept"]) == pytest.approx((slope, intercept), rel=1e-9)
+    level = r["zone"]["level"]
+    acc = r["accuracy"]
+    for n in N_SPOT:
+        d, D = dense_max_errors(n, slope * n + intercept, level)
+        assert acc["d_f_Q2_curve"][int(n) - 2] == pytest.approx(d, abs=2e-8)
+        assert acc["D_f_Q2_curve"][int(n) - 2] == pytest.approx(D, abs=2e-8)
+    k = slope * N + intercept
+    y = 1.0 / (2 * np.pi * (1 / (3 * k) - 1 / (12 * k**2)))
+    np.testing.assert_allclose(r["energy_dataset"]["y"], y, rtol=1e-12)
+
+
+def test_absolute_metric_optimum_against_a_dense_grid(cache):
+    r, _ = refit("absolute_error", cache)
+    q = r["q_scan"]
+    Q = q["Q_continuous_best"]
+    assert q["Q_used"] == Q
+
+    def D_dense(Q_):
+        return max(dense_max_errors(n, float(k_Q_np(n, Q_)), 0.5, 40_001)[1] for n in (2.0, 10.0, 100.0, 1000.0))
+
+    # The optimum of max D: nearby Q on either side are worse, by a dense-grid oracle.
+    at = D_dense(Q)
+    assert at == pytest.approx(q["D_fQ_at_Q"], abs=1e-6)
+    assert D_dense(Q - 0.003) > at and D_dense(Q + 0.003) > at
+    assert q["D_fQ_at_Q"] < r["accuracy"]["D_f_2"]
+
+
+def test_minimax_line_is_the_smallest_worst_case(cache, paper_run):
+    r, computed = refit("minimax_line", cache)
+    assert "q_scan" in computed or "zone" not in computed
+    lin = r["linear_coefficient"]
+    k = k_Q_np(N, 0.64)
+    worst = lambda p: np.max(np.abs((p[0] * N + p[1]) / k - 1))  # noqa: E731
+    assert lin["lin_max_rel_error"] == pytest.approx(worst((lin["lin_slope"], lin["lin_intercept"])), rel=1e-9)
+    assert lin["lin_max_rel_error"] < paper_run["linear_coefficient"]["lin_max_rel_error"]
+    # No derivative-free search from the least-squares line does better.
+    best = minimize(worst, [paper_run["linear_coefficient"]["lin_slope"],
+                            paper_run["linear_coefficient"]["lin_intercept"]],
+                    method="Nelder-Mead", options=dict(xatol=1e-12, fatol=1e-14, maxiter=4000))
+    assert lin["lin_max_rel_error"] <= best.fun + 1e-9
+    # Chebyshev alternation: the worst error is attained at >= 3 n with alternating signs.
+    err = (lin["lin_slope"] * N + lin["lin_intercept"]) / k - 1
+    peaks = np.flatnonzero(np.abs(np.abs(err) - lin["lin_max_rel_error"]) < 1e-9)
+    assert len(peaks) >= 3 and np.any(np.diff(np.sign(err[peaks])) != 0)
+
+
+def test_refit_writes_its_own_outputs_with_a_comparison(cache, tmp_path, paper_config):
+    config = pipeline.load_config(paths.CONFIGS / "q_0_5.toml")
+    base = run_derivation(paper_config, cache_dir=cache.root, outputs=tmp_path, log=lambda s: None,
+                          write_outputs=False)
+    out = run_derivation(config, cache_dir=cache.root, outputs=tmp_path, log=lambda s: None, baseline=base)
+    report = (tmp_path / "q_0_5" / "report.md").read_text()
+    assert "`derivation.Q`: 'scan' -> 0.5" in report
+    assert "| d_fQ2 | 0.0125671 | 0.0303" in report
+    assert not (tmp_path / "paper").exists()
+    assert out.failed == []
+
+
+def test_rms_metric_optimum_is_a_minimum(cache):
+    from scipy.integrate import quad
+    config = pipeline.load_config(paths.PAPER_CONFIG, ("run.name=rms", "derivation.metric=rms",
+                                                        "derivation.Q=optimize", "derivation.constants=fitted"))
+    r, _ = run_stages(config, cache, log=lambda s: None)[0], None
+    q = r["q_scan"]
+
+    def rms_1000(Q):  # the max over n is at n = 1000 here; plain quadrature as the oracle
+        n, k = 1000.0, float(k_Q_np(1000.0, Q))
+        num = quad(lambda u: ((max(1 - k * u, 0)) ** 2 - (1 - u) ** n) ** 2, 0, 1, points=[1 / k],
+                   epsabs=1e-16, epsrel=1e-12, limit=200)[0]
+        return np.sqrt(num * (2 * n + 1))
+
+    Q = q["Q_continuous_best"]
+    assert abs(Q - q["Q_scan_best"]) <= 0.01
+    assert rms_1000(Q) == pytest.approx(q["rms_fQ_at_Q"], rel=1e-7)
+    assert rms_1000(Q - 0.002) > rms_1000(Q) < rms_1000(Q + 0.002)
