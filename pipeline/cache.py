@@ -157,7 +157,7 @@ class Cache:
         try:
             (tmp / "values.json").write_text(json.dumps(values, sort_keys=True))
             with open(tmp / "arrays.npz", "wb") as f:
-                np.savez(f, **arrays)
+                np.savez_compressed(f, **arrays)
             manifest = dict(stage=stage, key=key, format=FORMAT,
                             sha256={name: _sha(tmp / name) for name in ("values.json", "arrays.npz")})
             (tmp / "manifest.json").write_text(json.dumps(manifest, sort_keys=True))

@@ -121,6 +121,29 @@ SCHEMA: tuple[Key, ...] = (
         "largest STLSQ threshold of the sweep"),
     Key("regression.threshold_count", 80, "an integer in [2, 10000]",
         lambda v: _is_int(v) and 2 <= v <= 10_000, "thresholds in the (log-spaced) sweep"),
+    Key("albedo.angles", 91, "an integer in [2, 1801]", lambda v: _is_int(v) and 2 <= v <= 1801,
+        "incidence angles, evenly spaced over [0, 90] degrees, at which the directional albedo is computed"),
+    Key("albedo.quadrature_nodes", 96, "an integer in [8, 4096]", lambda v: _is_int(v) and 8 <= v <= 4096,
+        "Gauss-Legendre nodes per piece of the albedo integral (its error is measured against twice as many)"),
+    Key("albedo.curve_n", [2, 5, 10, 50, 100, 1000], "a list of integers, one at least in [n_min, n_max]",
+        lambda v: isinstance(v, list) and len(v) >= 1 and all(_is_int(x) for x in v),
+        "exponents whose albedo curves are drawn and cross-checked by Monte Carlo (those in range)"),
+    Key("albedo.mc_samples", 200_000, "an integer in [1000, 10000000]",
+        lambda v: _is_int(v) and 1000 <= v <= 10_000_000, "Monte Carlo samples per (n, angle) cross-check"),
+    Key("albedo.mc_seed", 0, "an integer >= 0", lambda v: _is_int(v) and v >= 0,
+        "seed of the Monte Carlo cross-check"),
+    Key("comparison.grid_cells", 512, "an integer in [32, 100000]", lambda v: _is_int(v) and 32 <= v <= 100_000,
+        "cells of the log(1 + n u) grid that brackets each extremum of a lobe without a closed form"),
+    Key("comparison.albedo_angles", 19, "an integer in [2, 1801]", lambda v: _is_int(v) and 2 <= v <= 1801,
+        "incidence angles over [0, 90] degrees for the comparison's largest albedo"),
+    Key("render.resolution", 512, "an integer in [16, 4096]", lambda v: _is_int(v) and 16 <= v <= 4096,
+        "width and height of each rendered image, in pixels"),
+    Key("render.exponents", [10, 100, 1000], "a list of 1 to 8 numbers >= 1",
+        lambda v: isinstance(v, list) and 1 <= len(v) <= 8 and all(_is_number(x) and x >= 1 for x in v),
+        "specular exponents n of the rendered comparison"),
+    Key("render.normalization", "reference", '"reference" or "exact"', lambda v: v in ("reference", "exact"),
+        "normalization of the rendered candidates: cos^n's own (Giesen; equal peaks, shape differences only) "
+        "or each lobe's exact Blinn-form coef (equal energy)"),
 )
 KEYS: Mapping[str, Key] = MappingProxyType({k.name: k for k in SCHEMA})
 SECTIONS = tuple(dict.fromkeys(k.name.split(".")[0] for k in SCHEMA))
@@ -283,6 +306,9 @@ def validate(values: Mapping[str, Any], raw_expectations: Mapping[str, Any], sou
     if len(set(spread)) != len(spread):
         raise _fail("sample.spread_count", full["sample.spread_count"],
                     f"a count whose evenly spaced n from {full['sample.spread_from']} to {hi} do not repeat")
+    if not any(lo <= m <= hi for m in full["albedo.curve_n"]):
+        raise _fail("albedo.curve_n", full["albedo.curve_n"],
+                    f"a list with at least one integer in [n_min, n_max] = [{lo}, {hi}]")
     config = Config(MappingProxyType(full), _check_expectations(raw_expectations), source)
     if full["derivation.constants"] == "paper" and not config.uses_paper_settings():
         raise _fail("derivation.constants", "paper",

@@ -206,6 +206,128 @@ def zone_sensitivity(out, config, r):
     return _save(fig, out, "zone_sensitivity.png")
 
 
+def exact_normalization(out, config, r):
+    e = r["exact_normalization"]
+    fig, (a, b) = plt.subplots(1, 2, figsize=(12, 4.4))
+    a.plot(e["n"], e["energy_run"], label=f"run's coef {e['coef_scale_used']:g} ({e['coef_offset_used']:g} + n)")
+    a.plot(e["n"], e["asymptotic_phong_dev"], ls="--", label="(3 / (2 pi)) (k + 1/4)  [= -1/(16 k^2)]")
+    a.axhline(0, color="black", lw=0.8, label="exact coef = 6 k^2 / (pi (4 k - 1))")
+    if e["excess_ranges"]:
+        lo, hi = e["excess_ranges"][0]
+        a.axvspan(lo, hi, color="C3", alpha=0.08, label=f"energy created: n in {e['excess_ranges']}")
+    a.set(xscale="log", xlabel="n", ylabel="coef(n) 2 pi Int(n) - 1 (reflected / received - 1)",
+          title=f"Phong form: largest excess {e['paper_coef_max_excess']:+.2e} at n = "
+                f"{e['paper_coef_n_at_max_excess']:g}", ylim=(-0.07, 0.01))
+    b.plot(e["n"], e["asymptotic_blinn_dev"], ls="--", color="C1", label="(3 / (8 pi)) (k + 5/4)")
+    b.axhline(0, color="black", lw=0.8, label="exact Blinn coef (see report)")
+    b.set(xscale="log", xlabel="n", ylabel="coef_B(n) 2 pi Int_B(n) - 1",
+          title=f"Blinn form (N.H): own normalization; at n = {e['n'][-1]:g} it is "
+                f"{e['blinn_to_phong_ratio_at_n_max']:.4f} x the Phong one")
+    for ax in (a, b):
+        ax.legend(fontsize=7)
+        ax.grid(alpha=0.3, which="both")
+    return _save(fig, out, "exact_normalization.png")
+
+
+def directional_albedo(out, config, r):
+    s = r["directional_albedo"]
+    deg = np.degrees(s["theta"])
+    fig, axes = plt.subplots(1, 3, figsize=(15, 4.4), sharey=True)
+    panels = (("phong_run_coef", "Phong form, run's coef"), ("phong_exact_coef", "Phong form, exact coef"),
+              ("blinn_exact_coef", "Blinn form, exact Blinn coef"))
+    for ax, (name, title) in zip(axes, panels):
+        for i, m in enumerate(s["curve_n"]):
+            ax.plot(deg, s[f"{name}_curves"][i], label=f"n = {m:g}")
+        ax.axhline(1.0, color="black", lw=0.8)
+        ax.set(xlabel="incidence angle (degrees)", title=f"{title}: max {s[f'{name}_max']:.6f}")
+        ax.grid(alpha=0.3)
+    mc = [row for row in s["monte_carlo"]]
+    for ax, form in ((axes[1], "phong"), (axes[2], "blinn")):
+        pts = [row for row in mc if row["form"] == form]
+        ax.errorbar([p["theta_deg"] for p in pts], [p["monte_carlo"] for p in pts],
+                    yerr=[3 * p["standard_error"] for p in pts], fmt="k.", ms=3, lw=0.8,
+                    label="Monte Carlo (+- 3 s.e.)")
+        ax.legend(fontsize=7)
+    axes[0].legend(fontsize=7)
+    axes[0].set_ylabel("directional albedo a(theta_i)")
+    return _save(fig, out, "directional_albedo.png")
+
+
+def lobe_comparison(out, config, r):
+    c = r["lobe_comparison"]
+    fig, (a, b) = plt.subplots(1, 2, figsize=(12, 4.6))
+    for key, name in c["lobe_names"].items():
+        tag = c["lobe_tags"][key]
+        if tag == "cosn":
+            continue
+        a.plot(c["n"], 100 * c[f"d_{tag}_curve"], label=f"{name} ({100 * c[f'd_{tag}']:.3f} %)")
+        b.plot(c["n"], c[f"D_{tag}_curve"], label=f"{name} ({c[f'D_{tag}']:.4f})")
+    a.set(xscale="log", yscale="log", xlabel="n", ylabel="max relative error d in epicenter zone (%)",
+          title="Cheap lobes against cos^n: d per n (max in legend)")
+    b.set(xscale="log", xlabel="n", ylabel="max absolute error D over [0, pi/2]",
+          title="... and D per n")
+    for ax in (a, b):
+        ax.legend(fontsize=7)
+        ax.grid(alpha=0.3, which="both")
+    return _save(fig, out, "lobe_comparison.png")
+
+
+def renders(out, config, r):
+    """One side-by-side image per exponent (rows: scenes; columns: lobes), at full resolution."""
+    s = r["render"]
+    names = []
+    res = s["resolution"]
+    for j, n in enumerate(s["exponents"]):
+        rows, cols = len(s["scenes"]), len(s["lobes"])
+        fig, axes = plt.subplots(rows, cols, figsize=(cols * res / 100, rows * res / 100 + 0.6), dpi=100,
+                                 squeeze=False)
+        for i, scene in enumerate(s["scenes"]):
+            for l, lobe in enumerate(s["lobes"]):
+                ax = axes[i, l]
+                ax.imshow(s["display"][i, j, l], interpolation="nearest")
+                ax.set_axis_off()
+                label = ("reference cos^n (Giesen)" if lobe == "cos^n" else
+                         f"{lobe} ({'Giesen' if s['normalization'] == 'reference' else 'exact Blinn coef'})")
+                ax.set_title(f"{label}, {scene}", fontsize=9)
+        fig.suptitle(f"n = {n:g}: Blinn form (t = N.H), normalization: {s['normalization']}; Reinhard tone map, sRGB",
+                     fontsize=10)
+        fig.tight_layout()
+        name = f"render_n{n:g}.png"
+        fig.savefig(out / name, dpi=100)
+        plt.close(fig)
+        names.append(name)
+    return names
+
+
+def render_errors(out, config, r):
+    """Per exponent: relative and absolute luminance error of each candidate, with colour bars."""
+    s = r["render"]
+    names = []
+    candidates = [l for l, lobe in enumerate(s["lobes"]) if lobe != "cos^n"]
+    for j, n in enumerate(s["exponents"]):
+        fig, axes = plt.subplots(len(candidates), 2 * len(s["scenes"]),
+                                 figsize=(4.2 * 2 * len(s["scenes"]), 3.8 * len(candidates)), squeeze=False)
+        for row, l in enumerate(candidates):
+            for i, scene in enumerate(s["scenes"]):
+                ref = s["luminance"][i, j, 0].astype(np.float64)
+                cand = s["luminance"][i, j, l].astype(np.float64)
+                rel = np.where(ref > 1e-3, np.abs(cand - ref) / np.maximum(ref, 1e-3), 0.0)
+                for col, (data, label, cmap) in enumerate(((100 * np.minimum(rel, 1.0), "relative error (%), capped at 100", "magma"),
+                                                           (np.abs(cand - ref), "absolute error (linear luminance)", "viridis"))):
+                    ax = axes[row, 2 * i + col]
+                    im = ax.imshow(data, cmap=cmap, interpolation="nearest")
+                    ax.set_axis_off()
+                    ax.set_title(f"{s['lobes'][l]}, {scene}: {label}", fontsize=8)
+                    fig.colorbar(im, ax=ax, fraction=0.046, pad=0.02)
+        fig.suptitle(f"n = {n:g}: error against the reference cos^n", fontsize=10)
+        fig.tight_layout()
+        name = f"render_errors_n{n:g}.png"
+        fig.savefig(out / name, dpi=90)
+        plt.close(fig)
+        names.append(name)
+    return names
+
+
 CAPTIONS = {
     "fig2_d_vs_Q.png": "Fig. 2: max relative error in the epicenter zone versus Q",
     "fig3_D_vs_Q.png": "Fig. 3: max absolute error versus Q",
@@ -217,10 +339,15 @@ CAPTIONS = {
     "fig10_coef_fit.png": "Fig. 10: dataset and coef(n)",
     "fig11_hemispherical.png": "Fig. 11: hemispherical reflectivity minus 1",
     "zone_sensitivity.png": "Epicenter figures versus the zone level",
+    "exact_normalization.png": "Beyond the paper: energy reflected at normal incidence with each coef(n)",
+    "directional_albedo.png": "Beyond the paper: directional albedo at every incidence angle",
+    "lobe_comparison.png": "Beyond the paper: cheap lobes side by side",
 }
 
 
 def draw_all(out: Path, config, results) -> list[str]:
     """Draws every figure into `out`; returns the file names."""
-    return [f(out, config, results) for f in (fig2, fig3, fig4, fig5, fig6, fig7, fig9, fig10, fig11,
-                                              zone_sensitivity)]
+    names = [f(out, config, results) for f in (fig2, fig3, fig4, fig5, fig6, fig7, fig9, fig10, fig11,
+                                               zone_sensitivity, exact_normalization, directional_albedo,
+                                               lobe_comparison)]
+    return names + renders(out, config, results) + render_errors(out, config, results)

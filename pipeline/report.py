@@ -7,6 +7,7 @@ from pathlib import Path
 from . import checks as checks_mod
 from .export import front_markdown
 from .figures import CAPTIONS
+from .report_beyond import sections as beyond_sections
 from .results import HEADLINE
 
 
@@ -122,6 +123,7 @@ def write(path: Path, config, doc, r, checks, figures, baseline=None) -> None:
               "interior stationary point, it does not depend on L at all.", ""] + _zone_table(r) + [""]
     lines += ["## Sparse-regression front", "", front_markdown(r["sparse_regression"]), "",
               "## How the coef(n) constants move with the sample", ""] + _sample_table(r["sparse_regression"])
+    lines += [""] + beyond_sections(config, r)
     lines += ["", "## Figures", ""]
     lines += [f"### {CAPTIONS.get(f, f)}\n\n![{CAPTIONS.get(f, f)}]({f})\n" for f in figures]
     lines += ["## Files", "", "- `results.json`: every number (`headline` holds the main ones, as fractions)",

@@ -29,6 +29,17 @@ HEADLINE = {
     "coef_offset": ("sparse_regression", "coef_offset"),
     "coef_rms": ("sparse_regression", "coef_rms"),
     "hemi_max_abs_dev": ("hemispherical", "hemi_max_abs_dev"),
+    # beyond the paper
+    "paper_coef_max_excess": ("exact_normalization", "paper_coef_max_excess"),
+    "exact_coef_max_abs_dev": ("exact_normalization", "exact_coef_max_abs_dev"),
+    "phong_albedo_max": ("directional_albedo", "phong_run_coef_max"),
+    "blinn_albedo_max": ("directional_albedo", "blinn_exact_coef_max"),
+    "schlick_d": ("lobe_comparison", "d_schlick"),
+    "schlick_D": ("lobe_comparison", "D_schlick"),
+    "sg_d": ("lobe_comparison", "d_sg"),
+    "sg_D": ("lobe_comparison", "D_sg"),
+    "render_psnr_f_Q2_min": ("render", "psnr_f_Q2_min"),
+    "render_psnr_f_2_min": ("render", "psnr_f_2_min"),
 }
 
 

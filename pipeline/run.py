@@ -37,15 +37,18 @@ class RunOutcome:
         return [c for c in self.checks if c.verdict == checks_mod.FAIL]
 
 
-def run_stages(config: Config, cache: Cache, log: Callable[[str], None] = print):
-    """Every stage's result, from cache where its key matches. Returns (results, keys, computed)."""
+def run_stages(config: Config, cache: Cache, log: Callable[[str], None] = print, stages=STAGES):
+    """Each stage's result (every stage by default, in order), from cache where its key matches.
+
+    Returns (results, keys, computed). `stages` must list every stage before the ones it reads.
+    """
     results, keys, computed = {}, {}, []
-    for i, module in enumerate(STAGES, 1):
+    for i, module in enumerate(stages, 1):
         name = stage_name(module)
         upstream = {u: keys[u] for u in module.UPSTREAM}
         key = stage_key(name, config.subset(module.READS), upstream, code_hash(module.__name__))
         keys[name] = key
-        label = f"[{i}/{len(STAGES)}] {name:<19}"
+        label = f"[{i}/{len(stages)}] {name:<19}"
         try:
             result = cache.load(name, key)
         except DamagedEntry as e:
@@ -68,7 +71,8 @@ def run_stages(config: Config, cache: Cache, log: Callable[[str], None] = print)
 
 
 def _outputs_key(config: Config, keys: dict[str, str], baseline: RunOutcome | None) -> str:
-    code = "".join(code_hash(m) for m in ("pipeline.figures", "pipeline.report", "pipeline.results",
+    code = "".join(code_hash(m) for m in ("pipeline.figures", "pipeline.report", "pipeline.report_beyond", "pipeline.results",
+                                          "pipeline.shader",
                                           "pipeline.checks", "pipeline.export"))
     blob = json.dumps(dict(keys=keys, baseline=baseline.keys if baseline else None,
                            config=dict(config.values), source=config.source,
@@ -96,7 +100,7 @@ def run_derivation(config: Config, cache_dir: Path = paths.CACHE, outputs: Path 
 
 
 def _write_outputs(out_dir, stamp_key, config, results, keys, checks, baseline, log):
-    from . import export, figures, report  # matplotlib is imported only when figures are drawn
+    from . import export, figures, report, shader  # matplotlib is imported only when figures are drawn
 
     start = time.perf_counter()
     out_dir.parent.mkdir(parents=True, exist_ok=True)
@@ -105,6 +109,7 @@ def _write_outputs(out_dir, stamp_key, config, results, keys, checks, baseline, 
         doc = results_mod.write(tmp / "results.json", config, keys, results, checks)
         export.write_tables(tmp, results)
         figs = figures.draw_all(tmp, config, results)
+        shader.write(tmp, config, results, stamp_key[:12])
         report.write(tmp / "report.md", config, doc, results, checks, figs, baseline)
         (tmp / ".stamp").write_text(stamp_key)
         old = out_dir.with_name(f".{out_dir.name}.old")

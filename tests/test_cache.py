@@ -7,6 +7,7 @@ import pipeline
 from pipeline import paths
 from pipeline.cache import Cache, code_modules
 from pipeline.run import run_stages
+from pipeline.stages import PAPER_STAGES, STAGES
 
 
 @pytest.fixture()
@@ -17,25 +18,28 @@ def warm_cache(paper_run, paper_cache, tmp_path):
     return Cache(target)
 
 
-def run(config, cache):
+def run(config, cache, stages=STAGES):
     log = []
-    results, keys, computed = run_stages(config, cache, log=log.append)
+    results, keys, computed = run_stages(config, cache, log=log.append, stages=stages)
     return results, computed, "\n".join(log)
 
 
 def test_second_run_computes_nothing(paper_config, warm_cache):
     _, computed, log = run(paper_config, warm_cache)
     assert computed == []
-    assert log.count("cached") == 7
+    assert log.count("cached") == len(STAGES)
 
 
 def test_changing_one_parameter_recomputes_only_what_depends_on_it(warm_cache):
+    # The paper's stages only (the stages beyond it read these and would all follow).
     cfg = pipeline.load_config(paths.PAPER_CONFIG, ("regression.threshold_count=81",))
-    assert run(cfg, warm_cache)[1] == ["sparse_regression", "hemispherical"]
+    assert run(cfg, warm_cache, PAPER_STAGES)[1] == ["sparse_regression", "hemispherical"]
     cfg = pipeline.load_config(paths.PAPER_CONFIG, ("energy.quadrature_nodes=48",))
-    assert run(cfg, warm_cache)[1] == ["energy_dataset", "sparse_regression", "hemispherical"]
+    assert run(cfg, warm_cache, PAPER_STAGES)[1] == ["energy_dataset", "sparse_regression", "hemispherical"]
     cfg = pipeline.load_config(paths.PAPER_CONFIG, ('zone.sensitivity_levels=[0.6]',))
     assert run(cfg, warm_cache)[1] == ["accuracy"]
+    cfg = pipeline.load_config(paths.PAPER_CONFIG, ("comparison.albedo_angles=10",))
+    assert run(cfg, warm_cache)[1] == ["lobe_comparison"]
 
 
 def test_a_damaged_entry_is_reported_and_recomputed(paper_config, paper_run, warm_cache):

@@ -10,6 +10,7 @@ import pipeline
 from pipeline import paths
 from pipeline.cache import Cache
 from pipeline.run import run_derivation, run_stages
+from pipeline.stages import PAPER_STAGES
 
 from .oracles import dense_max_errors, k_Q_np
 
@@ -26,7 +27,8 @@ def cache(paper_run, paper_cache, tmp_path_factory):
 
 def refit(name, cache):
     config = pipeline.load_config(paths.CONFIGS / f"{name}.toml")
-    results, keys, computed = run_stages(config, cache, log=lambda s: None)
+    # The paper's stages: what these tests check (the stages beyond it are tested in test_beyond).
+    results, keys, computed = run_stages(config, cache, log=lambda s: None, stages=PAPER_STAGES)
     return results, computed
 
 
@@ -95,13 +97,14 @@ def test_refit_writes_its_own_outputs_with_a_comparison(cache, tmp_path, paper_c
     assert "| d_fQ2 | 0.0125671 | 0.0303" in report
     assert not (tmp_path / "paper").exists()
     assert out.failed == []
+    assert "## Verdict on the paper's claims" in report and "## Beyond the paper: exact normalization" in report
 
 
 def test_rms_metric_optimum_is_a_minimum(cache):
     from scipy.integrate import quad
     config = pipeline.load_config(paths.PAPER_CONFIG, ("run.name=rms", "derivation.metric=rms",
                                                         "derivation.Q=optimize", "derivation.constants=fitted"))
-    r = run_stages(config, cache, log=lambda s: None)[0]
+    r = run_stages(config, cache, log=lambda s: None, stages=PAPER_STAGES)[0]
     q = r["q_scan"]
 
     def rms_1000(Q):  # the max over n is at n = 1000 here; plain quadrature as the oracle

@@ -7,16 +7,22 @@ lists and numpy arrays. The cache key of a stage covers exactly these inputs and
 
 from . import (
     accuracy,
+    directional_albedo,
     energy_dataset,
+    exact_normalization,
     hemispherical,
     linear_coefficient,
+    lobe_comparison,
     q_scan,
+    render,
     sparse_regression,
     zone,
 )
 
-STAGES = (zone, q_scan, linear_coefficient, accuracy, energy_dataset, sparse_regression,
-          hemispherical)
+# The paper's derivation, then the checks it never made.
+PAPER_STAGES = (zone, q_scan, linear_coefficient, accuracy, energy_dataset, sparse_regression, hemispherical)
+BEYOND_STAGES = (exact_normalization, directional_albedo, lobe_comparison, render)
+STAGES = PAPER_STAGES + BEYOND_STAGES
 
 
 def stage_name(module) -> str:

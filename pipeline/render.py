@@ -1,0 +1,118 @@
+"""A small per-pixel renderer in JAX: a unit sphere, and a sphere resting on a plane, under one
+directional light, shaded with a normalized specular lobe of the Blinn form (t = N.H) plus a
+Lambertian base, with a shadow ray against the sphere.
+
+Radiance (linear, per RGB channel) = E max(N.L, 0) (albedo / pi + k_s coef(n) lobe(1 - N.H, n)).
+Display: exposure 1, Reinhard tone map x / (1 + x) (keeps highlights from clipping), then the
+sRGB transfer function (correct gamma).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import jax.numpy as jnp
+import numpy as np
+
+IRRADIANCE = np.pi      # a white Lambertian surface facing the light has radiance 1
+SPECULAR = 0.25
+BACKGROUND = np.array([0.02, 0.02, 0.025])
+
+
+@dataclasses.dataclass(frozen=True)
+class Scene:
+    name: str
+    camera: tuple
+    target: tuple
+    fov_deg: float
+    light: tuple
+    plane: bool
+
+
+SCENES = (
+    Scene("sphere", (0.0, 0.0, 3.2), (0.0, 0.0, 0.0), 42.0, (-0.45, 0.55, 0.70), False),
+    Scene("sphere_on_plane", (0.0, 1.4, 4.2), (0.0, -0.4, 0.0), 48.0, (-0.55, 0.45, -0.70), True),
+)
+SPHERE_ALBEDO = np.array([0.20, 0.33, 0.60])
+PLANE_ALBEDO = np.array([0.45, 0.45, 0.42])
+
+
+def _normalize(v):
+    return v / jnp.linalg.norm(v, axis=-1, keepdims=True)
+
+
+def _hit_sphere(origin, direction):
+    """Distance along unit rays to the unit sphere at the origin (inf where missed)."""
+    b = jnp.sum(origin * direction, axis=-1)
+    c = jnp.sum(origin * origin, axis=-1) - 1.0
+    disc = b * b - c
+    t = -b - jnp.sqrt(jnp.maximum(disc, 0.0))
+    return jnp.where((disc > 0.0) & (t > 1e-9), t, jnp.inf)
+
+
+def geometry(scene: Scene, resolution: int):
+    """Per pixel: (hit mask, position, normal, view direction V, albedo) of the first surface hit."""
+    cam, target = jnp.array(scene.camera), jnp.array(scene.target)
+    forward = _normalize(target - cam)
+    right = _normalize(jnp.cross(forward, jnp.array([0.0, 1.0, 0.0])))
+    up = jnp.cross(right, forward)
+    half = np.tan(np.radians(scene.fov_deg) / 2.0)
+    s = (jnp.arange(resolution) + 0.5) / resolution * 2.0 - 1.0
+    x, y = jnp.meshgrid(s * half, -s * half)
+    direction = _normalize(forward + x[..., None] * right + y[..., None] * up)
+    origin = jnp.broadcast_to(cam, direction.shape)
+    t_sphere = _hit_sphere(origin, direction)
+    if scene.plane:
+        t_plane = jnp.where(direction[..., 1] < 0.0, (-1.0 - cam[1]) / jnp.minimum(direction[..., 1], -1e-12),
+                            jnp.inf)
+    else:
+        t_plane = jnp.full(t_sphere.shape, jnp.inf)
+    on_sphere = t_sphere <= t_plane
+    t = jnp.minimum(t_sphere, t_plane)
+    hit = jnp.isfinite(t)
+    position = origin + jnp.where(hit, t, 0.0)[..., None] * direction
+    normal = jnp.where(on_sphere[..., None], _normalize(position), jnp.array([0.0, 1.0, 0.0]))
+    albedo = jnp.where(on_sphere[..., None], jnp.array(SPHERE_ALBEDO), jnp.array(PLANE_ALBEDO))
+    return hit, position, normal, -direction, albedo, on_sphere
+
+
+def shade(scene: Scene, resolution: int, lobe, n, coef):
+    """Linear RGB radiance [res, res, 3] with the Blinn-form lobe(u, n) normalized by coef."""
+    hit, position, normal, V, albedo, on_sphere = geometry(scene, resolution)
+    L = _normalize(jnp.array(scene.light))
+    n_dot_l = jnp.maximum(normal @ L, 0.0)
+    # Shadow: a ray from a plane point toward the light that meets the sphere.
+    shadowed = (~on_sphere) & jnp.isfinite(_hit_sphere(position + 1e-6 * normal, jnp.broadcast_to(L, position.shape)))
+    H = _normalize(V + L)
+    t = jnp.clip(jnp.sum(normal * H, axis=-1), 0.0, 1.0)
+    specular = SPECULAR * coef * lobe(1.0 - t, n)
+    lit = IRRADIANCE * n_dot_l * jnp.where(shadowed, 0.0, 1.0)
+    radiance = lit[..., None] * (albedo / np.pi + specular[..., None])
+    return jnp.where(hit[..., None], radiance, jnp.array(BACKGROUND))
+
+
+def to_display(radiance):
+    """Reinhard tone map, then the sRGB transfer function; values in [0, 1]."""
+    x = radiance / (1.0 + radiance)
+    return jnp.where(x <= 0.0031308, 12.92 * x, 1.055 * jnp.power(jnp.maximum(x, 0.0031308), 1.0 / 2.4) - 0.055)
+
+
+def luminance(rgb):
+    return rgb @ jnp.array([0.2126, 0.7152, 0.0722])
+
+
+def image_statistics(candidate, reference, highlight):
+    """Error of a candidate image against the reference.
+
+    max_abs, mean_abs: |linear radiance difference| (all channels, all pixels); max_rel, mean_rel:
+    |luminance difference| / reference luminance over the highlight mask; psnr: of the displayed
+    (tone-mapped sRGB) images, peak 1.
+    """
+    diff = jnp.abs(candidate - reference)
+    rel = jnp.abs(luminance(candidate) - luminance(reference)) / jnp.maximum(luminance(reference), 1e-12)
+    count = jnp.maximum(jnp.sum(highlight), 1)
+    mse = jnp.mean((to_display(candidate) - to_display(reference)) ** 2)
+    return dict(max_abs=float(jnp.max(diff)), mean_abs=float(jnp.mean(diff)),
+                max_rel=float(jnp.max(jnp.where(highlight, rel, 0.0))),
+                mean_rel=float(jnp.sum(jnp.where(highlight, rel, 0.0)) / count),
+                psnr=float(jnp.where(mse > 0, 10.0 * jnp.log10(1.0 / jnp.maximum(mse, 1e-300)), jnp.inf)))

@@ -1,0 +1,106 @@
+"""Shader export: the run's lobe and normalizations as ready-to-paste GLSL and HLSL functions, and a
+Python twin printed from the same sympy expressions, so that a test can check the exported code
+against the pipeline's own lobe.
+
+Every function body is one sympy expression with the run's constants filled in (`functions`);
+each language only prints it (sympy's GLSL, C and Python printers). t is cos x: dot(N, H) for the
+Blinn form, dot(R, V) for the Phong form, clamped to [0, 1] by the caller.
+"""
+
+from __future__ import annotations
+
+import importlib.metadata
+from pathlib import Path
+
+import sympy as sp
+
+from . import exact
+
+t, n = sp.symbols("t n", real=True)
+PREFIX = "cosquad_"
+
+
+def functions(slope: float, intercept: float, coef_scale: float, coef_offset: float) -> dict[str, tuple]:
+    """name -> (arguments, sympy expression) with the constants filled in, evaluated to floats."""
+    k = sp.Float(slope) * n + sp.Float(intercept)
+    values = {exact.slope: slope, exact.intercept: intercept}
+
+    def exact_coef(which):
+        integral = exact.phong_integral() if which == "phong" else exact.blinn_integral()
+        return exact.coef_of_n(integral).subs(values).subs(exact.n, n)
+    exprs = {
+        "k": ((n,), k),
+        "lobe": ((t, n), sp.Max(k * t + 1 - k, 0) ** 2),
+        "coef": ((n,), sp.Float(coef_scale) * (sp.Float(coef_offset) + n)),
+        "coef_exact": ((n,), exact_coef("phong")),
+        "coef_blinn": ((n,), exact_coef("blinn")),
+    }
+    def numeric(expr):
+        expr = sp.N(expr, 17)
+        # sp.N leaves the sides of a Piecewise condition symbolic (e.g. sqrt(2) + 2): evaluate them too.
+        return expr.replace(lambda e: e.is_Relational, lambda e: e.func(sp.N(e.lhs, 17), sp.N(e.rhs, 17)))
+    return {name: (args, numeric(expr)) for name, (args, expr) in exprs.items()}
+
+
+DOCS = {
+    "k": "k(n) = slope n + intercept, the lobe's coefficient",
+    "lobe": "the lobe ((k (t - 1) + 1)^2, 0 past its zero crossing); t = cos x",
+    "coef": "the run's normalization scale (offset + n) (the paper's 0.214 (0.807 + n))",
+    "coef_exact": "exact Phong-form normalization 1 / (2 pi Int(n)): albedo 1 at normal incidence",
+    "coef_blinn": "exact Blinn-form normalization (t = dot(N, H)), at normal view",
+}
+
+
+def _glsl(expr) -> str:
+    return sp.glsl_code(expr)
+
+
+def _hlsl(expr) -> str:
+    # C99 and HLSL share the expression syntax used here, except fmax.
+    return sp.ccode(expr).replace("fmax(", "max(")
+
+
+def _python(expr) -> str:
+    return sp.pycode(expr, fully_qualified_modules=True)
+
+
+def _relative(source: str) -> str:
+    from .paths import ROOT
+    path = Path(source).resolve()
+    return str(path.relative_to(ROOT)) if path.is_relative_to(ROOT) else str(path)
+
+
+def header(comment: str, config, version_tag: str) -> list[str]:
+    return [f"{comment} Modified cosine-quadratic specular lobe, exported by cosquad-pipeline {version_tag}",
+            f"{comment} from run '{config.name}' (config {_relative(config.source)}).",
+            f"{comment} Usage: spec = {PREFIX}coef_blinn(n) * {PREFIX}lobe(max(dot(N, H), 0.0), n) (Blinn form),",
+            f"{comment}    or spec = {PREFIX}coef(n) * {PREFIX}lobe(max(dot(R, V), 0.0), n) (Phong form).", ""]
+
+
+def render_sources(config, slope, intercept, coef_scale, coef_offset, version_tag: str) -> dict[str, str]:
+    """The three files: GLSL, HLSL and the Python twin, as text."""
+    fns = functions(slope, intercept, coef_scale, coef_offset)
+    glsl, hlsl = header("//", config, version_tag), header("//", config, version_tag)
+    py = ['"""' + header("", config, version_tag)[0].strip() + '"""', ""] + header("#", config, version_tag)
+    py += ["import math", "", ""]
+    for name, (args, expr) in fns.items():
+        c_args = ", ".join(f"float {a}" for a in args)
+        glsl += [f"// {DOCS[name]}", f"float {PREFIX}{name}({c_args})", "{", f"    return {_glsl(expr)};", "}", ""]
+        hlsl += [f"// {DOCS[name]}", f"float {PREFIX}{name}({c_args})", "{", f"    return {_hlsl(expr)};", "}", ""]
+        py += [f"def {PREFIX}{name}({', '.join(str(a) for a in args)}):", f'    """{DOCS[name]}"""',
+               f"    return {_python(expr)}", "", ""]
+    return {"cosquad.glsl": "\n".join(glsl), "cosquad.hlsl": "\n".join(hlsl),
+            "cosquad_twin.py": "\n".join(py).rstrip() + "\n"}
+
+
+def write(out: Path, config, results, code_tag: str) -> list[str]:
+    """Writes `out/shader/` for the run; returns the file names (relative to out)."""
+    lin, h = results["linear_coefficient"], results["hemispherical"]
+    version = importlib.metadata.version("cosquad-pipeline")
+    files = render_sources(config, lin["slope_used"], lin["intercept_used"], h["coef_scale_used"],
+                           h["coef_offset_used"], f"{version} (code {code_tag})")
+    folder = out / "shader"
+    folder.mkdir(exist_ok=True)
+    for name, text in files.items():
+        (folder / name).write_text(text)
+    return [f"shader/{name}" for name in files]
