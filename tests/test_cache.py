@@ -65,7 +65,7 @@ def test_an_interrupted_write_leaves_no_entry(tmp_path, monkeypatch):
     def boom(*args, **kwargs):
         raise KeyboardInterrupt
 
-    monkeypatch.setattr(np, "savez", boom)
+    monkeypatch.setattr(np, "savez_compressed", boom)
     with pytest.raises(KeyboardInterrupt):
         cache.store("stage", "abc", dict(x=np.arange(3.0), y=1.0))
     assert cache.load("stage", "abc") is None
