@@ -57,6 +57,11 @@ class Normalization:
     expr: sp.Expr
 
 
+def giesen(n):
+    """Giesen's normalization of the Blinn form of cos^n, exact at normal incidence."""
+    return (n + 2.0) * (n + 4.0) / (8.0 * np.pi * (2.0 ** (-n / 2.0) + n))
+
+
 def _quadratic_lobe(name: str, formula: str, k_of_n: Callable, k_expr: sp.Expr) -> Lobe:
     # Written as a shader would: k t + (1 - k), both constants of n (per material).
     kk = _U(k_expr)
@@ -102,7 +107,7 @@ def normalizations(slope: float, intercept: float, coef_scale: float, coef_offse
         Normalization("(n+2)/(2pi)", "(n + 2) / (2 pi)", lambda n: (n + 2.0) / (2.0 * np.pi),
                       (n + 2) / (2 * sp.pi)),
         Normalization("Giesen", "(n + 2)(n + 4) / (8 pi (2^(-n/2) + n))",
-                      lambda n: (n + 2.0) * (n + 4.0) / (8.0 * np.pi * (2.0 ** (-n / 2.0) + n)),
+                      giesen,
                       (n + 2) * (n + 4) / (8 * sp.pi * (2 ** (-n / 2) + n))),
         Normalization("(n+8)/(8pi)", "(n + 8) / (8 pi)", lambda n: (n + 8.0) / (8.0 * np.pi),
                       (n + 8) / (8 * sp.pi)),

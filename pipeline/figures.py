@@ -241,9 +241,8 @@ def directional_albedo(out, config, r):
         ax.axhline(1.0, color="black", lw=0.8)
         ax.set(xlabel="incidence angle (degrees)", title=f"{title}: max {s[f'{name}_max']:.6f}")
         ax.grid(alpha=0.3)
-    mc = [row for row in s["monte_carlo"]]
     for ax, form in ((axes[1], "phong"), (axes[2], "blinn")):
-        pts = [row for row in mc if row["form"] == form]
+        pts = [row for row in s["monte_carlo"] if row["form"] == form]
         ax.errorbar([p["theta_deg"] for p in pts], [p["monte_carlo"] for p in pts],
                     yerr=[3 * p["standard_error"] for p in pts], fmt="k.", ms=3, lw=0.8,
                     label="Monte Carlo (+- 3 s.e.)")

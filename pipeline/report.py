@@ -7,12 +7,9 @@ from pathlib import Path
 from . import checks as checks_mod
 from .export import front_markdown
 from .figures import CAPTIONS
+from .report_beyond import pct as _pct
 from .report_beyond import sections as beyond_sections
 from .results import HEADLINE
-
-
-def _pct(x: float) -> str:
-    return f"{100 * x:.4f} %"
 
 
 def _choices(config, r) -> list[str]:

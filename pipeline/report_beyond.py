@@ -8,7 +8,8 @@ from __future__ import annotations
 from .checks import fmt
 
 
-def _pct(x: float) -> str:
+def pct(x: float) -> str:
+    """A fraction as a percentage with 4 decimals."""
     return f"{100 * x:.4f} %"
 
 
@@ -130,7 +131,7 @@ def comparison_section(config, r) -> list[str]:
              "| lobe | formula | normalization | max d | max D | max abs(a(0) - 1) | max a | ops per pixel | ops, n per pixel |",
              "|---|---|---|---|---|---|---|---|---|"]
     for row in c["rows"]:
-        lines.append(f"| {row['label']} | {row['formula']} | {row['normalization']} | {_pct(row['d'])} | "
+        lines.append(f"| {row['label']} | {row['formula']} | {row['normalization']} | {pct(row['d'])} | "
                      f"{row['D']:.4f} | {row['albedo_normal_max_abs_dev']:.4f} | {row['albedo_max']:.4f} "
                      f"(n = {row['albedo_max_n']:g}) | {row['ops_pixel_text']} | {row['ops_with_n_text']} |")
     lines += ["", "The Blinn rows share their lobes' d and D (the error is measured in the lobe's own angle). "
@@ -162,9 +163,9 @@ def verdict_section(config, r) -> list[str]:
         lines.append(f"- **\"Energetically correct\"**: yes: with this coef no n reflects more than it receives "
                      f"(largest deviation {e['paper_coef_max_abs_dev']:.4f}).")
     better = q2["d"] < a["d_f_2"] and q2["D"] < a["D_f_2"]
-    lines.append(f"- **\"More accurate than f_2\"**: {'yes' if better else 'no'}: max d {_pct(q2['d'])} vs "
-                 f"{_pct(a['d_f_2'])}, max D {q2['D']:.4f} vs {a['D_f_2']:.4f}. Among all the cheap lobes, "
-                 f"ranked by d: " + ", ".join(f"{k} {_pct(v)}" for k, v in by_d) + "; by D: "
+    lines.append(f"- **\"More accurate than f_2\"**: {'yes' if better else 'no'}: max d {pct(q2['d'])} vs "
+                 f"{pct(a['d_f_2'])}, max D {q2['D']:.4f} vs {a['D_f_2']:.4f}. Among all the cheap lobes, "
+                 f"ranked by d: " + ", ".join(f"{k} {pct(v)}" for k, v in by_d) + "; by D: "
                  + ", ".join(f"{k} {v:.4f}" for k, v in by_D) + ".")
     pixel = next(row for row in c["rows"] if row["label"] == "f_Q2, run's coef")["ops_pixel"]
     expensive = {k: v for k, v in pixel.items() if k != "madd" and v}
@@ -195,7 +196,7 @@ def render_section(config, r) -> list[str]:
              "|---|---|---|---|---|---|---|---|"]
     for row in s["statistics"]:
         lines.append(f"| {row['scene']} | {row['n']:g} | {row['lobe']} | {row['max_abs']:.4f} | "
-                     f"{row['mean_abs']:.2e} | {_pct(row['max_rel'])} | {_pct(row['mean_rel'])} | {row['psnr']:.1f} |")
+                     f"{row['mean_abs']:.2e} | {pct(row['max_rel'])} | {pct(row['mean_rel'])} | {row['psnr']:.1f} |")
     lines.append("")
     for n in s["exponents"]:
         lines += [f"![renders at n = {n:g}](render_n{n:g}.png)", "",

@@ -12,15 +12,12 @@ import jax.numpy as jnp
 import numpy as np
 
 from .. import exact
+from ..cheap_lobes import giesen
 from ..lobes import f_b_u, quadratic_u
 from ..render import SCENES, image_statistics, luminance, shade, to_display
 
 READS = ("render.*",)
 UPSTREAM = ("zone", "linear_coefficient")
-
-
-def giesen(n):
-    return (n + 2.0) * (n + 4.0) / (8.0 * np.pi * (2.0 ** (-n / 2.0) + n))
 
 
 def run(config, upstream):
