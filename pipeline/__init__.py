@@ -1,15 +1,15 @@
 """Reproduction of the modified cosine-quadratic specular lobe (Zavalniuk, Romanyuk, Kotlyk 2025).
 
-The derivation runs in stages that follow the paper; see `pipeline.run` for their order.
+The derivation runs in stages that follow the paper; `pipeline.graph` declares them. Importing the
+package imports no numerical library, so that `pipeline keys`, `pipeline graph` and config errors
+answer at once; `pipeline.numerics` switches JAX to float64 and is imported by every module that
+computes with JAX.
 """
 
 import os
 
-# float64 must be on before any JAX array exists: an array made earlier stays float32.
+# float64 must be on before any JAX array exists: an array made earlier stays float32. The
+# variable is read when JAX is first imported; `pipeline.numerics` also sets the flag directly.
 os.environ.setdefault("JAX_ENABLE_X64", "1")
-import jax  # noqa: E402
-
-jax.config.update("jax_enable_x64", True)
 
 from .config import Config as Config, ConfigError as ConfigError, load_config as load_config  # noqa: E402
-from .run import run_derivation as run_derivation  # noqa: E402

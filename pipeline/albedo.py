@@ -18,9 +18,13 @@ where a lobe of width ~1/n lives.
 
 from __future__ import annotations
 
-import jax
+import functools
+
+from .numerics import jax
 import jax.numpy as jnp
 import numpy as np
+
+from .lobes import SHAPE_NAMES, SHAPES, lobe_of_shape
 
 TWO_PI = 2.0 * np.pi
 
@@ -95,22 +99,49 @@ def directional_albedo(form: str, lobe, n, u_end, coef, theta_i, nodes, weights)
     return coef * sum(pieces)
 
 
-def albedo_table(form, lobe, n, u_end, coef, theta_i, nodes, batch: int = 32):
-    """a over the grid n (1-D, with u_end and coef per n) x theta_i (1-D); returns [len(n), len(theta_i)].
+# Tables are computed in blocks of N_BLOCK exponents x THETA_BLOCK angles by one compiled program
+# per (form, nodes): array sizes, the lobe's shape and parameters are all traced or padded.
+N_BLOCK, THETA_BLOCK = 64, 16
 
-    The exponents are processed `batch` at a time, which bounds the memory of the vmapped integrand.
-    """
+
+@functools.partial(jax.jit, static_argnames=("form", "nodes"))
+def _block(form, nodes, shape_index, n, p, u_end, theta_i):
     x, w = np.polynomial.legendre.leggauss(nodes)
-    theta_i = jnp.asarray(theta_i)
 
-    def row(args):
-        n_, e_, c_ = args
-        return jax.vmap(lambda t_: directional_albedo(form, lobe, n_, e_, c_, t_, x, w))(theta_i)
-    n, u_end, coef = (jnp.broadcast_to(jnp.asarray(v, dtype=jnp.float64), jnp.shape(n)) for v in (n, u_end, coef))
-    return jax.jit(lambda a: jax.lax.map(row, a, batch_size=batch))((n, u_end, coef))
+    def one(n_, p_, e_, t_):
+        return directional_albedo(form, lambda u, _: lobe_of_shape(shape_index, u, p_), n_, e_, 1.0, t_, x, w)
+    return jax.vmap(lambda n_, p_, e_: jax.vmap(lambda t_: one(n_, p_, e_, t_))(theta_i))(n, p, u_end)
 
 
-def monte_carlo_albedo(form: str, lobe, n, u_end, coef, theta_i, key, samples: int):
+def _padded(values, block):
+    """values (1-D numpy) padded to a multiple of block by repeating its last value."""
+    size = -(-len(values) // block) * block
+    return np.concatenate([values, np.full(size - len(values), values[-1])])
+
+
+def albedo_table(form: str, shape: str, n, p, u_end, theta_i, nodes: int) -> np.ndarray:
+    """a / coef over the grid n x theta_i (both 1-D) of the lobe `SHAPES[shape](u, p)`, with p and
+    u_end given per n (or as scalars); returns a numpy array [len(n), len(theta_i)].
+
+    The albedo is linear in the normalization: multiply row i by coef(n_i).
+    """
+    n = np.atleast_1d(np.asarray(n, dtype=np.float64))
+    p, u_end = (np.broadcast_to(np.asarray(v, dtype=np.float64), n.shape) for v in (p, u_end))
+    theta_i = np.atleast_1d(np.asarray(theta_i, dtype=np.float64))
+    per_n = [_padded(v, N_BLOCK) for v in (n, p, u_end)]
+    angles = _padded(theta_i, THETA_BLOCK)
+    index = SHAPE_NAMES.index(shape)
+    # Every block is dispatched before any is read back, so that computation overlaps dispatch.
+    blocks = {(i, j): _block(form, nodes, index, *(v[i:i + N_BLOCK] for v in per_n), angles[j:j + THETA_BLOCK])
+              for i in range(0, len(per_n[0]), N_BLOCK) for j in range(0, len(angles), THETA_BLOCK)}
+    out = np.empty((len(per_n[0]), len(angles)))
+    for (i, j), block in blocks.items():
+        out[i:i + N_BLOCK, j:j + THETA_BLOCK] = np.asarray(block)
+    return out[: len(n), : len(theta_i)]
+
+
+@functools.partial(jax.jit, static_argnames=("form", "shape", "samples"))
+def monte_carlo_albedo(form: str, shape: str, p, u_end, coef, theta_i, key, samples: int):
     """(estimate, standard error) of a(theta_i) by uniform sampling of the lobe's cap u in [0, u_end].
 
     The direction (V for Phong, H for Blinn) is drawn uniformly in solid angle on the cap of the
@@ -136,7 +167,7 @@ def monte_carlo_albedo(form: str, lobe, n, u_end, coef, theta_i, key, samples: i
         LH = H @ L
         V = 2.0 * LH[:, None] * H - L
         weight = jnp.where((LH > 0.0) & (V[:, 2] > 0.0), 4.0 * LH * V[:, 2], 0.0)
-    values = coef * lobe(u, n) * weight * TWO_PI * cap
+    values = coef * SHAPES[shape](u, p) * weight * TWO_PI * cap
     return jnp.mean(values), jnp.std(values) / np.sqrt(samples)
 
 

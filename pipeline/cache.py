@@ -1,36 +1,55 @@
-"""Content-addressed cache of stage results: no pickle, atomic writes, verified reads.
+"""Content-addressed cache of stage results, keyed on the values a stage reads (early cutoff).
 
-A stage's key hashes (1) the config keys it reads, (2) the keys of the stages it reads, and (3) the
-source of its module and of every `pipeline` module that module imports, transitively: editing a
-stage or a helper it uses changes the key.
+A stage's key hashes (1) the values of the config keys it reads, (2) the values of the upstream
+fields it reads (not the upstream stages' keys: a change whose upstream values come out identical
+stops there), (3) the source of its module and of every `pipeline` module that module imports,
+transitively, and (4) the versions of the numerical libraries. `Memo` caches one function call the
+same way, keyed on its arguments' values, so that work which does not depend on a setting (one
+lobe's error curves, one albedo table, one image) is reused when the setting changes.
 
-An entry is a folder `<cache>/<stage>/<key>/` holding `values.json` (numbers, strings, lists),
-`arrays.npz` (numpy arrays, loaded with allow_pickle=False) and `manifest.json` (the key and the
-SHA-256 of both files). It is written into a temporary folder and renamed into place, so a run
-killed mid-write leaves no entry. A read re-hashes both files; a mismatch, a missing file or a
-parse error makes the entry "damaged": it is reported, removed and recomputed, never used.
+An entry is a folder `<root>/<stage>/<key>/` (memo entries: `<root>/_memo/<name>/<key>/`) holding
+`values.json` (numbers, strings, lists), `arrays.npz` (numpy arrays, loaded with allow_pickle=False)
+and `manifest.json` (the key and the SHA-256 of both files). It is written into a temporary folder
+and published by one rename, which fails if the entry already exists: two processes writing the
+same entry leave one complete copy, and a run killed mid-write leaves no entry (its temporary folder
+is swept by `prune`). A read re-hashes both files; a mismatch, a missing file or a parse error makes
+the entry "damaged": it is reported, removed and recomputed, never used. A read also touches the
+entry, so `prune` can remove what no run has used recently.
 """
 
 from __future__ import annotations
 
 import ast
+import dataclasses
+import errno
+import functools
 import hashlib
+import importlib.metadata
 import json
+import math
 import os
 import shutil
 import tempfile
+import time
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 PACKAGE_ROOT = Path(__file__).resolve().parent
-FORMAT = 1
+FORMAT = 2
+MEMO = "_memo"
+XLA = "_xla"
+# Libraries whose version can change a computed number.
+NUMERICAL_LIBRARIES = ("jax", "jaxlib", "optimistix", "equinox", "lineax", "numpy", "scipy", "sympy", "pysindy",
+                       "scikit-learn", "mpmath")
 
 
 class DamagedEntry(Exception):
     """A cache entry that failed verification; the message says why."""
 
+
+# ---- keys ---------------------------------------------------------------------------------------
 
 def _module_file(name: str) -> Path | None:
     """The source file of a `pipeline.*` module name, or None for anything outside the package."""
@@ -80,6 +99,7 @@ def code_modules(module: str) -> dict[str, Path]:
     return seen
 
 
+@functools.cache
 def code_hash(module: str) -> str:
     """SHA-256 over the sources of `module` and every `pipeline` module it imports, transitively."""
     seen = code_modules(module)
@@ -90,12 +110,68 @@ def code_hash(module: str) -> str:
     return digest.hexdigest()
 
 
-def stage_key(stage: str, config_subset: dict[str, Any], upstream_keys: dict[str, str], code: str) -> str:
-    """The cache key of one stage run."""
-    blob = json.dumps(dict(format=FORMAT, stage=stage, config=config_subset, upstream=upstream_keys,
-                           code=code), sort_keys=True, default=str)
-    return hashlib.sha256(blob.encode()).hexdigest()[:32]
+@functools.cache
+def library_versions() -> dict[str, str]:
+    """Installed versions of the numerical libraries (read from metadata, nothing imported)."""
+    out = {}
+    for name in NUMERICAL_LIBRARIES:
+        try:
+            out[name] = importlib.metadata.version(name)
+        except importlib.metadata.PackageNotFoundError:
+            out[name] = "absent"
+    return out
 
+
+def _feed(h, value) -> None:
+    """Feeds a canonical, type-tagged encoding of `value` into the hash `h`."""
+    if isinstance(value, np.ndarray) or hasattr(value, "__array__") and not isinstance(value, (str, bytes)):
+        a = np.ascontiguousarray(np.asarray(value))
+        if a.dtype == object:
+            raise TypeError("object arrays cannot be hashed")
+        h.update(f"a{a.dtype.str}{a.shape}".encode())
+        h.update(a.tobytes())
+    elif isinstance(value, np.generic):
+        _feed(h, value.item())
+    elif value is None or isinstance(value, bool):
+        h.update(f"c{value!r};".encode())
+    elif isinstance(value, int):
+        h.update(f"i{value};".encode())
+    elif isinstance(value, float):
+        # float.hex is exact; 1.0 and 1 are the same number to the stages, and hash the same.
+        h.update((f"i{int(value)};" if value.is_integer() and math.isfinite(value) else f"f{value.hex()};").encode())
+    elif isinstance(value, str):
+        h.update(f"s{len(value)}:".encode() + value.encode())
+    elif isinstance(value, list | tuple):
+        h.update(f"l{len(value)}[".encode())
+        for v in value:
+            _feed(h, v)
+        h.update(b"]")
+    elif isinstance(value, dict):
+        h.update(f"d{len(value)}{{".encode())
+        for k in sorted(value):
+            _feed(h, str(k))
+            _feed(h, value[k])
+        h.update(b"}")
+    elif dataclasses.is_dataclass(value):
+        _feed(h, dataclasses.asdict(value))
+    else:
+        raise TypeError(f"cannot hash a value of type {type(value).__name__}")
+
+
+def digest(*values) -> str:
+    """A SHA-256 of the values (numbers, strings, lists, dicts, arrays), 32 hex digits."""
+    h = hashlib.sha256(f"format {FORMAT};".encode())
+    for v in values:
+        _feed(h, v)
+    return h.hexdigest()[:32]
+
+
+def stage_key(stage: str, config_values: dict[str, Any], input_values: dict[str, Any], code: str) -> str:
+    """The cache key of one stage run: the values it reads, its code and the library versions."""
+    return digest("stage", stage, config_values, input_values, code, library_versions())
+
+
+# ---- entries ------------------------------------------------------------------------------------
 
 def _sha(path: Path) -> str:
     return hashlib.sha256(path.read_bytes()).hexdigest()
@@ -115,8 +191,16 @@ def _split(result: dict[str, Any]) -> tuple[dict[str, Any], dict[str, np.ndarray
     return values, arrays
 
 
+@dataclasses.dataclass(frozen=True)
+class EntryInfo:
+    kind: str          # a stage name, or "_memo/<name>"
+    key: str
+    bytes: int
+    last_used: float   # seconds since the epoch
+
+
 class Cache:
-    """Stage results under `root/<stage>/<key>/`."""
+    """Stage results under `root/<stage>/<key>/`, memoized calls under `root/_memo/<name>/<key>/`."""
 
     def __init__(self, root: Path):
         self.root = Path(root)
@@ -141,29 +225,119 @@ class Cache:
                 arrays = {k: data[k] for k in data.files}
         except DamagedEntry:
             raise
-        except (OSError, ValueError, KeyError, TypeError) as e:
+        except (OSError, ValueError, KeyError, TypeError, AttributeError) as e:
             raise DamagedEntry(f"{type(e).__name__}: {e}") from None
+        try:
+            os.utime(folder)          # last use, for `prune`
+        except OSError:
+            pass
         return values | arrays
 
     def discard(self, stage: str, key: str) -> None:
-        shutil.rmtree(self.entry(stage, key), ignore_errors=True)
+        """Removes an entry (renamed aside first, so no reader ever sees it half deleted)."""
+        folder = self.entry(stage, key)
+        if not folder.exists():
+            return
+        aside = folder.with_name(f".{key}.discard.{os.getpid()}.{time.monotonic_ns()}")
+        try:
+            folder.rename(aside)
+        except OSError:
+            return
+        shutil.rmtree(aside, ignore_errors=True)
 
     def store(self, stage: str, key: str, result: dict[str, Any]) -> None:
-        """Writes the entry atomically: a temporary folder renamed into place."""
+        """Writes the entry: a temporary folder published by one rename. If another process has
+        published the same entry meanwhile, its copy is kept and this one dropped."""
         values, arrays = _split(result)
         parent = self.root / stage
         parent.mkdir(parents=True, exist_ok=True)
-        tmp = Path(tempfile.mkdtemp(prefix=f".{key}.", dir=parent))
+        tmp = Path(tempfile.mkdtemp(prefix=f".{key}.tmp.", dir=parent))
         try:
-            (tmp / "values.json").write_text(json.dumps(values, sort_keys=True))
+            (tmp / "values.json").write_text(json.dumps(values, sort_keys=True, allow_nan=True))
             with open(tmp / "arrays.npz", "wb") as f:
                 np.savez_compressed(f, **arrays)
             manifest = dict(stage=stage, key=key, format=FORMAT,
                             sha256={name: _sha(tmp / name) for name in ("values.json", "arrays.npz")})
             (tmp / "manifest.json").write_text(json.dumps(manifest, sort_keys=True))
-            final = self.entry(stage, key)
-            if final.exists():
-                shutil.rmtree(final)
-            os.replace(tmp, final)
+            try:
+                os.rename(tmp, self.entry(stage, key))
+            except OSError as e:
+                if e.errno not in (errno.EEXIST, errno.ENOTEMPTY):
+                    raise
         finally:
             shutil.rmtree(tmp, ignore_errors=True)
+
+    # ---- housekeeping ---------------------------------------------------------------------------
+
+    def entries(self) -> list[EntryInfo]:
+        """Every published entry, with its size and last use."""
+        out = []
+        if not self.root.is_dir():
+            return out
+        for kind_dir in sorted(self.root.iterdir()):
+            if not kind_dir.is_dir() or kind_dir.name == XLA:
+                continue
+            groups = sorted(kind_dir.iterdir()) if kind_dir.name == MEMO else [kind_dir]
+            for group in groups:
+                if not group.is_dir():
+                    continue
+                kind = f"{MEMO}/{group.name}" if kind_dir.name == MEMO else group.name
+                for entry in sorted(group.iterdir()):
+                    if entry.is_dir() and not entry.name.startswith("."):
+                        size = sum(f.stat().st_size for f in entry.iterdir() if f.is_file())
+                        out.append(EntryInfo(kind, entry.name, size, entry.stat().st_mtime))
+        return out
+
+    def xla_bytes(self) -> int:
+        folder = self.root / XLA
+        return sum(f.stat().st_size for f in folder.rglob("*") if f.is_file()) if folder.is_dir() else 0
+
+    def prune(self, older_than_s: float, now: float | None = None) -> tuple[int, int]:
+        """Removes entries unused for `older_than_s` seconds, leftover temporary folders older than
+        an hour, and the XLA compilation cache if unused as long. Returns (entries, bytes) removed."""
+        now = time.time() if now is None else now
+        removed = freed = 0
+        for info in self.entries():
+            if now - info.last_used > older_than_s:
+                self.discard(info.kind, info.key)
+                removed, freed = removed + 1, freed + info.bytes
+        if self.root.is_dir():
+            for tmp in self.root.rglob(".*"):
+                if tmp.is_dir() and now - tmp.stat().st_mtime > 3600:
+                    shutil.rmtree(tmp, ignore_errors=True)
+        xla = self.root / XLA
+        if xla.is_dir() and now - max((f.stat().st_mtime for f in xla.rglob("*")), default=0) > older_than_s:
+            freed += self.xla_bytes()
+            shutil.rmtree(xla, ignore_errors=True)
+        return removed, freed
+
+
+class Memo:
+    """Caches calls `fn(**arguments) -> dict` in `cache`, keyed on the argument values and fn's code.
+
+    `name` names the kind of call (one folder); `fn` must be a module-level function whose result
+    depends only on its arguments. `computed` lists the calls that were not found.
+    """
+
+    def __init__(self, cache: Cache | None):
+        self.cache = cache
+        self.computed: list[str] = []
+        self.reused: list[str] = []
+
+    def __call__(self, name: str, fn, **arguments) -> dict[str, Any]:
+        if self.cache is None:
+            return fn(**arguments)
+        kind = f"{MEMO}/{name}"
+        key = digest("memo", name, fn.__module__, fn.__qualname__, code_hash(fn.__module__), arguments,
+                     library_versions())
+        try:
+            result = self.cache.load(kind, key)
+        except DamagedEntry:
+            self.cache.discard(kind, key)
+            result = None
+        if result is not None:
+            self.reused.append(name)
+            return result
+        self.computed.append(name)
+        self.cache.store(kind, key, fn(**arguments))
+        return self.cache.load(kind, key)

@@ -28,7 +28,7 @@ import numpy as np
 import sympy as sp
 
 from . import exact
-from .lobes import f_b_u, k_Q, quadratic_u
+from .lobes import SHAPES, k_Q
 
 t, n_sym = sp.symbols("t n", positive=True)
 _U = sp.UnevaluatedExpr   # marks a subexpression written as a unit (so its operations are counted once)
@@ -38,13 +38,19 @@ GOTANDA = (0.0397436, 0.0856832)
 
 @dataclasses.dataclass(frozen=True)
 class Lobe:
-    """A lobe shape: name, formula as text, JAX function of (u, n), support end u_end(n), sympy form."""
+    """A lobe: name, formula as text, its shape (a name of `lobes.SHAPES`) and that shape's parameter
+    as a function of n, its support end u_end(n), and its sympy form in t and n."""
 
     name: str
     formula: str
-    fn: Callable
+    shape: str
+    param: Callable
     u_end: Callable
     expr: sp.Expr
+
+    def fn(self, u, n):
+        """The lobe at u = 1 - cos x for exponent n."""
+        return SHAPES[self.shape](u, self.param(n))
 
 
 @dataclasses.dataclass(frozen=True)
@@ -65,7 +71,7 @@ def giesen(n):
 def _quadratic_lobe(name: str, formula: str, k_of_n: Callable, k_expr: sp.Expr) -> Lobe:
     # Written as a shader would: k t + (1 - k), both constants of n (per material).
     kk = _U(k_expr)
-    return Lobe(name, formula, lambda u, n: quadratic_u(u, k_of_n(n)), lambda n: 1.0 / k_of_n(n),
+    return Lobe(name, formula, "quadratic", k_of_n, lambda n: 1.0 / k_of_n(n),
                 sp.Max(kk * t + _U(1 - k_expr), 0) ** 2)
 
 
@@ -77,7 +83,7 @@ def shape_lobes(Q_paper: float, Q_best: float, slope: float, intercept: float) -
         return (sp.sqrt(sp.Float(Q)) - 1) / (sp.exp(sp.log(sp.Float(Q)) / n) - 1)
 
     return [
-        Lobe("cos^n", "t^n", lambda u, n: f_b_u(u, n), lambda n: jnp.ones_like(n), t**n),
+        Lobe("cos^n", "t^n", "power", lambda n: n, lambda n: jnp.ones_like(n), t**n),
         _quadratic_lobe("f_2", "((n/2)(t - 1) + 1)^2", lambda n: n / 2.0, n / 2),
         _quadratic_lobe(f"f_Q, Q = {Q_paper:g}", "(k_Q(n)(t - 1) + 1)^2",
                         lambda n: k_Q(n, Q_paper), k_Q_expr(Q_paper)),
@@ -85,12 +91,12 @@ def shape_lobes(Q_paper: float, Q_best: float, slope: float, intercept: float) -
                         lambda n: k_Q(n, Q_best), k_Q_expr(Q_best)),
         _quadratic_lobe("f_Q2", f"(({slope:g} n + {intercept:g})(t - 1) + 1)^2",
                         lambda n: slope * n + intercept, sp.Float(slope) * n + sp.Float(intercept)),
-        Lobe("Schlick", "t / (n - n t + t)", lambda u, n: (1.0 - u) / (n * u + 1.0 - u),
+        Lobe("Schlick", "t / (n - n t + t)", "schlick", lambda n: n,
              lambda n: jnp.ones_like(n), t / (_U(n) - _U(n - 1) * t)),
-        Lobe("SG", "exp(n (t - 1))", lambda u, n: jnp.exp(-n * u), lambda n: jnp.ones_like(n),
+        Lobe("SG", "exp(n (t - 1))", "exp", lambda n: n, lambda n: jnp.ones_like(n),
              sp.exp(_U(n) * t - _U(n))),
-        Lobe("SG (Lagarde)", f"exp((n + {SG_LAGARDE_SHIFT}) (t - 1))",
-             lambda u, n: jnp.exp(-(n + SG_LAGARDE_SHIFT) * u), lambda n: jnp.ones_like(n),
+        Lobe("SG (Lagarde)", f"exp((n + {SG_LAGARDE_SHIFT}) (t - 1))", "exp",
+             lambda n: n + SG_LAGARDE_SHIFT, lambda n: jnp.ones_like(n),
              sp.exp(_U(n + SG_LAGARDE_SHIFT) * t - _U(n + SG_LAGARDE_SHIFT))),
     ]
 

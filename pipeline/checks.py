@@ -1,9 +1,14 @@
 """Checks of the reproduced numbers against the values the paper reports (config [expectations]).
 
+An expectation holds for the settings of the config file it is written in. It is checked only
+where the run's settings are those: if any config key that its result depends on (transitively,
+through the stage graph) was changed by `--set`, it is "not comparable (settings differ: KEY, ...)",
+shown with the paper's value beside the run's, and neither passes nor fails.
+
 Verdicts: "pass" (within the stated tolerance), "differs (documented)" (outside it, but the config
 documents the disagreement and its cause and the reproduced value equals the documented one within
-`known_tolerance`: the difference is reported, not hidden by a wider tolerance), and "FAIL"
-(anything else). A run exits non-zero if any check FAILs.
+`known_tolerance`: the difference is reported, not hidden by a wider tolerance), "not comparable",
+and "FAIL" (anything else). A run exits non-zero if any check FAILs.
 """
 
 from __future__ import annotations
@@ -14,9 +19,11 @@ from typing import Any
 
 import numpy as np
 
+from . import graph
 from .config import Expectation
 
 PASS, DIFFERS, FAIL = "pass", "differs (documented)", "FAIL"
+NOT_COMPARABLE = "not comparable"
 
 
 @dataclasses.dataclass(frozen=True)
@@ -25,13 +32,18 @@ class Check:
     reproduced: Any
     deviation: float
     verdict: str
+    settings_differ: tuple[str, ...] = ()
+
+    @property
+    def verdict_text(self) -> str:
+        if self.verdict == NOT_COMPARABLE:
+            return f"{NOT_COMPARABLE} (settings differ: {', '.join(self.settings_differ)})"
+        return self.verdict
 
 
 def lookup(results: dict[str, dict[str, Any]], path: str) -> Any:
     """The value at 'stage.key' in the run's results; KeyError names what is missing."""
     stage, _, key = path.partition(".")
-    if stage not in results or key not in results[stage]:
-        raise KeyError(f"expectation refers to result '{path}', which this run does not produce")
     value = results[stage][key]
     return value.tolist() if isinstance(value, np.ndarray) else value
 
@@ -45,10 +57,15 @@ def _deviation(reproduced, paper) -> float:
     return float(np.max(np.abs(r - p)))
 
 
-def evaluate(expectations, results) -> list[Check]:
+def evaluate(config, results) -> list[Check]:
+    """The checks of `config`'s expectations on the run's results."""
     out = []
-    for e in expectations:
+    for e in config.expectations:
         value = lookup(results, e.result)
+        differ = tuple(config.changed_from_file(graph.config_dependencies(e.result, config.values)))
+        if differ:
+            out.append(Check(e, value, _deviation(value, e.paper), NOT_COMPARABLE, differ))
+            continue
         if e.compare == "at_most":
             dev = float(value) - e.paper
             ok = dev <= e.tolerance
@@ -81,5 +98,5 @@ def table(checks: list[Check]) -> str:
     for c in checks:
         e = c.expectation
         tol = ("<= paper + " if e.compare == "at_most" else "± ") + f"{e.tolerance:.3g}"
-        rows.append(f"| {e.id} | {e.quantity} | {fmt(e.paper)} | {fmt(c.reproduced)} | {tol} | {c.verdict} |")
+        rows.append(f"| {e.id} | {e.quantity} | {fmt(e.paper)} | {fmt(c.reproduced)} | {tol} | {c.verdict_text} |")
     return "\n".join(rows)

@@ -1,7 +1,8 @@
-"""Command line: `pipeline reproduce`, `pipeline refit`, `pipeline keys`.
+"""Command line: `pipeline reproduce`, `refit`, `explain`, `graph`, `keys`, `cache`.
 
-Exit codes: 0 all checks pass; 1 a check failed or a solver did not converge; 2 bad config or
-arguments (nothing computed, nothing written).
+Exit codes: 0 every check passes, differs with a documented cause or is not comparable; 1 a check
+failed or a solver did not converge; 2 bad config or arguments (nothing computed, nothing written).
+`keys`, `graph`, `explain` and config errors answer without importing JAX, sympy or pysindy.
 """
 
 from __future__ import annotations
@@ -12,9 +13,8 @@ import time
 from pathlib import Path
 
 from . import checks as checks_mod
-from . import paths
+from . import graph, paths
 from .config import ConfigError, key_table, load_config
-from .roots import SolverError
 
 
 def _print_checks(outcome) -> None:
@@ -24,8 +24,57 @@ def _print_checks(outcome) -> None:
         for c in outcome.checks:
             if c.verdict == checks_mod.DIFFERS:
                 print(f"  {c.expectation.id} differs from the paper: {c.expectation.known_difference}")
+        skipped = [c for c in outcome.checks if c.verdict == checks_mod.NOT_COMPARABLE]
+        if skipped:
+            print(f"  {len(skipped)} check(s) not comparable: this run's settings differ from those the expected "
+                  "values were reported for (the report shows both values)")
     if outcome.failed:
         print(f"\n{len(outcome.failed)} check(s) FAILED: " + ", ".join(c.expectation.id for c in outcome.failed))
+
+
+def _refit_config(args):
+    config = load_config(args.config, tuple(args.overrides), name=args.out)
+    if config.name == "paper":
+        raise ConfigError("config key 'run.name' = 'paper' is not allowed for a refit: "
+                          "the paper's outputs are written only by `make reproduce`; set run.name or --out")
+    return config
+
+
+def _explain(config) -> int:
+    from .cache import Cache
+    from .run import explain
+
+    rows = explain(config, Cache(paths.CACHE))
+    changed = config.changed_from_file(config.values)
+    print(f"config {config.source}" + (f", with {', '.join(changed)} changed" if changed else "") + ":")
+    width = max(len(name) for name, _ in rows)
+    for name, what in rows:
+        print(f"  {name:<{width}}  {what}")
+    print("Nothing was computed. A stage below a recomputed one is skipped when the fields it reads come "
+          "out identical.")
+    return 0
+
+
+def _cache(args) -> int:
+    from .cache import Cache
+
+    cache = Cache(paths.CACHE)
+    if args.prune:
+        removed, freed = cache.prune(args.older_than * 86400.0)
+        print(f"removed {removed} entries unused for more than {args.older_than:g} days ({freed / 1e6:.1f} MB)")
+    entries = cache.entries()
+    print(f"cache {cache.root}: {len(entries)} entries, "
+          f"{(sum(e.bytes for e in entries) + cache.xla_bytes()) / 1e6:.1f} MB "
+          f"(of which compiled XLA programs {cache.xla_bytes() / 1e6:.1f} MB)")
+    kinds: dict[str, list] = {}
+    for e in entries:
+        kinds.setdefault(e.kind, []).append(e)
+    now = time.time()
+    for kind, items in kinds.items():
+        newest = min(now - e.last_used for e in items) / 86400.0
+        print(f"  {kind:<28} {len(items):>4} entries {sum(e.bytes for e in items) / 1e6:8.1f} MB, "
+              f"last used {newest:.1f} days ago")
+    return 0
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -37,35 +86,51 @@ def main(argv: list[str] | None = None) -> int:
     ref.add_argument("--config", required=True)
     ref.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE")
     ref.add_argument("--out", default=None, metavar="NAME", help="output folder name under outputs/")
+    ref.add_argument("--dry-run", action="store_true", help="say which stages would recompute; compute nothing")
+    exp = sub.add_parser("explain", help="which stages a change would recompute (nothing is computed)")
+    exp.add_argument("changes", nargs="*", metavar="KEY=VALUE")
+    exp.add_argument("--config", default=str(paths.PAPER_CONFIG))
     sub.add_parser("keys", help="print every config key with its default and allowed values")
+    sub.add_parser("graph", help="print the stage graph: what each stage reads and returns")
+    cch = sub.add_parser("cache", help="show the cache's size per stage; --prune removes unused entries")
+    cch.add_argument("--prune", action="store_true")
+    cch.add_argument("--older-than", type=float, default=14.0, metavar="DAYS",
+                     help="with --prune: remove entries no run has used for this many days (default 14)")
     args = parser.parse_args(argv)
-    if args.command == "keys":
-        print(key_table())
-        return 0
-
-    from .run import run_derivation  # imports JAX; kept out of `keys` and argument errors
-
-    start = time.perf_counter()
     try:
+        if args.command == "keys":
+            print(key_table())
+            return 0
+        if args.command == "graph":
+            print(graph.describe())
+            return 0
+        if args.command == "cache":
+            return _cache(args)
+        if args.command == "explain":
+            return _explain(load_config(args.config, tuple(args.changes), name="explain"))
         if args.command == "reproduce":
-            config = load_config(args.config)
-            baseline = None
+            config, baseline_config = load_config(args.config), None
         else:
-            config = load_config(args.config, tuple(args.overrides), name=args.out)
-            if config.name == "paper":
-                raise ConfigError("config key 'run.name' = 'paper' is not allowed for a refit: "
-                                  "the paper's outputs are written only by `make reproduce`; "
-                                  "set run.name or --out")
-            paper = load_config(paths.PAPER_CONFIG)
-        print(f"config {config.source}: run '{config.name}'")
-        if args.command == "refit":
-            print("paper's run (for the comparison):")
-            baseline = run_derivation(paper, write_outputs=False)
-            print(f"run '{config.name}':")
-        outcome = run_derivation(config, baseline=baseline)
+            config = _refit_config(args)
+            if args.dry_run:
+                return _explain(config)
+            baseline_config = load_config(paths.PAPER_CONFIG)
     except ConfigError as e:
         print(f"error: {e}", file=sys.stderr)
         return 2
+
+    from .roots import SolverError
+    from .run import run_derivation
+
+    start = time.perf_counter()
+    try:
+        print(f"config {config.source}: run '{config.name}'")
+        baseline = None
+        if baseline_config is not None:
+            print("paper's run (for the comparison):")
+            baseline = run_derivation(baseline_config, write_outputs=False)
+            print(f"run '{config.name}':")
+        outcome = run_derivation(config, baseline=baseline)
     except SolverError as e:
         print(f"error: {e}", file=sys.stderr)
         return 1

@@ -15,6 +15,8 @@ from pathlib import Path
 from types import MappingProxyType
 from typing import Any
 
+from . import graph
+
 
 class ConfigError(ValueError):
     """A config key, value, type or combination that is not allowed. The CLI exits with code 2."""
@@ -147,6 +149,7 @@ SCHEMA: tuple[Key, ...] = (
 )
 KEYS: Mapping[str, Key] = MappingProxyType({k.name: k for k in SCHEMA})
 SECTIONS = tuple(dict.fromkeys(k.name.split(".")[0] for k in SCHEMA))
+OUTPUT_PATHS = frozenset(graph.output_paths())
 EXPECTATION_FIELDS = ("quantity", "paper", "result", "tolerance", "reason")
 EXPECTATION_OPTIONAL = ("compare", "known_difference", "known_value", "known_tolerance")
 
@@ -169,11 +172,14 @@ class Expectation:
 
 @dataclasses.dataclass(frozen=True)
 class Config:
-    """A validated configuration. `values` maps every dotted key of `SCHEMA` to its value."""
+    """A validated configuration. `values` maps every dotted key of `SCHEMA` to its value;
+    `file_values` are those of the config file itself, before `--set` overrides: the settings its
+    expectations were reported for."""
 
     values: Mapping[str, Any]
     expectations: tuple[Expectation, ...]
     source: str
+    file_values: Mapping[str, Any] = dataclasses.field(default_factory=dict)
 
     def __getitem__(self, key: str) -> Any:
         return self.values[key]
@@ -184,13 +190,11 @@ class Config:
 
     def subset(self, patterns: tuple[str, ...]) -> dict[str, Any]:
         """The keys a stage reads: exact names, or `section.*` for a whole section."""
-        out = {}
-        for p in patterns:
-            if p.endswith(".*"):
-                out.update({k: v for k, v in self.values.items() if k.startswith(p[:-1])})
-            else:
-                out[p] = self.values[p]
-        return dict(sorted(out.items()))
+        return {k: self.values[k] for k in expand_patterns(patterns, self.values)}
+
+    def changed_from_file(self, keys) -> list[str]:
+        """Those of `keys` whose value differs from the config file's own (set by --set)."""
+        return sorted(k for k in keys if self.file_values.get(k, self.values[k]) != self.values[k])
 
     def uses_paper_settings(self) -> bool:
         """Whether the derivation settings are the paper's, so that its rounded constants apply."""
@@ -198,6 +202,17 @@ class Config:
         return (v["derivation.n_min"] == 2 and v["derivation.n_max"] == 1000
                 and v["derivation.Q"] in ("scan", 0.64) and v["derivation.metric"] == "relative_epicenter"
                 and v["derivation.fit"] == "least_squares")
+
+
+def expand_patterns(patterns, keys) -> list[str]:
+    """Config key names matched by `patterns` (exact names, or `section.*`), sorted."""
+    out = set()
+    for p in patterns:
+        if p.endswith(".*"):
+            out.update(k for k in keys if k.startswith(p[:-1]))
+        else:
+            out.add(p)
+    return sorted(out)
 
 
 def _fail(key: str, value: Any, allowed: str) -> ConfigError:
@@ -250,6 +265,13 @@ def _check_expectations(raw: Mapping[str, Any]) -> tuple[Expectation, ...]:
         for field in ("quantity", "result", "reason"):
             if not isinstance(body[field], str) or not body[field]:
                 raise _fail(f"{where}.{field}", body[field], "a non-empty string")
+        if body["result"] not in OUTPUT_PATHS:
+            stage = body["result"].split(".", 1)[0]
+            if stage in graph.BY_NAME:
+                allowed = "one of " + ", ".join(f"{stage}.{f}" for f in graph.BY_NAME[stage].outputs)
+            else:
+                allowed = "a declared output 'stage.field'; stages: " + ", ".join(graph.BY_NAME)
+            raise _fail(f"{where}.result", body["result"], allowed + " (`pipeline graph` lists them all)")
         tol, paper = body["tolerance"], body["paper"]
         if not (_is_number(tol) and tol >= 0):
             raise _fail(f"{where}.tolerance", tol, "a number >= 0")
@@ -275,12 +297,16 @@ def _check_expectations(raw: Mapping[str, Any]) -> tuple[Expectation, ...]:
     return tuple(out)
 
 
-def validate(values: Mapping[str, Any], raw_expectations: Mapping[str, Any], source: str) -> Config:
+def validate(values: Mapping[str, Any], raw_expectations: Mapping[str, Any], source: str,
+             file_values: Mapping[str, Any] | None = None) -> Config:
     """Checks every key, value, type and combination; raises `ConfigError` on the first problem."""
     for key in values:
         if key not in KEYS:
             section = key.split(".")[0]
             near = [k for k in KEYS if k.startswith(section + ".")]
+            if not near:
+                raise ConfigError(f"config key '{key}' is unknown: section '{section}' does not exist; "
+                                  "allowed sections are " + ", ".join(SECTIONS))
             raise ConfigError(f"config key '{key}' is unknown: allowed keys in [{section}] are "
                               + ", ".join(k.split(".", 1)[1] for k in near))
     full = {k.name: values.get(k.name, k.default) for k in SCHEMA}
@@ -309,7 +335,8 @@ def validate(values: Mapping[str, Any], raw_expectations: Mapping[str, Any], sou
     if not any(lo <= m <= hi for m in full["albedo.curve_n"]):
         raise _fail("albedo.curve_n", full["albedo.curve_n"],
                     f"a list with at least one integer in [n_min, n_max] = [{lo}, {hi}]")
-    config = Config(MappingProxyType(full), _check_expectations(raw_expectations), source)
+    own = {k.name: (file_values or values).get(k.name, k.default) for k in SCHEMA}
+    config = Config(MappingProxyType(full), _check_expectations(raw_expectations), source, MappingProxyType(own))
     if full["derivation.constants"] == "paper" and not config.uses_paper_settings():
         raise _fail("derivation.constants", "paper",
                     '"fitted": the paper\'s rounded constants hold only with its settings '
@@ -321,12 +348,19 @@ def load_config(path: str | Path, overrides: tuple[str, ...] = (), name: str | N
     """Reads a TOML config, applies `--set` overrides and an output name, and validates it all."""
     path = Path(path)
     try:
-        raw = tomllib.loads(path.read_text())
+        raw = tomllib.loads(path.read_text(encoding="utf-8"))
     except FileNotFoundError:
         raise ConfigError(f"config file '{path}' does not exist") from None
+    except IsADirectoryError:
+        raise ConfigError(f"config file '{path}' is a directory, not a TOML file") from None
+    except UnicodeDecodeError as e:
+        raise ConfigError(f"config file '{path}' is not UTF-8 text (byte {e.start}): not a TOML file") from None
+    except OSError as e:
+        raise ConfigError(f"config file '{path}' cannot be read: {e.strerror}") from None
     except tomllib.TOMLDecodeError as e:
         raise ConfigError(f"config file '{path}' is not valid TOML: {e}") from None
     values, expectations = _flatten(raw)
+    file_values = dict(values)
     for text in overrides:
         key, value = parse_override(text)
         if key.startswith("expectations."):
@@ -334,7 +368,7 @@ def load_config(path: str | Path, overrides: tuple[str, ...] = (), name: str | N
         values[key] = value
     if name is not None:
         values["run.name"] = name
-    return validate(values, expectations, str(path))
+    return validate(values, expectations, str(path), file_values)
 
 
 def key_table() -> str:

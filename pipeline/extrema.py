@@ -12,9 +12,12 @@ of the true extremum (no narrower, higher peak elsewhere between grid points).
 
 from __future__ import annotations
 
-import jax
+import functools
+
+from .numerics import jax
 import jax.numpy as jnp
 
+from .lobes import SHAPE_NAMES, lobe_of_shape
 from .roots import SolverSettings, bracketed_root
 
 
@@ -61,3 +64,15 @@ def lobe_errors(lobe, n, level, cells: int, settings: SolverSettings):
     return dict(d=jnp.maximum(d_over, d_under), D=jnp.maximum(D_over, D_under),
                 d_w=jnp.where(d_over >= d_under, d_w_over, d_w_under),
                 D_w=jnp.where(D_over >= D_under, D_w_over, D_w_under), ok=ok_d & ok_D)
+
+
+@functools.partial(jax.jit, static_argnames=("cells", "settings"))
+def _error_curves(shape_index, n, p, level, cells: int, settings: SolverSettings):
+    return jax.vmap(lambda n_, p_: lobe_errors(lambda u, _: lobe_of_shape(shape_index, u, p_), n_, level, cells,
+                                               settings))(n, p)
+
+
+def error_curves(shape: str, n, p, level, cells: int, settings: SolverSettings):
+    """`lobe_errors` of the lobe `SHAPES[shape](u, p)` for every n of the array n (p per n): one
+    compiled program for every shape."""
+    return _error_curves(SHAPE_NAMES.index(shape), n, p, level, cells, settings)

@@ -10,6 +10,7 @@ clamped to 0 beyond its zero crossing cos x = 1 - 1/k (u = 1/k). They differ onl
 The reference lobe f_b (Phong / Blinn-Phong) is cos(x)^n.
 """
 
+import jax
 import jax.numpy as jnp
 
 
@@ -67,3 +68,35 @@ def f_Q2(x, n, slope, intercept):
 def gran(k):
     """Zero crossing x of a quadratic lobe: arccos(1 - 1/k); exceeds pi/2 when k < 1."""
     return jnp.arccos(1.0 - 1.0 / k)
+
+
+# Lobe shapes by name, as functions of (u, p) with one parameter p per exponent n: the coefficient
+# k for the quadratics, n for cos^n and Schlick, the rate for the exponentials. A name is a static
+# argument of the jitted functions that evaluate lobes, so each shape compiles once and every lobe
+# of that shape (f_2, f_Q, f_Q2 are all "quadratic") reuses the program with other parameters.
+# Past u = 1 (t = cos x < 0, reachable in the Phong form) a shader's max(t, 0) holds the lobe at
+# its t = 0 value: 0 for cos^n and Schlick, exp(-p) for the exponentials.
+def power_u(u, n):
+    """cos^n at u, with t clamped at 0."""
+    return f_b_u(jnp.minimum(u, 1.0), n)
+
+
+def schlick_u(u, n):
+    """Schlick's t / (n - n t + t) at u, with t clamped at 0."""
+    u = jnp.minimum(u, 1.0)
+    return (1.0 - u) / (n * u + 1.0 - u)
+
+
+def exp_u(u, rate):
+    """exp(rate (t - 1)) at u, with t clamped at 0."""
+    return jnp.exp(-rate * jnp.minimum(u, 1.0))
+
+
+SHAPES = {"quadratic": quadratic_u, "power": power_u, "schlick": schlick_u, "exp": exp_u}
+SHAPE_NAMES = tuple(SHAPES)
+
+
+def lobe_of_shape(shape_index, u, p):
+    """`SHAPES[SHAPE_NAMES[shape_index]](u, p)` with a traced index: one compiled program serves
+    every shape (the index is the same for a whole call, so only its branch runs)."""
+    return jax.lax.switch(shape_index, tuple(SHAPES.values()), u, p)

@@ -10,9 +10,13 @@ sRGB transfer function (correct gamma).
 from __future__ import annotations
 
 import dataclasses
+import functools
 
+from .numerics import jax
 import jax.numpy as jnp
 import numpy as np
+
+from .lobes import SHAPES
 
 IRRADIANCE = np.pi      # a white Lambertian surface facing the light has radiance 1
 SPECULAR = 0.25
@@ -76,8 +80,9 @@ def geometry(scene: Scene, resolution: int):
     return hit, position, normal, -direction, albedo, on_sphere
 
 
-def shade(scene: Scene, resolution: int, lobe, n, coef):
-    """Linear RGB radiance [res, res, 3] with the Blinn-form lobe(u, n) normalized by coef."""
+@functools.partial(jax.jit, static_argnames=("scene", "resolution", "shape"))
+def shade(scene: Scene, resolution: int, shape: str, p, coef):
+    """Linear RGB radiance [res, res, 3] with the Blinn-form lobe `SHAPES[shape](u, p)` normalized by coef."""
     hit, position, normal, V, albedo, on_sphere = geometry(scene, resolution)
     L = _normalize(jnp.array(scene.light))
     n_dot_l = jnp.maximum(normal @ L, 0.0)
@@ -85,7 +90,7 @@ def shade(scene: Scene, resolution: int, lobe, n, coef):
     shadowed = (~on_sphere) & jnp.isfinite(_hit_sphere(position + 1e-6 * normal, jnp.broadcast_to(L, position.shape)))
     H = _normalize(V + L)
     t = jnp.clip(jnp.sum(normal * H, axis=-1), 0.0, 1.0)
-    specular = SPECULAR * coef * lobe(1.0 - t, n)
+    specular = SPECULAR * coef * SHAPES[shape](1.0 - t, p)
     lit = IRRADIANCE * n_dot_l * jnp.where(shadowed, 0.0, 1.0)
     radiance = lit[..., None] * (albedo / np.pi + specular[..., None])
     return jnp.where(hit[..., None], radiance, jnp.array(BACKGROUND))
@@ -101,6 +106,17 @@ def luminance(rgb):
     return rgb @ jnp.array([0.2126, 0.7152, 0.0722])
 
 
+@jax.jit
+def _statistics(candidate, reference, highlight):
+    diff = jnp.abs(candidate - reference)
+    rel = jnp.abs(luminance(candidate) - luminance(reference)) / jnp.maximum(luminance(reference), 1e-12)
+    count = jnp.maximum(jnp.sum(highlight), 1)
+    mse = jnp.mean((to_display(candidate) - to_display(reference)) ** 2)
+    return dict(max_abs=jnp.max(diff), mean_abs=jnp.mean(diff), max_rel=jnp.max(jnp.where(highlight, rel, 0.0)),
+                mean_rel=jnp.sum(jnp.where(highlight, rel, 0.0)) / count,
+                psnr=jnp.where(mse > 0, 10.0 * jnp.log10(1.0 / jnp.maximum(mse, 1e-300)), jnp.inf))
+
+
 def image_statistics(candidate, reference, highlight):
     """Error of a candidate image against the reference.
 
@@ -108,11 +124,4 @@ def image_statistics(candidate, reference, highlight):
     |luminance difference| / reference luminance over the highlight mask; psnr: of the displayed
     (tone-mapped sRGB) images, peak 1.
     """
-    diff = jnp.abs(candidate - reference)
-    rel = jnp.abs(luminance(candidate) - luminance(reference)) / jnp.maximum(luminance(reference), 1e-12)
-    count = jnp.maximum(jnp.sum(highlight), 1)
-    mse = jnp.mean((to_display(candidate) - to_display(reference)) ** 2)
-    return dict(max_abs=float(jnp.max(diff)), mean_abs=float(jnp.mean(diff)),
-                max_rel=float(jnp.max(jnp.where(highlight, rel, 0.0))),
-                mean_rel=float(jnp.sum(jnp.where(highlight, rel, 0.0)) / count),
-                psnr=float(jnp.where(mse > 0, 10.0 * jnp.log10(1.0 / jnp.maximum(mse, 1e-300)), jnp.inf)))
+    return {k: float(v) for k, v in _statistics(candidate, reference, highlight).items()}

@@ -1,13 +1,20 @@
 """Runs the derivation: each stage from cache or computed, then checks, results, figures, report.
 
+A stage is passed exactly the config keys and upstream fields it declares (`pipeline.graph`) and
+must return exactly its declared outputs. Its cache key covers the values it reads, so a change
+whose upstream values come out identical stops there.
+
 Outputs are written into a temporary folder beside `outputs/<name>/` and swapped in at the end,
-so a failed run leaves the previous outputs as they were and never a half-written folder.
+under a lock per output name: a failed or killed run leaves the previous outputs as they were,
+two runs writing the same name leave one complete copy, and a later run sweeps what a killed one
+left behind.
 """
 
 from __future__ import annotations
 
 import dataclasses
-import hashlib
+import fcntl
+import importlib
 import json
 import shutil
 import tempfile
@@ -17,10 +24,13 @@ from pathlib import Path
 from typing import Any
 
 from . import checks as checks_mod
-from . import paths, results as results_mod
-from .cache import Cache, DamagedEntry, code_hash, stage_key
+from . import graph, paths
+from .cache import XLA, Cache, DamagedEntry, Memo, code_hash, digest, stage_key
 from .config import Config
-from .stages import STAGES, stage_name
+
+
+class StageContractError(RuntimeError):
+    """A stage returned other fields than it declares in `pipeline.graph` (a programming error)."""
 
 
 @dataclasses.dataclass
@@ -37,48 +47,113 @@ class RunOutcome:
         return [c for c in self.checks if c.verdict == checks_mod.FAIL]
 
 
-def run_stages(config: Config, cache: Cache, log: Callable[[str], None] = print, stages=STAGES):
-    """Each stage's result (every stage by default, in order), from cache where its key matches.
+def stage_inputs(stage: graph.Stage, config: Config, results) -> tuple[dict[str, Any], dict[str, Any]]:
+    """(config values, input field values) that `stage` reads."""
+    inputs = {}
+    for path in stage.inputs:
+        upstream, field = path.split(".", 1)
+        inputs[path] = results[upstream][field]
+    return config.subset(stage.reads), inputs
 
-    Returns (results, keys, computed). `stages` must list every stage before the ones it reads.
+
+def key_of(stage: graph.Stage, config: Config, results) -> str:
+    values, inputs = stage_inputs(stage, config, results)
+    return stage_key(stage.name, values, inputs, code_hash(stage.module))
+
+
+_compile_cache_on = False
+
+
+def _compute(stage: graph.Stage, values, inputs, cache: Cache) -> dict[str, Any]:
+    global _compile_cache_on
+    module = importlib.import_module(stage.module)      # imports JAX only when something is computed
+    if not _compile_cache_on:
+        from .numerics import use_compilation_cache
+        use_compilation_cache(cache.root / XLA)
+        _compile_cache_on = True
+    memo = Memo(cache)
+    result = module.run(values, inputs, memo)
+    declared, returned = set(stage.outputs), set(result)
+    if declared != returned:
+        missing, extra = sorted(declared - returned), sorted(returned - declared)
+        raise StageContractError(f"stage '{stage.name}' returned other fields than it declares: "
+                                 f"missing {missing}, undeclared {extra}")
+    return result
+
+
+def run_stages(config: Config, cache: Cache, log: Callable[[str], None] = print,
+               stages: tuple[str, ...] | None = None):
+    """Each stage's result (every stage by default, in graph order), from cache where its key matches.
+
+    Returns (results, keys, computed). `stages` (names) must include every stage they read from.
     """
+    chosen = [s for s in graph.STAGES if stages is None or s.name in stages]
     results, keys, computed = {}, {}, []
-    for i, module in enumerate(stages, 1):
-        name = stage_name(module)
-        upstream = {u: keys[u] for u in module.UPSTREAM}
-        key = stage_key(name, config.subset(module.READS), upstream, code_hash(module.__name__))
-        keys[name] = key
-        label = f"[{i}/{len(stages)}] {name:<19}"
+    width = max(len(s.name) for s in chosen)
+    for i, stage in enumerate(chosen, 1):
+        values, inputs = stage_inputs(stage, config, results)
+        key = stage_key(stage.name, values, inputs, code_hash(stage.module))
+        keys[stage.name] = key
+        label = f"[{i:>2}/{len(chosen)}] {stage.name:<{width}}"
         try:
-            result = cache.load(name, key)
+            result = cache.load(stage.name, key)
         except DamagedEntry as e:
             log(f"{label} cache entry {key[:12]} is damaged ({e}); recomputing")
-            cache.discard(name, key)
+            cache.discard(stage.name, key)
             result = None
         if result is not None:
             log(f"{label} cached ({key[:12]})")
         else:
             log(f"{label} computing ...")
             start = time.perf_counter()
-            result = module.run(config.subset(module.READS), {u: results[u] for u in module.UPSTREAM})
-            cache.store(name, key, result)
+            cache.store(stage.name, key, _compute(stage, values, inputs, cache))
             # Read back what was stored, so a computed run and a cached run see identical values.
-            result = cache.load(name, key)
-            computed.append(name)
+            result = cache.load(stage.name, key)
+            computed.append(stage.name)
             log(f"{label} computed in {time.perf_counter() - start:.1f} s ({key[:12]})")
-        results[name] = result
+        results[stage.name] = result
     return results, keys, computed
 
 
+def explain(config: Config, cache: Cache) -> list[tuple[str, str]]:
+    """What a run of `config` would do, stage by stage, without computing: (stage, what).
+
+    A stage whose key is in the cache is "cached"; a stage whose inputs are all known but whose key
+    is not, "recomputes"; below a recomputed stage the inputs are not known until it runs, so the
+    stage "recomputes if <fields> change" (early cutoff stops there when they come out identical).
+    """
+    results: dict[str, dict[str, Any]] = {}
+    unknown: set[str] = set()
+    out = []
+    for stage in graph.STAGES:
+        pending = [p for p in stage.inputs if p.split(".", 1)[0] in unknown]
+        if pending:
+            unknown.add(stage.name)
+            out.append((stage.name, "recomputes if " + ", ".join(pending) + " change"))
+            continue
+        key = key_of(stage, config, results)
+        try:
+            result = cache.load(stage.name, key)
+        except DamagedEntry:
+            result = None
+        if result is None:
+            unknown.add(stage.name)
+            changed = config.changed_from_file(config.subset(stage.reads))
+            why = f" (reads {', '.join(changed)})" if changed else ""
+            out.append((stage.name, "recomputes" + why))
+        else:
+            results[stage.name] = result
+            out.append((stage.name, "cached"))
+    return out
+
+
 def _outputs_key(config: Config, keys: dict[str, str], baseline: RunOutcome | None) -> str:
-    code = "".join(code_hash(m) for m in ("pipeline.figures", "pipeline.report", "pipeline.report_beyond", "pipeline.results",
-                                          "pipeline.shader",
-                                          "pipeline.checks", "pipeline.export"))
-    blob = json.dumps(dict(keys=keys, baseline=baseline.keys if baseline else None,
-                           config=dict(config.values), source=config.source,
-                           expectations=[dataclasses.asdict(e) for e in config.expectations], code=code),
-                      sort_keys=True, default=str)
-    return hashlib.sha256(blob.encode()).hexdigest()[:32]
+    code = "".join(code_hash(m) for m in ("pipeline.publish.figures", "pipeline.publish.report",
+                                          "pipeline.publish.results", "pipeline.publish.shader",
+                                          "pipeline.publish.tables", "pipeline.checks"))
+    return digest("outputs", keys, baseline.keys if baseline else None, dict(config.values), config.source,
+                  json.dumps([dataclasses.asdict(e) for e in config.expectations], sort_keys=True, default=str),
+                  code)
 
 
 def run_derivation(config: Config, cache_dir: Path = paths.CACHE, outputs: Path = paths.OUTPUTS,
@@ -87,38 +162,51 @@ def run_derivation(config: Config, cache_dir: Path = paths.CACHE, outputs: Path 
     """Runs every stage, evaluates the checks and (re)writes `outputs/<name>/` if anything changed."""
     cache = Cache(cache_dir)
     results, keys, computed = run_stages(config, cache, log)
-    checks = checks_mod.evaluate(config.expectations, results)
+    checks = checks_mod.evaluate(config, results)
     out_dir = paths.output_dir(config.name, outputs) if write_outputs else None
     if out_dir is not None:
-        stamp_key = _outputs_key(config, keys, baseline)
-        stamp = out_dir / ".stamp"
-        if stamp.exists() and stamp.read_text() == stamp_key:
-            log(f"outputs in {out_dir} are up to date")
-        else:
-            _write_outputs(out_dir, stamp_key, config, results, keys, checks, baseline, log)
+        publish(out_dir, _outputs_key(config, keys, baseline), log,
+                lambda tmp: _write_outputs(tmp, config, results, keys, checks, baseline))
     return RunOutcome(results, keys, computed, checks, out_dir, config)
 
 
-def _write_outputs(out_dir, stamp_key, config, results, keys, checks, baseline, log):
-    from . import export, figures, report, shader  # matplotlib is imported only when figures are drawn
+def publish(out_dir: Path, stamp_key: str, log, write: Callable[[Path], str]) -> None:
+    """Writes `out_dir` through `write(tmp)` unless its stamp already equals `stamp_key`.
 
-    start = time.perf_counter()
+    Holds an exclusive lock on `.<name>.lock` beside it meanwhile; any hidden `.<name>.*` folder
+    found under the lock was left by a killed run, and is removed.
+    """
     out_dir.parent.mkdir(parents=True, exist_ok=True)
-    tmp = Path(tempfile.mkdtemp(prefix=f".{out_dir.name}.", dir=out_dir.parent))
-    try:
-        doc = results_mod.write(tmp / "results.json", config, keys, results, checks)
-        export.write_tables(tmp, results)
-        figs = figures.draw_all(tmp, config, results)
-        shader.write(tmp, config, results, stamp_key[:12])
-        report.write(tmp / "report.md", config, doc, results, checks, figs, baseline)
-        (tmp / ".stamp").write_text(stamp_key)
-        old = out_dir.with_name(f".{out_dir.name}.old")
-        if out_dir.exists():
+    with open(out_dir.parent / f".{out_dir.name}.lock", "a") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)
+        for stale in out_dir.parent.glob(f".{out_dir.name}.*"):
+            if stale.is_dir():
+                shutil.rmtree(stale, ignore_errors=True)
+        stamp = out_dir / ".stamp"
+        if stamp.exists() and stamp.read_text() == stamp_key:
+            log(f"outputs in {out_dir} are up to date")
+            return
+        start = time.perf_counter()
+        tmp = Path(tempfile.mkdtemp(prefix=f".{out_dir.name}.tmp.", dir=out_dir.parent))
+        try:
+            summary = write(tmp)
+            (tmp / ".stamp").write_text(stamp_key)
+            old = out_dir.with_name(f".{out_dir.name}.old")
+            if out_dir.exists():
+                out_dir.rename(old)
+            tmp.rename(out_dir)
             shutil.rmtree(old, ignore_errors=True)
-            out_dir.rename(old)
-        tmp.rename(out_dir)
-        shutil.rmtree(old, ignore_errors=True)
-    finally:
-        shutil.rmtree(tmp, ignore_errors=True)
-    log(f"wrote {out_dir} ({len(figs)} figures, report.md, results.json) in "
-        f"{time.perf_counter() - start:.1f} s")
+        finally:
+            shutil.rmtree(tmp, ignore_errors=True)
+        log(f"wrote {out_dir} ({summary}) in {time.perf_counter() - start:.1f} s")
+
+
+def _write_outputs(tmp: Path, config, results, keys, checks, baseline) -> str:
+    from .publish import figures, report, results as results_mod, shader, tables  # matplotlib only here
+
+    doc = results_mod.write(tmp / "results.json", config, keys, results, checks)
+    tables.write(tmp, config, results)
+    drawn = figures.draw_all(tmp, config, results)
+    shader.write(tmp, config, results, keys)
+    report.write(tmp / "report.md", config, doc, results, checks, drawn, baseline)
+    return f"{sum(len(v) for v in drawn.values())} figures, report.md, results.json"

@@ -9,8 +9,9 @@ from scipy.optimize import minimize
 import pipeline
 from pipeline import paths
 from pipeline.cache import Cache
+from pipeline.checks import NOT_COMPARABLE, PASS
+from pipeline.graph import PAPER_STAGES
 from pipeline.run import run_derivation, run_stages
-from pipeline.stages import PAPER_STAGES
 
 from .oracles import dense_max_errors, k_Q_np
 
@@ -34,8 +35,9 @@ def refit(name, cache):
 
 def test_q_0_5_against_numpy(cache):
     r, computed = refit("q_0_5", cache)
-    # Changing Q recomputes the stages that depend on it and reuses the zone from cache.
-    assert "zone" not in computed and "q_scan" in computed
+    # Changing Q recomputes the stages that depend on it and reuses the zone from cache (the scan
+    # reruns: this config keeps the default scan.curve_points, which the paper's config raises).
+    assert "zone" not in computed and "q_choice" in computed
     lin = r["linear_coefficient"]
     slope, intercept = np.polyfit(N, k_Q_np(N, 0.5), 1)
     assert (lin["lin_slope"], lin["lin_intercept"]) == pytest.approx((slope, intercept), rel=1e-9)
@@ -54,22 +56,23 @@ def test_absolute_metric_optimum_against_a_dense_grid(cache):
     r, _ = refit("absolute_error", cache)
     q = r["q_scan"]
     Q = q["Q_continuous_best"]
-    assert q["Q_used"] == Q
+    assert r["q_choice"]["Q_used"] == Q
 
     def D_dense(Q_):
         return max(dense_max_errors(n, float(k_Q_np(n, Q_)), 0.5, 40_001)[1] for n in (2.0, 10.0, 100.0, 1000.0))
 
     # The optimum of max D: nearby Q on either side are worse, by a dense-grid oracle.
     at = D_dense(Q)
-    assert at == pytest.approx(q["D_fQ_at_Q"], abs=1e-6)
+    assert at == pytest.approx(r["accuracy"]["D_f_Q"], abs=1e-6)
     assert D_dense(Q - 0.003) > at and D_dense(Q + 0.003) > at
-    assert q["D_fQ_at_Q"] < r["accuracy"]["D_f_2"]
+    assert r["accuracy"]["D_f_Q"] < r["f2_errors"]["D_f_2"]
 
 
 def test_minimax_line_is_the_smallest_worst_case(cache, paper_run):
     r, computed = refit("minimax_line", cache)
-    # The config sets Q = 0.64 (the paper's says "scan") and the fit: the zone comes from the cache.
-    assert computed == ["q_scan", "linear_coefficient", "accuracy", "energy_dataset", "sparse_regression",
+    # The config sets Q = 0.64 (the paper's "scan" picks the same value: q_choice's output is
+    # unchanged) and the fit: the line and what reads it are recomputed, nothing above it.
+    assert computed == ["q_choice", "linear_coefficient", "accuracy", "energy_dataset", "sparse_regression",
                         "hemispherical"]
     lin = r["linear_coefficient"]
     k = k_Q_np(N, 0.64)
@@ -87,6 +90,7 @@ def test_minimax_line_is_the_smallest_worst_case(cache, paper_run):
     assert len(peaks) >= 3 and np.any(np.diff(np.sign(err[peaks])) != 0)
 
 
+@pytest.mark.slow
 def test_refit_writes_its_own_outputs_with_a_comparison(cache, tmp_path, paper_config):
     config = pipeline.load_config(paths.CONFIGS / "q_0_5.toml")
     base = run_derivation(paper_config, cache_dir=cache.root, outputs=tmp_path, log=lambda s: None,
@@ -96,8 +100,31 @@ def test_refit_writes_its_own_outputs_with_a_comparison(cache, tmp_path, paper_c
     assert "`derivation.Q`: 'scan' -> 0.5" in report
     assert "| d_fQ2 | 0.0125671 | 0.0303" in report
     assert not (tmp_path / "paper").exists()
-    assert out.failed == []
+    assert out.failed == [] and [c.verdict for c in out.checks] == [PASS]    # its own expectation
     assert "## Verdict on the paper's claims" in report and "## Beyond the paper: exact normalization" in report
+    # Every figure is embedded exactly once.
+    pngs = sorted(p.name for p in (tmp_path / "q_0_5").glob("*.png"))
+    assert len(pngs) >= 15 and all(report.count(f"]({name})") == 1 for name in pngs)
+
+
+@pytest.mark.slow
+def test_paper_expectations_are_not_comparable_where_a_refit_changes_their_settings(cache, paper_run):
+    config = pipeline.load_config(paths.PAPER_CONFIG, ("derivation.Q=0.7", "derivation.constants=fitted"))
+    results = run_stages(config, cache, log=lambda s: None, stages=PAPER_STAGES)[0]
+    from pipeline import checks
+    verdicts = {c.expectation.id: c for c in checks.evaluate(config, results)}
+    # The scan (P1, P2) does not read Q: still checked, still passing.
+    assert verdicts["P1"].verdict == PASS and verdicts["P2"].verdict == PASS
+    # The sample size does not depend on Q either.
+    assert verdicts["P13"].verdict == PASS
+    # Everything downstream of Q is set aside, with the keys that differ named, and never FAILs.
+    for pid in ("P3", "P5_slope", "P7", "P8", "P12", "P14_scale", "P16"):
+        assert verdicts[pid].verdict == NOT_COMPARABLE
+        assert "derivation.Q" in verdicts[pid].settings_differ
+    assert verdicts["P16"].settings_differ == ("derivation.Q", "derivation.constants")
+    # P9 and P10 (f_2's errors) do not depend on Q at all: checked, and pass.
+    assert verdicts["P9"].verdict == PASS and verdicts["P10"].verdict == PASS
+    assert not any(c.verdict == checks.FAIL for c in verdicts.values())
 
 
 def test_rms_metric_optimum_is_a_minimum(cache):
@@ -114,6 +141,6 @@ def test_rms_metric_optimum_is_a_minimum(cache):
         return np.sqrt(num * (2 * n + 1))
 
     Q = q["Q_continuous_best"]
-    assert abs(Q - q["Q_scan_best"]) <= 0.01
-    assert rms_1000(Q) == pytest.approx(q["rms_fQ_at_Q"], rel=1e-7)
+    assert r["q_choice"]["Q_used"] == Q
+    assert rms_1000(Q) == pytest.approx(r["accuracy"]["rms_f_Q"], rel=1e-7)
     assert rms_1000(Q - 0.002) > rms_1000(Q) < rms_1000(Q + 0.002)

@@ -11,7 +11,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from pipeline import shader
+from pipeline.publish import shader
 from pipeline.lobes import quadratic_u
 from pipeline.render import SCENES
 
@@ -46,17 +46,17 @@ def _numpy_sphere(resolution, lobe, coef):
     return np.where(hit[..., None], rad, np.array([0.02, 0.02, 0.025]))
 
 
-def test_render_statistics_against_numpy(paper_run):
+def test_render_statistics_against_numpy(paper_run, paper_config):
     r = paper_run["render"]
-    assert r["resolution"] >= 512 and r["normalization"] == "reference"
-    res = r["resolution"]
-    for n in r["exponents"]:
+    assert paper_config["render.resolution"] >= 512 and paper_config["render.normalization"] == "reference"
+    res = paper_config["render.resolution"]
+    for n in paper_config["render.exponents"]:
         giesen = (n + 2) * (n + 4) / (8 * np.pi * (2 ** (-n / 2) + n))
         ref = _numpy_sphere(res, lambda u: (1 - u) ** n, giesen)
         ref_base = _numpy_sphere(res, lambda u: 0 * u, 0.0)
         lum = lambda img: img @ np.array([0.2126, 0.7152, 0.0722])  # noqa: E731
         spec = lum(ref - ref_base)
-        zone = spec >= r["zone_level"] * spec.max()
+        zone = spec >= paper_run["zone"]["level"] * spec.max()
         for name, k in (("f_2", n / 2), ("f_Q2", 0.448 * n + 0.099)):
             cand = _numpy_sphere(res, lambda u, k=k: quadratic_np(u, k), giesen)
             stats = next(s for s in r["statistics"] if s["scene"] == "sphere" and s["n"] == n and s["lobe"] == name)
@@ -76,12 +76,12 @@ def test_render_statistics_against_numpy(paper_run):
 @pytest.fixture(scope="module")
 def exported(paper_config, paper_run, tmp_path_factory):
     out = tmp_path_factory.mktemp("shader")
-    names = shader.write(out, paper_config, paper_run, "test")
+    names = shader.write(out, paper_config, paper_run, {"linear_coefficient": "a", "hemispherical": "b"})
     assert sorted(names) == ["shader/cosquad.glsl", "shader/cosquad.hlsl", "shader/cosquad_twin.py"]
     return out / "shader"
 
 
-def test_exported_python_twin_matches_the_pipeline(exported, paper_run):
+def test_exported_python_twin_matches_the_pipeline(exported, paper_run, n_all):
     spec = importlib.util.spec_from_file_location("cosquad_twin", exported / "cosquad_twin.py")
     twin = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(twin)
@@ -92,7 +92,7 @@ def test_exported_python_twin_matches_the_pipeline(exported, paper_run):
         for t in np.concatenate([rng.uniform(0, 1, 20), [0.0, 1.0, 1 - 1 / k]]):
             assert twin.cosquad_lobe(t, n) == pytest.approx(float(quadratic_u(1 - t, k)), rel=1e-12, abs=1e-15)
         assert twin.cosquad_coef(n) == pytest.approx(0.214 * (0.807 + n), rel=1e-14)
-    for i, n in enumerate(e["n"][:: 37]):
+    for i, n in enumerate(n_all[:: 37]):
         assert twin.cosquad_coef_exact(n) == pytest.approx(e["coef_exact"][:: 37][i], rel=1e-12)
         assert twin.cosquad_coef_blinn(n) == pytest.approx(e["coef_blinn"][:: 37][i], rel=1e-12)
     header = (exported / "cosquad.glsl").read_text().splitlines()[:2]

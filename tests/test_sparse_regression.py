@@ -33,6 +33,6 @@ def test_the_front_has_fewer_terms_with_larger_error(paper_run):
 
 def test_two_term_constants_against_a_plain_least_squares_fit(paper_run):
     e, r = paper_run["energy_dataset"], paper_run["sparse_regression"]
-    c_n, c_1 = np.polyfit(e["sample_n"], e["sample_y"], 1)
+    c_n, c_1 = np.polyfit(paper_run["sample"]["sample_n"], e["sample_y"], 1)
     assert r["coef_scale"] == pytest.approx(c_n, rel=1e-10)
     assert r["coef_offset"] == pytest.approx(c_1 / c_n, rel=1e-8)

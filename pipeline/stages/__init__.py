@@ -1,30 +1,7 @@
-"""The derivation's stages, in the paper's order.
+"""The derivation's stages, one module each, in the paper's order (`pipeline.graph` declares them).
 
-Each stage module declares the config keys it reads (`READS`), the stages whose results it reads
-(`UPSTREAM`), and a function `run(config, upstream) -> dict` returning plain numbers, strings,
-lists and numpy arrays. The cache key of a stage covers exactly these inputs and its code.
+Each module has a function `run(config, inputs, memo) -> dict`: `config` holds the config keys the
+stage declares, `inputs` its declared upstream fields (keyed `stage.field`), and `memo` caches a
+function call on its arguments' values (`pipeline.cache.Memo`). It returns exactly its declared
+outputs: plain numbers, strings, lists and numpy arrays.
 """
-
-from . import (
-    accuracy,
-    directional_albedo,
-    energy_dataset,
-    exact_normalization,
-    hemispherical,
-    linear_coefficient,
-    lobe_comparison,
-    q_scan,
-    render,
-    sparse_regression,
-    zone,
-)
-
-# The paper's derivation, then the checks it never made.
-PAPER_STAGES = (zone, q_scan, linear_coefficient, accuracy, energy_dataset, sparse_regression, hemispherical)
-BEYOND_STAGES = (exact_normalization, directional_albedo, lobe_comparison, render)
-STAGES = PAPER_STAGES + BEYOND_STAGES
-
-
-def stage_name(module) -> str:
-    """A stage's name: its module's last component, e.g. `q_scan`."""
-    return module.__name__.rsplit(".", 1)[1]

@@ -1,53 +1,43 @@
-"""Accuracy of f_Q2 (Figs. 5, 6): max d and max D of f_Q2 and of f_2 over n, the curves over n,
-the lobes at n = 20, and how the epicenter figures move with the zone's level.
+"""Accuracy of f_Q2 (Figs. 5, 6): max d and max D of f_Q2 and f_Q (at the Q used) over n, the
+curves over n, the gain over f_2, where f_Q's max D lies (the paper's P4), the lobes at n = 20,
+and how the epicenter figures move with the zone's level.
+
+Each lobe's measures are one memoized call, so a refit that moves only the line keeps f_Q's.
 """
 
-import jax
-import jax.numpy as jnp
 import numpy as np
 
 from ..lobes import f_b, k_2, k_Q, k_Q2, quadratic
-from ..roots import SolverSettings
-from .common import RANGE_KEYS, lobe_measures, n_range, require_converged
+from .common import n_range
+from .f2_errors import quadratic_errors, summary
 
-READS = RANGE_KEYS + ("zone.sensitivity_levels", "solver.*")
-UPSTREAM = ("zone", "q_scan", "linear_coefficient")
 FIG5_N = 20.0
 
 
-def run(config, upstream):
-    n = n_range(config)
-    settings = SolverSettings.from_config(config)
-    level = upstream["zone"]["level"]
-    lin = upstream["linear_coefficient"]
-    Q = upstream["q_scan"]["Q_used"]
-    lobes = {"f_Q2": k_Q2(n, lin["slope_used"], lin["intercept_used"]), "f_2": k_2(n),
-             "f_Q": k_Q(n, Q)}
-    measure = jax.jit(lambda k, L: lobe_measures(n, k, L, settings))
-    out = dict(n=np.asarray(n), slope_used=lin["slope_used"], intercept_used=lin["intercept_used"])
-    for name, k in lobes.items():
-        m = measure(k, level)
-        require_converged(m["ok"], f"max D of {name}", n=n)
-        out[f"d_{name}_curve"] = np.asarray(m["d"])
-        out[f"D_{name}_curve"] = np.asarray(m["D"])
-        out[f"d_{name}"] = float(jnp.max(m["d"]))
-        out[f"D_{name}"] = float(jnp.max(m["D"]))
-        out[f"rms_{name}"] = float(jnp.max(m["rms"]))
-        out[f"d_{name}_n_at_max"] = float(n[jnp.argmax(m["d"])])
-        out[f"D_{name}_n_at_max"] = float(n[jnp.argmax(m["D"])])
-        out[f"D_{name}_x_at_max"] = float(np.arccos(1.0 - float(m["D_u"][jnp.argmax(m["D"])])))
-    out["epicenter_gain"] = out["d_f_2"] / out["d_f_Q2"]
-    out["absolute_gain"] = out["D_f_2"] / out["D_f_Q2"]
+def run(config, inputs, memo):
+    n = np.asarray(n_range(config))
+    level = inputs["zone.level"]
+    a, b = inputs["linear_coefficient.slope_used"], inputs["linear_coefficient.intercept_used"]
+    levels = list(inputs["f2_errors.zone_levels"])
+    solver = dict(rtol=config["solver.rtol"], atol=config["solver.atol"], max_steps=config["solver.max_steps"])
+    ks = {"f_Q2": np.asarray(k_Q2(n, a, b)), "f_Q": np.asarray(k_Q(n, inputs["q_choice.Q_used"]))}
+    m = {name: memo("quadratic_errors", quadratic_errors, n=n, k=k, level=level, levels=levels, **solver)
+         for name, k in ks.items()}
+    out = summary("f_Q2", n, m["f_Q2"]) | summary("f_Q", n, m["f_Q"])
+    d_f_2, D_f_2 = inputs["f2_errors.d_f_2"], inputs["f2_errors.D_f_2"]
+    out["epicenter_gain"] = d_f_2 / out["d_f_Q2"]
+    out["absolute_gain"] = D_f_2 / out["D_f_Q2"]
 
-    levels = sorted(set(config["zone.sensitivity_levels"]) | {level})
-    for name, k in lobes.items():
-        out[f"zone_d_{name}"] = np.array([float(jnp.max(measure(k, L)["d"])) for L in levels])
-    out["zone_levels"] = np.array(levels)
+    # Where f_Q attains its max D: outside the epicenter zone means the blooming zone (P4).
+    i_D = int(m["f_Q"]["D"].argmax())
+    u_edge = float(-np.expm1(np.log(level) / n[i_D]))
+    in_blooming = bool(m["f_Q"]["D_u"][i_D] > u_edge)
+    below = bool(out["D_f_Q"] < D_f_2)
+    out |= dict(D_f_Q_zone_edge_x=float(np.arccos(1.0 - u_edge)), D_f_Q_in_blooming_zone=in_blooming,
+                D_f_Q_below_f_2=below, D_f_Q_below_f_2_in_blooming_zone=below and in_blooming)
 
     x = np.linspace(0.0, np.pi / 2, 721)
-    out["fig5_x"] = x
-    out["fig5_f_b"] = np.asarray(f_b(x, FIG5_N))
-    out["fig5_f_2"] = np.asarray(quadratic(x, k_2(FIG5_N)))
-    out["fig5_f_Q2"] = np.asarray(quadratic(x, k_Q2(FIG5_N, lin["slope_used"], lin["intercept_used"])))
-    out["fig5_zone_edge_x"] = float(np.arccos(level ** (1.0 / FIG5_N)))
+    out |= dict(fig5_x=x, fig5_f_b=np.asarray(f_b(x, FIG5_N)), fig5_f_2=np.asarray(quadratic(x, k_2(FIG5_N))),
+                fig5_f_Q2=np.asarray(quadratic(x, k_Q2(FIG5_N, a, b))),
+                fig5_zone_edge_x=float(np.arccos(level ** (1.0 / FIG5_N))))
     return out

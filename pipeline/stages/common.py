@@ -1,13 +1,13 @@
 """Helpers shared by the stages: the exponent range and the vectorized error measures."""
 
-import jax
+import functools
+
+from ..numerics import jax
 import jax.numpy as jnp
 import numpy as np
 
 from ..error_measures import absolute_parts, relative_parts, rms_relative
 from ..roots import SolverError, SolverSettings
-
-RANGE_KEYS = ("derivation.n_min", "derivation.n_max")
 
 
 def n_range(config) -> jnp.ndarray:
@@ -23,13 +23,15 @@ def lobe_measures(n, k, level, settings: SolverSettings):
     the solver success flags.
     """
     d_over, d_under, d_u_over, d_u_under = jax.vmap(relative_parts, (0, 0, None))(n, k, level)
-    D_over, D_under, D_u_over, D_u_under, ok = jax.vmap(
-        lambda n_, k_: absolute_parts(n_, k_, settings))(n, k)
+    D_over, D_under, D_u_over, D_u_under, ok = jax.vmap(lambda n_, k_: absolute_parts(n_, k_, settings))(n, k)
     return dict(d_over=d_over, d_under=d_under, d=jnp.maximum(d_over, d_under),
                 d_u=jnp.where(d_over >= d_under, d_u_over, d_u_under),
                 D_over=D_over, D_under=D_under, D=jnp.maximum(D_over, D_under),
                 D_u=jnp.where(D_over >= D_under, D_u_over, D_u_under),
                 rms=jax.vmap(rms_relative)(n, k), ok=ok)
+
+
+measures = jax.jit(lobe_measures, static_argnames="settings")
 
 
 def require_converged(ok, what: str, **inputs) -> None:
@@ -41,8 +43,3 @@ def require_converged(ok, what: str, **inputs) -> None:
     named = ", ".join(f"{name}={np.asarray(v)[tuple(where[:np.ndim(v)])]:.6g}" for name, v in inputs.items())
     raise SolverError(f"{what}: the root finder did not converge at {named} "
                       f"({int((~ok).sum())} failures); raise solver.max_steps or loosen solver.rtol/atol")
-
-
-def to_numpy(tree):
-    """The stage's result arrays as numpy (float64), for storage."""
-    return jax.tree_util.tree_map(lambda a: np.asarray(a), tree)

@@ -11,52 +11,49 @@ closed-form azimuthal integrals) cross-checks a grid of (n, theta_i). Reciprocit
 is evaluated on random direction pairs.
 """
 
-import jax
+from ..numerics import jax
 import jax.numpy as jnp
 import numpy as np
 
 from ..albedo import albedo_table, brdf, monte_carlo_albedo
 from ..lobes import quadratic_u
-from .common import RANGE_KEYS, n_range
+from .common import n_range
 
-READS = RANGE_KEYS + ("albedo.*",)
-UPSTREAM = ("linear_coefficient", "exact_normalization")
 MC_ANGLES_DEG = (0.0, 30.0, 60.0, 80.0)
 RECIPROCITY_PAIRS = 4096
 
 
-def _variants(e, n):
+def _variants(inputs, n, k):
     """(form, coef over n) of each normalized lobe."""
-    scale, offset = e["coef_scale_used"], e["coef_offset_used"]
-    k = e["slope_used"] * n + e["intercept_used"]
+    scale, offset = inputs["hemispherical.coef_scale_used"], inputs["hemispherical.coef_offset_used"]
     return {
         "phong_run_coef": ("phong", scale * (offset + n)),
-        "phong_exact_coef": ("phong", e["coef_exact"]),
-        "blinn_exact_coef": ("blinn", e["coef_blinn"]),
+        "phong_exact_coef": ("phong", inputs["exact_normalization.coef_exact"]),
+        "blinn_exact_coef": ("blinn", inputs["exact_normalization.coef_blinn"]),
         "blinn_asymptotic_coef": ("blinn", 3.0 / (8.0 * np.pi) * (k + 1.25)),
         "blinn_with_phong_coef": ("blinn", scale * (offset + n)),
     }
 
 
-def run(config, upstream):
-    e = upstream["exact_normalization"]
-    a, b = e["slope_used"], e["intercept_used"]
+def run(config, inputs, memo):
+    a, b = inputs["linear_coefficient.slope_used"], inputs["linear_coefficient.intercept_used"]
     n = np.asarray(n_range(config))
     k = a * n + b
     nodes = config["albedo.quadrature_nodes"]
     theta = np.linspace(0.0, 0.5 * np.pi, config["albedo.angles"])
-    curve_n = np.array(sorted({float(m) for m in config["albedo.curve_n"]
-                               if n[0] <= m <= n[-1]}))
+    curve_n = np.array(sorted({float(m) for m in config["albedo.curve_n"] if n[0] <= m <= n[-1]}))
     pick = np.searchsorted(n, curve_n)
+    variants = _variants(inputs, n, k)
 
-    def lobe(u, n_):
-        return quadratic_u(u, a * n_ + b)
-
-    out = dict(theta=theta, curve_n=curve_n, slope_used=a, intercept_used=b)
+    out = dict(theta=theta, curve_n=curve_n)
     quad_error = 0.0
-    for name, (form, coef) in _variants(e, n).items():
-        table = np.asarray(albedo_table(form, lobe, n, 1.0 / k, coef, theta, nodes))
-        fine = np.asarray(albedo_table(form, lobe, n[pick], 1.0 / k[pick], coef[pick], theta, 2 * nodes))
+    # The albedo is linear in coef: one table of the unnormalized lobe per form serves every variant.
+    unit = {form: (albedo_table(form, "quadratic", n, k, 1.0 / k, theta, nodes),
+                   albedo_table(form, "quadratic", n[pick], k[pick], 1.0 / k[pick], theta, 2 * nodes))
+            for form in ("phong", "blinn")}
+    for name, (form, coef) in variants.items():
+        table = coef[:, None] * unit[form][0]
+        fine = coef[pick, None] * unit[form][1]
         quad_error = max(quad_error, float(np.max(np.abs(table[pick] - fine))))
         i, j = np.unravel_index(np.argmax(table), table.shape)
         out[f"{name}_max"] = float(table[i, j])
@@ -74,12 +71,12 @@ def run(config, upstream):
     rows = []
     angles = np.radians(MC_ANGLES_DEG)
     for name in ("phong_exact_coef", "blinn_exact_coef"):
-        form, coef = _variants(e, n)[name]
-        quad = np.asarray(albedo_table(form, lobe, n[pick], 1.0 / k[pick], coef[pick], angles, nodes))
+        form, coef = variants[name]
+        quad = coef[pick, None] * albedo_table(form, "quadratic", n[pick], k[pick], 1.0 / k[pick], angles, nodes)
         for row, (m, i) in enumerate(zip(curve_n, pick)):
             for col, deg in enumerate(MC_ANGLES_DEG):
                 key, sub = jax.random.split(key)
-                mean, se = monte_carlo_albedo(form, lobe, m, 1.0 / k[i], coef[i], angles[col], sub,
+                mean, se = monte_carlo_albedo(form, "quadratic", k[i], 1.0 / k[i], coef[i], angles[col], sub,
                                               config["albedo.mc_samples"])
                 q = float(quad[row, col])
                 rows.append(dict(form=form, n=float(m), theta_deg=deg, quadrature=q, monte_carlo=float(mean),
@@ -97,7 +94,8 @@ def run(config, upstream):
     L, V = directions(k1), directions(k2)
     worst = 0.0
     for m, i in zip(curve_n, pick):
-        for form, coef in (("phong", e["coef_exact"][i]), ("blinn", e["coef_blinn"][i])):
+        lobe = (lambda u, _, k_=k[i]: quadratic_u(u, k_))
+        for form, coef in (("phong", variants["phong_exact_coef"][1][i]), ("blinn", variants["blinn_exact_coef"][1][i])):
             f_lv = brdf(form, lobe, m, coef, L, V)
             f_vl = brdf(form, lobe, m, coef, V, L)
             worst = max(worst, float(jnp.max(jnp.abs(f_lv - f_vl) / jnp.maximum(jnp.abs(f_lv), 1e-300)

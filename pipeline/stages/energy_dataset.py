@@ -7,15 +7,14 @@ paper, the integral runs up to the lobe's zero crossing gran(n) even where it li
 horizon (k < 1, e.g. n = 2 with the paper's constants), where cos(g) < 0.
 """
 
-import jax
+import functools
+
+from ..numerics import jax
 import jax.numpy as jnp
 import numpy as np
 
 from ..lobes import gran, k_Q2, quadratic
-from .common import RANGE_KEYS, n_range
-
-READS = RANGE_KEYS + ("energy.*", "sample.*")
-UPSTREAM = ("linear_coefficient",)
+from .common import n_range
 
 
 def hemispherical_integral(k, nodes, weights):
@@ -25,36 +24,26 @@ def hemispherical_integral(k, nodes, weights):
     return 0.5 * top * jnp.sum(weights * quadratic(g, k) * jnp.cos(g) * jnp.sin(g))
 
 
-def sample_exponents(config) -> np.ndarray:
-    """The regression sample: n_min..consecutive_to, then spread_count evenly spaced n up to n_max."""
-    head = np.arange(config["derivation.n_min"], config["sample.consecutive_to"] + 1)
-    tail = np.round(np.linspace(config["sample.spread_from"], config["derivation.n_max"],
-                                config["sample.spread_count"]))
-    sample = np.unique(np.concatenate([head, tail]).astype(np.int64))
-    if len(sample) != len(head) + len(tail):
-        raise ValueError(f"sample.spread_count = {config['sample.spread_count']} makes repeated n "
-                         f"between {config['sample.spread_from']} and {config['derivation.n_max']}")
-    return sample
+@functools.partial(jax.jit, static_argnames="nodes")
+def integrals(k, nodes: int):
+    """Int for every k of the array k, by `nodes`-point Gauss-Legendre quadrature."""
+    x, w = np.polynomial.legendre.leggauss(nodes)
+    return jax.vmap(hemispherical_integral, (0, None, None))(k, x, w)
 
 
-def run(config, upstream):
-    lin = upstream["linear_coefficient"]
+def run(config, inputs, memo):
+    sample = np.asarray(inputs["sample.sample_n"]).astype(np.int64)
     n = n_range(config)
-    nodes, weights = np.polynomial.legendre.leggauss(config["energy.quadrature_nodes"])
-    k = k_Q2(n, lin["slope_used"], lin["intercept_used"])
-    integral = jax.jit(jax.vmap(hemispherical_integral, (0, None, None)))(k, nodes, weights)
+    k = k_Q2(n, inputs["linear_coefficient.slope_used"], inputs["linear_coefficient.intercept_used"])
+    integral = integrals(k, config["energy.quadrature_nodes"])
     y = 1.0 / (2.0 * jnp.pi * integral)
     n_np, y_np = np.asarray(n), np.asarray(y)
-    sample = sample_exponents(config)
     y_sample = y_np[sample - config["derivation.n_min"]]
     decimals = config["sample.y_decimals"]
     if decimals >= 0:
         y_sample = np.round(y_sample, decimals)
-    first = n_np[(n_np >= 2) & (n_np <= 10)]
-    return dict(n=n_np, Int=np.asarray(integral), y=y_np, gran=np.asarray(gran(k)),
-                sample_n=sample.astype(np.float64), sample_y=y_sample,
-                sample_size=int(len(sample)), sample_mean_y=float(np.mean(y_sample)),
+    return dict(Int=np.asarray(integral), y=y_np, gran=np.asarray(gran(k)),
+                sample_y=y_sample, sample_mean_y=float(np.mean(y_sample)),
                 sample_std_y=float(np.std(y_sample)),
-                y_n2_to_10=y_np[(n_np >= 2) & (n_np <= 10)], y_n2_to_10_n=first,
-                slope_used=lin["slope_used"], intercept_used=lin["intercept_used"],
+                y_n2_to_10=y_np[(n_np >= 2) & (n_np <= 10)],
                 lobe_below_horizon_n=n_np[np.asarray(k) < 1.0])

@@ -12,17 +12,12 @@ beside the paper's regressed 0.214 (0.807 + n), the run's own fit, and the quadr
   (3 / (2 pi)) (k + 1/4) (Phong) and (3 / (8 pi)) (k + 5/4) (Blinn).
 """
 
-import jax.numpy as jnp
 import numpy as np
 import sympy as sp
 
 from .. import exact
 from ..albedo import albedo_table
-from ..lobes import quadratic_u
-from .common import RANGE_KEYS, n_range
-
-READS = RANGE_KEYS + ("albedo.quadrature_nodes",)
-UPSTREAM = ("linear_coefficient", "energy_dataset", "sparse_regression", "hemispherical")
+from .common import n_range
 
 
 def runs_of(mask, n):
@@ -38,9 +33,8 @@ def runs_of(mask, n):
     return out
 
 
-def run(config, upstream):
-    lin, data, reg, hemi = (upstream[s] for s in UPSTREAM)
-    a, b = lin["slope_used"], lin["intercept_used"]
+def run(config, inputs, memo):
+    a, b = inputs["linear_coefficient.slope_used"], inputs["linear_coefficient.intercept_used"]
     n = n_range(config)
     k = a * n + b
     n_np = np.asarray(n)
@@ -55,17 +49,17 @@ def run(config, upstream):
     Int_gran = np.asarray(gran_fn(k))
 
     # The run's coef (the paper's 0.214 (0.807 + n) with constants = "paper").
-    scale, offset = hemi["coef_scale_used"], hemi["coef_offset_used"]
+    scale, offset = inputs["hemispherical.coef_scale_used"], inputs["hemispherical.coef_offset_used"]
     coef_run = scale * (offset + n_np)
     energy_run = coef_run * 2.0 * np.pi * Int - 1.0
     excess = energy_run > 0.0
 
     # Independent route: the hemisphere quadrature of `pipeline.albedo` at normal incidence.
-    albedo0 = albedo_table("phong", lambda u, n_: quadratic_u(u, a * n_ + b), n, 1.0 / k,
-                           jnp.asarray(coef_exact), jnp.zeros(1), config["albedo.quadrature_nodes"])[:, 0]
+    albedo0 = coef_exact * albedo_table("phong", "quadratic", n, k, 1.0 / k, np.zeros(1),
+                                        config["albedo.quadrature_nodes"])[:, 0]
     exact_dev = np.asarray(albedo0) - 1.0
     # The paper-style dataset (quadrature up to gran) against the exact integral up to gran.
-    dataset_dev = data["Int"] / Int_gran - 1.0
+    dataset_dev = inputs["energy_dataset.Int"] / Int_gran - 1.0
 
     # Large-n expansions, numeric in this run's a, b.
     values = {exact.slope: a, exact.intercept: b}
@@ -78,22 +72,19 @@ def run(config, upstream):
     asym_blinn = 3.0 / (8.0 * np.pi) * (k + 1.25)
     asym_phong_dev = np.asarray(asym_phong) / coef_exact - 1.0
     asym_blinn_dev = np.asarray(asym_blinn) / coef_blinn - 1.0
-    regression_dev = coef_run / coef_exact - 1.0
 
     below = np.asarray(k) < 1.0
     i_max = int(np.argmax(energy_run))
     return dict(
-        n=n_np, coef_exact=coef_exact, coef_blinn=coef_blinn, Int=Int, Int_gran=Int_gran,
-        coef_scale_used=scale, coef_offset_used=offset, slope_used=a, intercept_used=b,
-        energy_run=energy_run, regression_rel_dev=regression_dev,
+        coef_exact=coef_exact, coef_blinn=coef_blinn, Int_hemisphere=Int, Int_gran=Int_gran,
+        energy_run=energy_run,
         paper_coef_max_excess=float(energy_run[i_max]), paper_coef_n_at_max_excess=float(n_np[i_max]),
         paper_coef_max_abs_dev=float(np.max(np.abs(energy_run))),
         paper_coef_n_at_max_abs_dev=float(n_np[np.argmax(np.abs(energy_run))]),
         excess_ranges=runs_of(excess, n_np), excess_count=int(excess.sum()),
         exact_coef_max_abs_dev=float(np.max(np.abs(exact_dev))),
         dataset_quadrature_max_rel_dev=float(np.max(np.abs(dataset_dev))),
-        below_horizon_n=n_np[below], below_horizon_Int=Int[below], below_horizon_Int_gran=Int_gran[below],
-        below_horizon_Int_difference=Int[below] - Int_gran[below], below_horizon_coef=coef_exact[below], below_horizon_coef_gran=1.0 / (2.0 * np.pi * Int_gran[below]),
+        below_horizon_n=n_np[below], below_horizon_Int_difference=Int[below] - Int_gran[below], below_horizon_coef=coef_exact[below], below_horizon_coef_gran=1.0 / (2.0 * np.pi * Int_gran[below]),
         formula_Int=sp.sstr(exact.phong_integral()), formula_Int_gran=sp.sstr(exact.phong_integral_gran()),
         formula_coef=sp.sstr(exact.coef_of_k(exact.phong_integral())),
         formula_Int_blinn=sp.sstr(exact.blinn_integral()),
@@ -103,9 +94,6 @@ def run(config, upstream):
         code_coef=coef_source, code_coef_blinn=blinn_source,
         expansion_n=terms["n"], expansion_1=terms["1"], expansion_inv_n=terms["1/n"],
         expansion_scale=terms["n"], expansion_offset=terms["1"] / terms["n"],
-        regression_scale=reg["coef_scale"], regression_offset=reg["coef_offset"],
-        regression_three_n=reg["three_term_n"], regression_three_1=reg["three_term_1"],
-        regression_three_inv_n=reg["three_term_inv_n"],
         asymptotic_phong_max_abs_dev=float(np.max(np.abs(asym_phong_dev))),
         asymptotic_phong_max_excess=float(np.max(asym_phong_dev)),
         asymptotic_blinn_max_abs_dev=float(np.max(np.abs(asym_blinn_dev))),

@@ -6,7 +6,7 @@ max_n |(slope n + intercept) / k_Q(n) - 1|, a linear program (scipy's HiGHS).
 This stage also fixes the constants the later stages use: the paper's rounded ones or this fit.
 """
 
-import jax
+from ..numerics import jax
 import jax.numpy as jnp
 import numpy as np
 import optimistix as optx
@@ -14,24 +14,20 @@ from scipy.optimize import linprog
 
 from ..lobes import k_Q
 from ..roots import SolverError
-from .common import RANGE_KEYS, n_range
+from .common import n_range
 
-READS = RANGE_KEYS + ("derivation.fit", "derivation.constants", "paper_model.slope",
-                      "paper_model.intercept", "solver.*")
-UPSTREAM = ("q_scan",)
+
+def _line_residuals(p, args):
+    n_scaled, k = args
+    return p[0] * n_scaled + p[1] - k
 
 
 def least_squares_line(n, k, rtol, atol, max_steps):
     """(slope, intercept) minimizing sum (slope n + intercept - k)^2, by Gauss-Newton."""
     scale = float(jnp.max(n))
-
-    def residuals(p, args):
-        n_, k_ = args
-        # The slope is solved for in units of 1/max(n), so that both unknowns are O(1).
-        return p[0] * (n_ / scale) + p[1] - k_
-
-    sol = optx.least_squares(residuals, optx.GaussNewton(rtol=rtol, atol=atol), jnp.zeros(2),
-                             args=(n, k), max_steps=max_steps, throw=False)
+    # The slope is solved for in units of 1/max(n), so that both unknowns are O(1).
+    sol = optx.least_squares(_line_residuals, optx.GaussNewton(rtol=rtol, atol=atol), jnp.zeros(2),
+                             args=(n / scale, k), max_steps=max_steps, throw=False)
     if sol.result != optx.RESULTS.successful:
         raise SolverError(f"least-squares line through k_Q(n), n in [{float(n[0]):g}, "
                           f"{float(n[-1]):g}]: {optx.RESULTS[sol.result]}")
@@ -51,10 +47,10 @@ def minimax_line(n, k):
     return float(res.x[0]), float(res.x[1])
 
 
-def run(config, upstream):
+def run(config, inputs, memo):
     n = n_range(config)
-    Q = upstream["q_scan"]["Q_used"]
-    k = jax.jit(k_Q)(n, Q)
+    Q = inputs["q_choice.Q_used"]
+    k = k_Q(n, Q)
     fit = config["derivation.fit"]
     if fit == "least_squares":
         slope, intercept = least_squares_line(n, k, config["solver.rtol"], config["solver.atol"],
@@ -68,13 +64,11 @@ def run(config, upstream):
     # The large-n asymptote of k_Q(n), a check on the fit: k_Q(n) = n (1 - sqrt Q) / (-ln Q)
     # + (1 - sqrt Q) / 2 + O(1/n).
     return dict(
-        Q=Q, fit=fit, n=np.asarray(n), k=np.asarray(k),
-        lin_slope=slope, lin_intercept=intercept, lin_max_rel_error=float(np.max(np.abs(rel))),
+        k_Q=np.asarray(k), lin_slope=slope, lin_intercept=intercept, lin_max_rel_error=float(np.max(np.abs(rel))),
         lin_rel_error=rel, paper_line_rel_error=rel_paper,
         paper_line_max_rel_error=float(np.max(np.abs(rel_paper))),
         asymptotic_slope=float((1.0 - np.sqrt(Q)) / -np.log(Q)),
         asymptotic_intercept=float((1.0 - np.sqrt(Q)) / 2.0),
-        constants="paper" if use_paper else "fitted",
         slope_used=paper_slope if use_paper else slope,
         intercept_used=paper_intercept if use_paper else intercept,
     )

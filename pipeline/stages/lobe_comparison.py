@@ -5,21 +5,20 @@ incidence angles), and the operations each costs.
 
 The quadratic lobes' d and D are found here by the generic grid-and-bisection search of
 `pipeline.extrema`; the tests check it against the closed-form measures of `pipeline.error_measures`.
+Each lobe's error curves and each energy row's albedo table are memoized calls keyed on their
+values: a refit that changes Q or the line recomputes only the lobes and rows that depend on them.
 """
 
-import jax
-import jax.numpy as jnp
 import numpy as np
 
 from .. import cheap_lobes
 from ..albedo import albedo_table
-from ..extrema import lobe_errors
+from ..extrema import error_curves
 from ..roots import SolverSettings
-from .common import RANGE_KEYS, n_range, require_converged
+from .common import n_range, require_converged
 
-READS = RANGE_KEYS + ("solver.*", "albedo.quadrature_nodes", "comparison.*")
-UPSTREAM = ("zone", "q_scan", "linear_coefficient", "exact_normalization")
 QUADRATURE_CHECK_N = (2.0, 10.0, 100.0, 1000.0)
+LOBE_KEYS = ("cos^n", "f_2", "f_Q used", "f_Q best", "f_Q2", "Schlick", "SG", "SG (Lagarde)")
 
 # (row label, form, lobe name, normalization name): each approximation of cos^n is paired with
 # cos^n's own normalization, as a shader replacing pow() would pair it; the paper's lobe with its
@@ -55,46 +54,62 @@ def _short(ops: dict) -> str:
     return ", ".join(parts) or "none"
 
 
-def run(config, upstream):
-    zone, q, lin = upstream["zone"], upstream["q_scan"], upstream["linear_coefficient"]
-    e = upstream["exact_normalization"]
-    a, b = lin["slope_used"], lin["intercept_used"]
-    n = n_range(config)
-    n_np = np.asarray(n)
-    settings = SolverSettings.from_config(config)
-    lobes = cheap_lobes.shape_lobes(q["Q_used"], q["Q_continuous_best"], a, b)
-    keyed = dict(zip(("cos^n", "f_2", "f_Q used", "f_Q best", "f_Q2", "Schlick", "SG", "SG (Lagarde)"), lobes))
-    norms = cheap_lobes.normalizations(a, b, e["coef_scale_used"], e["coef_offset_used"])
+def shape_errors(shape, n, p, level, cells, rtol, atol, max_steps):
+    """d and D per n of the lobe `SHAPES[shape](u, p)` (p per n)."""
+    m = error_curves(shape, n, p, level, cells, SolverSettings(rtol, atol, max_steps))
+    require_converged(m["ok"], f"extrema of the {shape} lobe", n=n)
+    return dict(d=np.asarray(m["d"]), D=np.asarray(m["D"]))
+
+
+def energy_table(form, shape, n, p, u_end, theta, nodes, check_n):
+    """Albedo table (unnormalized: coef = 1) over n x theta, and the same at `check_n` with twice
+    the nodes."""
+    idx = np.searchsorted(n, check_n)
+    return dict(table=albedo_table(form, shape, n, p, u_end, theta, nodes),
+                check=albedo_table(form, shape, n[idx], p[idx], u_end[idx], theta, 2 * nodes) if len(idx)
+                else np.zeros((0, len(theta))))
+
+
+def run(config, inputs, memo):
+    a, b = inputs["linear_coefficient.slope_used"], inputs["linear_coefficient.intercept_used"]
+    n = np.asarray(n_range(config))
+    level = inputs["zone.level"]
+    solver = dict(rtol=config["solver.rtol"], atol=config["solver.atol"], max_steps=config["solver.max_steps"])
+    lobes = dict(zip(LOBE_KEYS, cheap_lobes.shape_lobes(inputs["q_choice.Q_used"], inputs["q_scan.Q_continuous_best"],
+                                                        a, b)))
+    norms = cheap_lobes.normalizations(a, b, inputs["hemispherical.coef_scale_used"],
+                                       inputs["hemispherical.coef_offset_used"])
     cells = config["comparison.grid_cells"]
 
-    shapes = {}
-    for key, lobe in keyed.items():
-        m = jax.jit(jax.vmap(lambda n_, fn=lobe.fn: lobe_errors(fn, n_, zone["level"], cells, settings)))(n)
-        require_converged(m["ok"], f"extrema of {lobe.name}", n=n)
-        d, D = np.asarray(m["d"]), np.asarray(m["D"])
+    shapes, lobe_rows = {}, []
+    for key, lobe in lobes.items():
+        m = memo("shape_errors", shape_errors, shape=lobe.shape, n=n, p=np.asarray(lobe.param(n), dtype=np.float64),
+                 level=level, cells=cells, **solver)
         pixel, material = cheap_lobes.count_operations(lobe.expr)
-        shapes[key] = dict(name=lobe.name, formula=lobe.formula, d=float(d.max()), D=float(D.max()),
-                           d_n_at_max=float(n_np[d.argmax()]), D_n_at_max=float(n_np[D.argmax()]),
-                           d_curve=d, D_curve=D, ops_pixel=pixel, ops_material=material)
+        shapes[key] = dict(d=float(m["d"].max()), D=float(m["D"].max()), d_curve=m["d"], D_curve=m["D"],
+                           ops_pixel=pixel, ops_material=material)
+        lobe_rows.append(dict(key=key, tag=tag_of(key), name=lobe.name, formula=lobe.formula,
+                              d_n_at_max=float(n[m["d"].argmax()]), D_n_at_max=float(n[m["D"].argmax()]),
+                              ops_pixel=pixel, ops_material=material))
 
     theta = np.linspace(0.0, 0.5 * np.pi, config["comparison.albedo_angles"])
     nodes = config["albedo.quadrature_nodes"]
-    check = np.array([m for m in QUADRATURE_CHECK_N if n_np[0] <= m <= n_np[-1]])
+    check = np.array([m for m in QUADRATURE_CHECK_N if n[0] <= m <= n[-1]])
     rows, quad_error = [], 0.0
     for label, form, lobe_key, norm_key in ENERGY_ROWS:
-        lobe, norm = keyed[lobe_key], norms[norm_key]
+        lobe, norm = lobes[lobe_key], norms[norm_key]
         # A shader clamps t = max(dot, 0): lobes other than the quadratics hold their value at t = 0
-        # past it (which matters only for the spherical Gaussians' exp(-n)).
-        quadratic = lobe_key.startswith("f_")
-        fn = lobe.fn if quadratic else (lambda u, n_, f=lobe.fn: f(jnp.minimum(u, 1.0), n_))
-        u_end = lobe.u_end(n) if quadratic else 2.0 + 0.0 * n
-        coef = norm.fn(n)
-        table = np.asarray(albedo_table(form, fn, n, u_end, coef, theta, nodes))
+        # past it (which matters only for the spherical Gaussians' exp(-n)); their support is all of u.
+        u_end = lobe.u_end(n) if lobe.shape == "quadratic" else 2.0 + 0.0 * n
+        coef = np.asarray(norm.fn(n), dtype=np.float64)
+        t = memo("energy_table", energy_table, form=form, shape=lobe.shape, n=n,
+                 p=np.asarray(lobe.param(n), dtype=np.float64), u_end=np.asarray(u_end, dtype=np.float64),
+                 theta=theta, nodes=nodes, check_n=check)
+        # The albedo is linear in coef: rows sharing a form and a lobe share one table.
+        table = coef[:, None] * t["table"]
         if len(check):
-            idx = np.searchsorted(n_np, check)
-            fine = np.asarray(albedo_table(form, fn, check, np.asarray(u_end)[idx], np.asarray(coef)[idx],
-                                           theta, 2 * nodes))
-            quad_error = max(quad_error, float(np.max(np.abs(table[idx] - fine))))
+            idx = np.searchsorted(n, check)
+            quad_error = max(quad_error, float(np.max(np.abs(table[idx] - coef[idx, None] * t["check"]))))
         normal = table[:, 0]
         i, j = np.unravel_index(np.argmax(table), table.shape)
         norm_ops, _ = cheap_lobes.count_operations(norm.expr, cheap_lobes.n_sym)
@@ -104,18 +119,15 @@ def run(config, upstream):
         rows.append(dict(label=label, form=form, lobe=lobe.name, formula=lobe.formula,
                          normalization=norm.formula, d=shape["d"], D=shape["D"],
                          albedo_normal_max_abs_dev=float(np.max(np.abs(normal - 1.0))),
-                         albedo_normal_n_at_max=float(n_np[np.argmax(np.abs(normal - 1.0))]),
-                         albedo_max=float(table[i, j]), albedo_max_n=float(n_np[i]),
+                         albedo_normal_n_at_max=float(n[np.argmax(np.abs(normal - 1.0))]),
+                         albedo_max=float(table[i, j]), albedo_max_n=float(n[i]),
                          albedo_max_theta_deg=float(np.degrees(theta[j])),
                          ops_pixel=shape["ops_pixel"], ops_with_n_per_pixel=per_pixel_n,
                          ops_pixel_text=_short(shape["ops_pixel"]), ops_with_n_text=_short(per_pixel_n)))
 
-    out = dict(n=n_np, rows=rows, quadrature_error=quad_error, zone_level=zone["level"],
-               Q_used=q["Q_used"], Q_best=q["Q_continuous_best"])
-    for key, s in shapes.items():
-        tag = tag_of(key)
-        out[f"d_{tag}"], out[f"D_{tag}"] = s["d"], s["D"]
-        out[f"d_{tag}_curve"], out[f"D_{tag}_curve"] = s["d_curve"], s["D_curve"]
-    out["lobe_names"] = {key: s["name"] for key, s in shapes.items()}
-    out["lobe_tags"] = {key: tag_of(key) for key in shapes}
+    out = dict(lobes=lobe_rows, rows=rows, quadrature_error=quad_error,
+               d_curves=np.stack([shapes[k]["d_curve"] for k in LOBE_KEYS]),
+               D_curves=np.stack([shapes[k]["D_curve"] for k in LOBE_KEYS]))
+    for key in ("cos^n", "Schlick", "SG", "SG (Lagarde)"):
+        out[f"d_{tag_of(key)}"], out[f"D_{tag_of(key)}"] = shapes[key]["d"], shapes[key]["D"]
     return out

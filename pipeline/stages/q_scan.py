@@ -5,45 +5,61 @@ The continuous optimum of a minimax metric (d or D) is where its largest over-es
 largest under-estimate (each maximized over n) are equal: there the maximum stops falling and
 starts rising. It is found by bisection on over(Q) - under(Q). For the RMS metric it is the root
 of d/dQ of max_n rms (by `jax.grad`).
+
+Every grid is evaluated in chunks of `CHUNK` values of Q by one compiled function.
 """
 
-import jax
+import functools
+
+from ..numerics import jax
 import jax.numpy as jnp
 import numpy as np
 
-from ..lobes import k_2, k_Q
+from ..lobes import k_Q
 from ..roots import SolverError, SolverSettings, bracketed_root
-from .common import RANGE_KEYS, lobe_measures, n_range, require_converged
+from .common import lobe_measures, n_range, require_converged
 
-READS = RANGE_KEYS + ("derivation.Q", "derivation.metric", "scan.*", "solver.*")
-UPSTREAM = ("zone",)
-
-# Objective of each metric and the residual whose root is its continuous optimum.
+# Objective of each metric: the measure whose max over n it minimizes.
 OBJECTIVE = {"relative_epicenter": "d", "absolute": "D", "rms": "rms"}
-_PAD = 32
+CHUNK = 32
 
 
-def _maxima(measures):
-    return {name: jnp.max(measures[name]) for name in
-            ("d", "d_over", "d_under", "D", "D_over", "D_under", "rms")} | {"ok": jnp.all(measures["ok"])}
+def _maxima(n, Q, level, settings):
+    m = lobe_measures(n, k_Q(n, Q), level, settings)
+    return {name: jnp.max(m[name]) for name in
+            ("d", "d_over", "d_under", "D", "D_over", "D_under", "rms")} | {"ok": jnp.all(m["ok"])}
 
 
-def _make_scan(n, level, settings):
-    def per_q(Q):
-        return _maxima(lobe_measures(n, k_Q(n, Q), level, settings))
+@functools.partial(jax.jit, static_argnames="settings")
+def _chunk(n, Qs, level, settings):
+    return jax.vmap(lambda Q: _maxima(n, Q, level, settings))(Qs)
 
-    batched = jax.jit(jax.vmap(per_q))
 
-    def scan(Qs):
-        # Pad to a multiple of _PAD so that grids of similar size share one compiled function.
-        Qs = np.asarray(Qs, dtype=np.float64)
-        size = -(-len(Qs) // _PAD) * _PAD
-        padded = np.concatenate([Qs, np.full(size - len(Qs), Qs[-1])])
-        out = {k: np.asarray(v)[: len(Qs)] for k, v in batched(padded).items()}
-        require_converged(out["ok"], "Q scan (max D of f_Q)", Q=Qs)
-        return out
+def scan(n, Qs, level, settings: SolverSettings) -> dict[str, np.ndarray]:
+    """max over n of each measure of f_Q, for every Q of Qs."""
+    Qs = np.asarray(Qs, dtype=np.float64)
+    size = -(-len(Qs) // CHUNK) * CHUNK
+    padded = np.concatenate([Qs, np.full(size - len(Qs), Qs[-1])])
+    parts = [_chunk(n, padded[i:i + CHUNK], level, settings) for i in range(0, size, CHUNK)]
+    out = {k: np.concatenate([np.asarray(p[k]) for p in parts])[: len(Qs)] for k in parts[0]}
+    require_converged(out["ok"], "Q scan (max D of f_Q)", Q=Qs)
+    return out
 
-    return per_q, scan
+
+def _residual(Q, args):
+    n, level, metric, settings = args
+    if metric == "rms":
+        return jax.grad(lambda q: _maxima(n, q, level, settings)["rms"])(Q)
+    m = _maxima(n, Q, level, settings)
+    part = OBJECTIVE[metric]
+    return m[part + "_over"] - m[part + "_under"]
+
+
+@functools.partial(jax.jit, static_argnames=("metric", "settings"))
+def continuous_optimum(n, level, lower, upper, metric: str, settings: SolverSettings):
+    """(Q, has_root, ok): root of the metric's optimality residual on [lower, upper]."""
+    return bracketed_root(lambda Q, a: _residual(Q, (a[0], a[1], metric, settings)), lower, upper,
+                          (n, level), settings)
 
 
 def grid(start, stop, step):
@@ -52,71 +68,41 @@ def grid(start, stop, step):
     return np.round(start + step * np.arange(count), 12)
 
 
-def run(config, upstream):
+def run(config, inputs, memo):
     n = n_range(config)
-    level = upstream["zone"]["level"]
+    level = inputs["zone.level"]
     settings = SolverSettings.from_config(config)
     metric = config["derivation.metric"]
     objective = OBJECTIVE[metric]
-    per_q, scan = _make_scan(n, level, settings)
 
     coarse_step, fine_step = config["scan.coarse_step"], config["scan.fine_step"]
     coarse_Q = grid(coarse_step, 1.0 - 1e-9, coarse_step)
-    coarse = scan(coarse_Q)
+    coarse = scan(n, coarse_Q, level, settings)
     Q_coarse = float(coarse_Q[np.argmin(coarse[objective])])
     lo = max(Q_coarse - coarse_step, fine_step)
     fine_Q = grid(lo, min(Q_coarse + coarse_step, 1.0 - fine_step), fine_step)
-    fine = scan(fine_Q)
+    fine = scan(n, fine_Q, level, settings)
     i_best = int(np.argmin(fine[objective]))
     Q_best = float(fine_Q[i_best])
 
     # Continuous optimum, bracketed by the fine grid's neighbours of its best point.
     bracket = (float(fine_Q[max(i_best - 1, 0)]), float(fine_Q[min(i_best + 1, len(fine_Q) - 1)]))
-    if metric == "rms":
-        def residual(Q, args):
-            return jax.grad(lambda q: per_q(q)["rms"])(Q)
-    else:
-        part = OBJECTIVE[metric]
-
-        def residual(Q, args):
-            m = per_q(Q)
-            return m[part + "_over"] - m[part + "_under"]
-    Q_opt, has_root, ok = jax.jit(lambda a, b: bracketed_root(residual, a, b, None, settings))(*bracket)
+    Q_opt, has_root, ok = continuous_optimum(n, level, *bracket, metric, settings)
     if not bool(has_root):
         raise SolverError(f"continuous optimum of {metric}: no sign change of its optimality residual "
                           f"on Q in {bracket}; the optimum is not interior to the fine grid")
     if not bool(ok):
-        raise SolverError(f"continuous optimum of {metric}: bisection on Q in {bracket} did not converge")
+        raise SolverError(f"continuous optimum of {metric}: bisection on Q in {bracket} did not converge "
+                          f"(solver.max_steps = {config['solver.max_steps']})")
     Q_opt = float(Q_opt)
-
-    choice = config["derivation.Q"]
-    Q_used = {"scan": Q_best, "optimize": Q_opt}.get(choice, choice)
-    at = scan(np.array([Q_used, Q_opt]))
+    at = scan(n, np.array([Q_opt]), level, settings)
     curve_Q = np.linspace(0.02, 0.98, config["scan.curve_points"])
-    curve = scan(curve_Q)
-
-    # Where f_Q(Q_used) attains its max D: outside the epicenter zone means the blooming zone (P4).
-    k_used = k_Q(n, Q_used)
-    measures = lobe_measures(n, k_used, level, settings)
-    i_D = int(jnp.argmax(measures["D"]))
-    u_edge = float(-np.expm1(np.log(level) / float(n[i_D])))
-    ref = lobe_measures(n, k_2(n), level, settings)
-    require_converged(ref["ok"], "max D of f_2", n=n)
-    D_f2 = float(jnp.max(ref["D"]))
+    curve = scan(n, curve_Q, level, settings)
     return dict(
-        metric=metric, objective=objective,
         coarse_Q=coarse_Q, coarse_objective=coarse[objective], Q_scan_coarse=Q_coarse,
         fine_Q=fine_Q, fine_objective=fine[objective], Q_scan_best=Q_best,
-        Q_continuous_best=Q_opt, objective_at_continuous=float(at[objective][1]),
+        Q_continuous_best=Q_opt, objective_at_continuous=float(at[objective][0]),
         objective_at_scan_best=float(fine[objective][i_best]),
-        Q_used=float(Q_used),
-        d_fQ_at_Q=float(at["d"][0]), D_fQ_at_Q=float(at["D"][0]), rms_fQ_at_Q=float(at["rms"][0]),
-        d_fQ_at_continuous=float(at["d"][1]), D_fQ_at_continuous=float(at["D"][1]),
-        D_fQ_n_at_max=float(n[i_D]), D_fQ_x_at_max=float(np.arccos(1.0 - float(measures["D_u"][i_D]))),
-        D_fQ_zone_edge_x=float(np.arccos(1.0 - u_edge)),
-        D_fQ_in_blooming_zone=bool(float(measures["D_u"][i_D]) > u_edge),
-        D_fQ_below_f2=bool(at["D"][0] < D_f2),
-        D_fQ_below_f2_in_blooming_zone=bool(at["D"][0] < D_f2 and float(measures["D_u"][i_D]) > u_edge),
+        d_f_Q_at_continuous=float(at["d"][0]), D_f_Q_at_continuous=float(at["D"][0]),
         curve_Q=curve_Q, curve_d=curve["d"], curve_D=curve["D"], curve_rms=curve["rms"],
-        d_f2=float(jnp.max(ref["d"])), D_f2=D_f2, rms_f2=float(jnp.max(ref["rms"])),
     )

@@ -14,11 +14,7 @@ import numpy as np
 import pysindy as ps
 
 from ..roots import SolverError
-from .common import RANGE_KEYS
-from .energy_dataset import sample_exponents
-
-READS = RANGE_KEYS + ("regression.*", "sample.*")
-UPSTREAM = ("energy_dataset",)
+from .sample import sample_exponents
 
 TERMS = {
     "1": lambda n: np.ones_like(n), "n": lambda n: n, "1/n": lambda n: 1.0 / n,
@@ -71,9 +67,11 @@ def expression(model) -> str:
                       zip(model["terms"], model["coefficients"]))
 
 
-def run(config, upstream):
-    data = upstream["energy_dataset"]
-    n_s, y_s = data["sample_n"], data["sample_y"]
+def run(config, inputs, memo):
+    n_s, y_s = inputs["sample.sample_n"], inputs["energy_dataset.sample_y"]
+    y_all = inputs["energy_dataset.y"]
+    n_min, n_max = config["derivation.n_min"], config["derivation.n_max"]
+    n_all = np.arange(n_min, n_max + 1, dtype=np.float64)
     terms = config["regression.library"]
     thresholds = np.geomspace(config["regression.threshold_min"], config["regression.threshold_max"],
                               config["regression.threshold_count"])
@@ -86,13 +84,10 @@ def run(config, upstream):
     for m in front:
         m["expression"] = expression(m)
         m["rms_all_n"] = float(np.sqrt(np.mean(
-            (np.column_stack([TERMS[t](data["n"]) for t in m["terms"]]) @ m["coefficients"]
-             - data["y"]) ** 2)))
+            (np.column_stack([TERMS[t](n_all) for t in m["terms"]]) @ m["coefficients"] - y_all) ** 2)))
 
     # How the two-term constants move with the sample (every sample of the same kind as the
     # paper's unless named otherwise; y rounded as configured).
-    n_all, y_all = data["n"], data["y"]
-    n_min, n_max = config["derivation.n_min"], config["derivation.n_max"]
     decimals = config["sample.y_decimals"]
 
     def at(ns, rounded=True):
@@ -122,7 +117,6 @@ def run(config, upstream):
     return dict(front=front, coef_scale=scale, coef_offset=offset, coef_rms=rms,
                 constant_model=mean, constant_model_rms=float(np.sqrt(np.mean((y_s - mean) ** 2))),
                 sample_sensitivity=sensitivity,
-                front_sizes=[len(m["terms"]) for m in front],
                 one_term_scale=next((m["coefficients"][0] for m in front if m["terms"] == ["n"]), float("nan")),
                 one_term_rms=next((m["rms"] for m in front if m["terms"] == ["n"]), float("nan")),
                 **_three_term(front))

@@ -5,7 +5,7 @@ the verdicts are decided by those numbers, not written in advance.
 
 from __future__ import annotations
 
-from .checks import fmt
+from ..checks import fmt
 
 
 def pct(x: float) -> str:
@@ -17,12 +17,20 @@ def _code(text: str) -> list[str]:
     return ["```python", text.rstrip(), "```"]
 
 
-def exact_section(config, r) -> list[str]:
-    e = r["exact_normalization"]
-    scale, offset = e["coef_scale_used"], e["coef_offset_used"]
+def embed(figures, section: str) -> list[str]:
+    """The report lines that show the figures drawn for `section` (each figure appears once)."""
+    lines = []
+    for file, caption in figures.get(section, []):
+        lines += [f"![{caption}]({file})", ""]
+    return lines
+
+
+def exact_section(config, r, figures) -> list[str]:
+    e, lin, reg = r["exact_normalization"], r["linear_coefficient"], r["sparse_regression"]
+    scale, offset = r["hemispherical"]["coef_scale_used"], r["hemispherical"]["coef_offset_used"]
     below = [int(v) for v in e["below_horizon_n"]]
     lines = ["## Beyond the paper: exact normalization", "",
-             "For k = a n + b (here a = " f"{e['slope_used']:g}, b = {e['intercept_used']:g}) sympy integrates the "
+             "For k = a n + b (here a = " f"{lin['slope_used']:g}, b = {lin['intercept_used']:g}) sympy integrates the "
              "lobe over the upper hemisphere (c = cos x):", "",
              f"- Int(k) = `{e['formula_Int']}`",
              f"- coef(k) = 1 / (2 pi Int) = `{e['formula_coef']}`",
@@ -62,8 +70,8 @@ def exact_section(config, r) -> list[str]:
               "| model | c n | c_0 | c_-1 / n | two-term scale (offset + n) |", "|---|---|---|---|---|",
               f"| exact expansion | {e['expansion_n']:.6f} | {e['expansion_1']:.6f} | {e['expansion_inv_n']:.6f} | "
               f"{e['expansion_scale']:.6f} ({e['expansion_offset']:.6f} + n) |",
-              f"| this run's sparse regression | {e['regression_three_n']:.6f} | {e['regression_three_1']:.6f} | "
-              f"{e['regression_three_inv_n']:.6f} | {e['regression_scale']:.6f} ({e['regression_offset']:.6f} + n) |"]
+              f"| this run's sparse regression | {reg['three_term_n']:.6f} | {reg['three_term_1']:.6f} | "
+              f"{reg['three_term_inv_n']:.6f} | {reg['coef_scale']:.6f} ({reg['coef_offset']:.6f} + n) |"]
     paper = {ex.result: ex.paper for ex in config.expectations}
     if "sparse_regression.three_term_n" in paper:
         lines.append(f"| paper (TuringBot) | {fmt(paper['sparse_regression.three_term_n'])} | "
@@ -75,18 +83,17 @@ def exact_section(config, r) -> list[str]:
               "and the two-term offset, absorb the O(1/n^2) remainder at small n, which the sample weights "
               "heavily: the regressed offset is not the expansion's.", "",
               "Blinn form (cos x = N.H), exact at normal view: Int_B(k) = "
-              f"`{e['formula_Int_blinn']}`; coef_B = `{e['formula_coef_blinn']}`. At n = {r['exact_normalization']['n'][-1]:g} it is "
+              f"`{e['formula_Int_blinn']}`; coef_B = `{e['formula_coef_blinn']}`. At n = {config['derivation.n_max']:g} it is "
               f"{e['blinn_to_phong_ratio_at_n_max']:.4f} of the Phong-form coef (limit 1/4: the half-vector lobe "
               f"is four times wider in solid angle). Its two-term asymptote (3 / (8 pi)) (k + 5/4) is off by up to "
               f"{e['asymptotic_blinn_max_abs_dev']:.4f} (at small n) and never above 1 (max excess "
               f"{e['asymptotic_blinn_max_excess']:+.2e}). Generated code:", ""] + _code(e["code_coef_blinn"]) + [""]
-    lines += ["![exact normalization](exact_normalization.png)", ""]
-    return lines
+    return lines + embed(figures, "exact_normalization")
 
 
-def albedo_section(config, r) -> list[str]:
+def albedo_section(config, r, figures) -> list[str]:
     s = r["directional_albedo"]
-    n_count = len(r["exact_normalization"]["n"])
+    n_count = config["derivation.n_max"] - config["derivation.n_min"] + 1
     rows = ["| normalized lobe | max a over n and theta_i | at n, theta_i | max abs(a(0) - 1) | peak at normal incidence for every n |",
             "|---|---|---|---|---|"]
     labels = {"phong_run_coef": "Phong form, run's coef", "phong_exact_coef": "Phong form, exact coef",
@@ -114,15 +121,14 @@ def albedo_section(config, r) -> list[str]:
               f"created by the paper's model is at and near normal incidence, where its coef is too large: "
               f"{s['phong_run_coef_max'] - 1:+.6f} at most. The Blinn form needs its own factor: with the "
               f"Phong-form coef it reflects up to {s['blinn_with_phong_coef_max']:.3f}x what it receives; with "
-              f"the exact Blinn coef its largest albedo is {s['blinn_exact_coef_max']:.8f}.", "",
-              "![directional albedo](directional_albedo.png)", ""]
-    return lines
+              f"the exact Blinn coef its largest albedo is {s['blinn_exact_coef_max']:.8f}.", ""]
+    return lines + embed(figures, "directional_albedo")
 
 
-def comparison_section(config, r) -> list[str]:
+def comparison_section(config, r, figures) -> list[str]:
     c = r["lobe_comparison"]
     lines = ["## Beyond the paper: other cheap lobes, side by side", "",
-             f"Same zone (L = {c['zone_level']:.6f}), error measures and n range as the paper's run. d and D are "
+             f"Same zone (L = {r['zone']['level']:.6f}), error measures and n range as the paper's run. d and D are "
              "the maxima over n (found by grid-bracketed bisection for every lobe; for the quadratic lobes they "
              "agree with the closed forms). Albedo columns: the Phong or Blinn form with the normalization "
              f"named (quadrature error {c['quadrature_error']:.1e}). Operations: per pixel with n fixed per "
@@ -136,9 +142,8 @@ def comparison_section(config, r) -> list[str]:
                      f"(n = {row['albedo_max_n']:g}) | {row['ops_pixel_text']} | {row['ops_with_n_text']} |")
     lines += ["", "The Blinn rows share their lobes' d and D (the error is measured in the lobe's own angle). "
               "The approximations of cos^n are shown with cos^n's normalization, as a shader that swaps "
-              "out pow() would keep it; their albedo error is then the energy their shape gains or loses.", "",
-              "![lobe comparison](lobe_comparison.png)", ""]
-    return lines
+              "out pow() would keep it; their albedo error is then the energy their shape gains or loses.", ""]
+    return lines + embed(figures, "lobe_comparison")
 
 
 def verdict_section(config, r) -> list[str]:
@@ -149,10 +154,11 @@ def verdict_section(config, r) -> list[str]:
     by_D = sorted({row["lobe"]: row["D"] for row in shape}.items(), key=lambda kv: kv[1])
     q2 = rows["f_Q2, run's coef"]
     excess = e["paper_coef_max_excess"]
+    h = r["hemispherical"]
     lines = ["## Verdict on the paper's claims", ""]
     if excess > 0:
-        lines.append(f"- **\"Energetically correct\"**: not quite. With {e['coef_scale_used']:g} "
-                     f"({e['coef_offset_used']:g} + n) the lobe reflects more than it receives for n in "
+        lines.append(f"- **\"Energetically correct\"**: not quite. With {h['coef_scale_used']:g} "
+                     f"({h['coef_offset_used']:g} + n) the lobe reflects more than it receives for n in "
                      f"{e['excess_ranges']}, by up to {excess:+.6f} (at normal incidence, n = "
                      f"{e['paper_coef_n_at_max_excess']:g}), and loses up to {e['paper_coef_max_abs_dev']:.4f} at "
                      f"n = {e['paper_coef_n_at_max_abs_dev']:g}. The excess is small but it is an excess; the exact "
@@ -162,9 +168,10 @@ def verdict_section(config, r) -> list[str]:
     else:
         lines.append(f"- **\"Energetically correct\"**: yes: with this coef no n reflects more than it receives "
                      f"(largest deviation {e['paper_coef_max_abs_dev']:.4f}).")
-    better = q2["d"] < a["d_f_2"] and q2["D"] < a["D_f_2"]
+    f2 = r["f2_errors"]
+    better = q2["d"] < f2["d_f_2"] and q2["D"] < f2["D_f_2"]
     lines.append(f"- **\"More accurate than f_2\"**: {'yes' if better else 'no'}: max d {pct(q2['d'])} vs "
-                 f"{pct(a['d_f_2'])}, max D {q2['D']:.4f} vs {a['D_f_2']:.4f}. Among all the cheap lobes, "
+                 f"{pct(f2['d_f_2'])}, max D {q2['D']:.4f} vs {f2['D_f_2']:.4f}. Among all the cheap lobes, "
                  f"ranked by d: " + ", ".join(f"{k} {pct(v)}" for k, v in by_d) + "; by D: "
                  + ", ".join(f"{k} {v:.4f}" for k, v in by_D) + ".")
     pixel = next(row for row in c["rows"] if row["label"] == "f_Q2, run's coef")["ops_pixel"]
@@ -178,19 +185,20 @@ def verdict_section(config, r) -> list[str]:
     return lines + [""]
 
 
-def render_section(config, r) -> list[str]:
+def render_section(config, r, figures) -> list[str]:
     s = r["render"]
+    res, normalization = config["render.resolution"], config["render.normalization"]
     lines = ["## Rendered comparison and shader", "",
-             f"{s['resolution']}x{s['resolution']} renders of a unit sphere and of a sphere on a plane under one "
+             f"{res}x{res} renders of a unit sphere and of a sphere on a plane under one "
              "directional light (Blinn form, t = N.H; Lambertian base; Reinhard tone map; sRGB). The reference "
              "is cos^n with Giesen's exact normalization; f_2 and f_Q2 are normalized "
              + ("by the same factor (render.normalization = \"reference\"), so the images differ by the "
-                "highlight's shape alone, as d and D measure it" if s["normalization"] == "reference" else
+                "highlight's shape alone, as d and D measure it" if normalization == "reference" else
                 "each by its own exact Blinn-form coef (render.normalization = \"exact\"), so they reflect "
                 "the same energy at normal view and differ in peak height as well as shape")
              + ". Statistics against the reference: absolute error of linear radiance (all pixels and "
              "channels); relative luminance error in the highlight's epicenter (where the reference's specular "
-             f"term is at least the zone level L = {s['zone_level']:.4f} of its peak, as for d); PSNR of the "
+             f"term is at least the zone level L = {r['zone']['level']:.4f} of its peak, as for d); PSNR of the "
              "displayed images.", "",
              "| scene | n | lobe | max abs | mean abs | max rel (epicenter) | mean rel (epicenter) | PSNR (dB) |",
              "|---|---|---|---|---|---|---|---|"]
@@ -198,9 +206,7 @@ def render_section(config, r) -> list[str]:
         lines.append(f"| {row['scene']} | {row['n']:g} | {row['lobe']} | {row['max_abs']:.4f} | "
                      f"{row['mean_abs']:.2e} | {pct(row['max_rel'])} | {pct(row['mean_rel'])} | {row['psnr']:.1f} |")
     lines.append("")
-    for n in s["exponents"]:
-        lines += [f"![renders at n = {n:g}](render_n{n:g}.png)", "",
-                  f"![errors at n = {n:g}](render_errors_n{n:g}.png)", ""]
+    lines += embed(figures, "render")
     lines += ["Shader: `shader/cosquad.glsl` and `shader/cosquad.hlsl` hold the run's k(n), lobe, coef(n) "
               "and the exact Phong- and Blinn-form normalizations with the constants filled in; "
               "`shader/cosquad_twin.py` is the same code printed as Python, which the tests evaluate "
@@ -208,6 +214,7 @@ def render_section(config, r) -> list[str]:
     return lines
 
 
-def sections(config, r) -> list[str]:
-    return (exact_section(config, r) + albedo_section(config, r) + comparison_section(config, r)
-            + verdict_section(config, r) + render_section(config, r))
+def sections(config, r, figures) -> list[str]:
+    return (exact_section(config, r, figures) + albedo_section(config, r, figures)
+            + comparison_section(config, r, figures) + verdict_section(config, r)
+            + render_section(config, r, figures))

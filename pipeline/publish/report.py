@@ -4,18 +4,18 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from . import checks as checks_mod
-from .export import front_markdown
-from .figures import CAPTIONS
-from .report_beyond import pct as _pct
+from .. import checks as checks_mod
+from .report_beyond import embed, pct as _pct
 from .report_beyond import sections as beyond_sections
-from .results import HEADLINE
+from .results import HEADLINE, headline
+from .tables import front_markdown
 
 
 def _choices(config, r) -> list[str]:
-    z, q, lin, e, reg, h = (r[s] for s in ("zone", "q_scan", "linear_coefficient", "energy_dataset",
-                                             "sparse_regression", "hemispherical"))
-    sample = [int(v) for v in e["sample_n"]]
+    z, q, lin, e, reg, h, f2 = (r[s] for s in ("zone", "q_scan", "linear_coefficient", "energy_dataset",
+                                                 "sparse_regression", "hemispherical", "f2_errors"))
+    Q_used = r["q_choice"]["Q_used"]
+    sample = [int(v) for v in r["sample"]["sample_n"]]
     zone = (f"calibrated so that max d of f_2 over n in [{config['derivation.n_min']}, "
             f"{config['derivation.n_max']}] equals zone.calibration_target = "
             f"{_pct(config['zone.calibration_target'])} (the paper's P9)" if z["calibrated"]
@@ -23,21 +23,21 @@ def _choices(config, r) -> list[str]:
     return [
         "## Stated choices",
         f"- **Epicenter zone**: {{x : cos(x)^n >= L}} with L = {z['level']:.10f}, {zone}. "
-        f"At this level max d of f_2 is {_pct(z['d_f2_at_level'])}, attained at n = {z['n_at_max']:g}.",
-        f"- **Q**: derivation.Q = {config['derivation.Q']!r}, metric {q['metric']}: coarse grid best "
+        f"At this level max d of f_2 is {_pct(f2['d_f_2'])}, attained at n = {f2['d_f_2_n_at_max']:g}.",
+        f"- **Q**: derivation.Q = {config['derivation.Q']!r}, metric {config['derivation.metric']}: coarse grid best "
         f"{q['Q_scan_coarse']:g}, fine grid best {q['Q_scan_best']:g}, continuous optimum "
         f"{q['Q_continuous_best']:.8f} (objective there {q['objective_at_continuous']:.6g}, "
-        f"at the grid best {q['objective_at_scan_best']:.6g}); used: Q = {q['Q_used']:g}.",
-        f"- **Linear coefficient**: {lin['fit']} over every integer n in range: "
+        f"at the grid best {q['objective_at_scan_best']:.6g}); used: Q = {Q_used:g}.",
+        f"- **Linear coefficient**: {config['derivation.fit']} over every integer n in range: "
         f"k_Q(n) ~ {lin['lin_slope']:.8f} n + {lin['lin_intercept']:.8f} (max relative error "
         f"{_pct(lin['lin_max_rel_error'])}); large-n asymptote of k_Q: {lin['asymptotic_slope']:.8f} n + "
-        f"{lin['asymptotic_intercept']:.8f}. Downstream constants: **{lin['constants']}**, "
+        f"{lin['asymptotic_intercept']:.8f}. Downstream constants: **{config['derivation.constants']}**, "
         f"k = {lin['slope_used']:g} n + {lin['intercept_used']:g}.",
         f"- **Energy dataset**: Int(n) by {config['energy.quadrature_nodes']}-node Gauss-Legendre "
         f"quadrature over [0, gran(n)] for every n; the lobe's zero crossing lies past the horizon "
         f"(k < 1) for n = {[int(v) for v in e['lobe_below_horizon_n']]}, where the paper's integral "
         f"includes a negative-cosine part.",
-        f"- **Sample** ({e['sample_size']} points, y rounded to {config['sample.y_decimals']} decimals as in "
+        f"- **Sample** ({r['sample']['sample_size']} points, y rounded to {config['sample.y_decimals']} decimals as in "
         f"newenergy.txt): n = {sample}. This design (every n up to {config['sample.consecutive_to']}, then "
         f"{config['sample.spread_count']} evenly spaced from {config['sample.spread_from']}) is chosen so "
         f"that the sample's mean y and RMS spread match TuringBot's size-1 row: here "
@@ -52,7 +52,7 @@ def _choices(config, r) -> list[str]:
 
 def _differences(checks) -> list[str]:
     lines = ["## What differs from the paper"]
-    differs = [c for c in checks if c.verdict != checks_mod.PASS]
+    differs = [c for c in checks if c.verdict in (checks_mod.DIFFERS, checks_mod.FAIL)]
     if not differs:
         lines.append("Every check is within its stated tolerance.")
     for c in differs:
@@ -67,11 +67,11 @@ def _differences(checks) -> list[str]:
 
 
 def _zone_table(r) -> list[str]:
-    s, z = r["accuracy"], r["zone"]
+    s, f2, z = r["accuracy"], r["f2_errors"], r["zone"]
     rows = ["| zone level L | max d f_2 | max d f_Q | max d f_Q2 |", "|---|---|---|---|"]
-    for i, L in enumerate(s["zone_levels"]):
+    for i, L in enumerate(f2["zone_levels"]):
         mark = " (used)" if abs(L - z["level"]) < 1e-12 else ""
-        rows.append(f"| {L:.5f}{mark} | {_pct(s['zone_d_f_2'][i])} | {_pct(s['zone_d_f_Q'][i])} | "
+        rows.append(f"| {L:.5f}{mark} | {_pct(f2['zone_d_f_2'][i])} | {_pct(s['zone_d_f_Q'][i])} | "
                     f"{_pct(s['zone_d_f_Q2'][i])} |")
     return rows
 
@@ -85,7 +85,6 @@ def _sample_table(reg) -> list[str]:
 
 
 def _comparison(doc, baseline) -> list[str]:
-    from .results import headline
     base = headline(baseline.results)
     changed = [f"`{k}`: {baseline.config[k]!r} -> {v!r}" for k, v in doc["config"].items()
                if k != "run.question" and baseline.config[k] != v]
@@ -98,16 +97,19 @@ def _comparison(doc, baseline) -> list[str]:
 
 
 def write(path: Path, config, doc, r, checks, figures, baseline=None) -> None:
+    """Writes report.md; `figures` maps report sections to the (file, caption) drawn for them."""
     a = r["accuracy"]
     n_fail = sum(c.verdict == checks_mod.FAIL for c in checks)
     n_diff = sum(c.verdict == checks_mod.DIFFERS for c in checks)
+    n_na = sum(c.verdict == checks_mod.NOT_COMPARABLE for c in checks)
     lines = [f"# Derivation of the modified cosine-quadratic lobe: run `{config.name}`", ""]
     if config["run.question"]:
         lines += [f"**Question.** {config['run.question']}", ""]
-    lines += [f"Config: `{config.source}`. Checks: {len(checks) - n_fail - n_diff} pass, {n_diff} differ "
-              f"with a documented cause, {n_fail} fail.", "",
-              f"f_Q2 against f_2: max d {_pct(a['d_f_Q2'])} vs {_pct(a['d_f_2'])} (gain "
-              f"{a['epicenter_gain']:.3f}x), max D {a['D_f_Q2']:.5f} vs {a['D_f_2']:.5f}.", ""]
+    lines += [f"Config: `{config.source}`. Checks: {len(checks) - n_fail - n_diff - n_na} pass, {n_diff} differ "
+              f"with a documented cause, {n_fail} fail, {n_na} not comparable (this run's settings differ from "
+              "those the expected value was reported for).", "",
+              f"f_Q2 against f_2: max d {_pct(a['d_f_Q2'])} vs {_pct(r['f2_errors']['d_f_2'])} (gain "
+              f"{a['epicenter_gain']:.3f}x), max D {a['D_f_Q2']:.5f} vs {r['f2_errors']['D_f_2']:.5f}.", ""]
     if baseline is not None:
         lines += _comparison(doc, baseline)
     if checks:
@@ -118,11 +120,11 @@ def write(path: Path, config, doc, r, checks, figures, baseline=None) -> None:
     lines += ["## Zone sensitivity", "",
               "How the epicenter figures move with the zone's level L. Where a lobe's max d comes from its "
               "interior stationary point, it does not depend on L at all.", ""] + _zone_table(r) + [""]
+    lines += embed(figures, "zone")
     lines += ["## Sparse-regression front", "", front_markdown(r["sparse_regression"]), "",
               "## How the coef(n) constants move with the sample", ""] + _sample_table(r["sparse_regression"])
-    lines += [""] + beyond_sections(config, r)
-    lines += ["", "## Figures", ""]
-    lines += [f"### {CAPTIONS.get(f, f)}\n\n![{CAPTIONS.get(f, f)}]({f})\n" for f in figures]
+    lines += ["", "## The paper's figures, reproduced", ""] + embed(figures, "paper")
+    lines += beyond_sections(config, r, figures)
     lines += ["## Files", "", "- `results.json`: every number (`headline` holds the main ones, as fractions)",
               "- `newenergy.csv`: the sample, like the paper's newenergy.txt; `energy_all_n.csv`: every n",
               "- `regression_front.csv`: the front as a table", ""]

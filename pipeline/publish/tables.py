@@ -5,15 +5,17 @@ from __future__ import annotations
 from pathlib import Path
 
 
-def write_tables(out: Path, results) -> None:
+def write(out: Path, config, results) -> None:
+    """newenergy.csv, energy_all_n.csv and regression_front.csv."""
     data, reg = results["energy_dataset"], results["sparse_regression"]
+    n_all = range(config["derivation.n_min"], config["derivation.n_max"] + 1)
     with open(out / "newenergy.csv", "w") as f:
         f.write("n, y\n")
-        for n, y in zip(data["sample_n"], data["sample_y"]):
+        for n, y in zip(results["sample"]["sample_n"], data["sample_y"]):
             f.write(f"{int(n)}, {y:.12g}\n")
     with open(out / "energy_all_n.csv", "w") as f:
         f.write("n,Int,y,gran\n")
-        for n, i, y, g in zip(data["n"], data["Int"], data["y"], data["gran"]):
+        for n, i, y, g in zip(n_all, data["Int"], data["y"], data["gran"]):
             f.write(f"{int(n)},{i:.17g},{y:.17g},{g:.17g}\n")
     with open(out / "regression_front.csv", "w") as f:
         f.write("terms,expression,rms_sample,rms_all_n,threshold\n")

@@ -14,7 +14,8 @@ from pathlib import Path
 
 import sympy as sp
 
-from . import exact
+from .. import exact
+from ..cache import digest
 
 t, n = sp.symbols("t n", real=True)
 PREFIX = "cosquad_"
@@ -65,7 +66,7 @@ def _python(expr) -> str:
 
 
 def _relative(source: str) -> str:
-    from .paths import ROOT
+    from ..paths import ROOT
     path = Path(source).resolve()
     return str(path.relative_to(ROOT)) if path.is_relative_to(ROOT) else str(path)
 
@@ -93,12 +94,14 @@ def render_sources(config, slope, intercept, coef_scale, coef_offset, version_ta
             "cosquad_twin.py": "\n".join(py).rstrip() + "\n"}
 
 
-def write(out: Path, config, results, code_tag: str) -> list[str]:
-    """Writes `out/shader/` for the run; returns the file names (relative to out)."""
+def write(out: Path, config, results, stage_keys) -> list[str]:
+    """Writes `out/shader/` for the run; returns the file names (relative to out). The header's tag
+    names the stage results the constants come from."""
     lin, h = results["linear_coefficient"], results["hemispherical"]
     version = importlib.metadata.version("cosquad-pipeline")
+    tag = digest(stage_keys["linear_coefficient"], stage_keys["hemispherical"])[:12]
     files = render_sources(config, lin["slope_used"], lin["intercept_used"], h["coef_scale_used"],
-                           h["coef_offset_used"], f"{version} (code {code_tag})")
+                           h["coef_offset_used"], f"{version} (results {tag})")
     folder = out / "shader"
     folder.mkdir(exist_ok=True)
     for name, text in files.items():

@@ -1,7 +1,12 @@
-"""One PNG per paper figure, plus the zone-sensitivity figure. Every figure reads only results."""
+"""The figures, one registry: each entry is (file, caption, report section, drawing function).
+Every figure reads only the run's config and results; the report embeds each exactly once, in its
+section.
+"""
 
 from __future__ import annotations
 
+import dataclasses
+from collections.abc import Callable
 from pathlib import Path
 
 import matplotlib
@@ -11,6 +16,14 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 PAPER = dict(color="black", marker="*", markersize=12, linestyle="none", zorder=5)
+# PNG compression level 1: files ~1.5x larger than the default 6, written several times faster.
+FAST_PNG = {"compress_level": 1}
+OBJECTIVE = {"relative_epicenter": "d", "absolute": "D", "rms": "rms"}
+
+
+def n_of(config) -> np.ndarray:
+    """Every exponent n of the run, as the stages' per-n arrays hold them."""
+    return np.arange(config["derivation.n_min"], config["derivation.n_max"] + 1, dtype=np.float64)
 
 
 def paper_value(config, result_path):
@@ -23,39 +36,39 @@ def paper_value(config, result_path):
 
 def _save(fig, out: Path, name: str) -> str:
     fig.tight_layout()
-    fig.savefig(out / name, dpi=110)
+    fig.savefig(out / name, dpi=110, pil_kwargs=FAST_PNG)
     plt.close(fig)
     return name
 
 
 def fig2(out, config, r):
-    s = r["q_scan"]
+    s, d_f2 = r["q_scan"], r["f2_errors"]["d_f_2"]
+    metric = config["derivation.metric"]
     fig, ax = plt.subplots(figsize=(7, 4.2))
     ax.plot(s["curve_Q"], 100 * s["curve_d"], label="max d of f_Q (this run)")
-    ax.axhline(100 * s["d_f2"], color="C1", ls="--", label=f"max d of f_2 = {100 * s['d_f2']:.3f} %")
-    ax.plot(s["coarse_Q"], 100 * s["coarse_objective"], "o", ms=4, color="C2", label="coarse grid") \
-        if s["objective"] == "d" else None
-    ax.plot(s["fine_Q"], 100 * s["fine_objective"], ".", color="C3", label="fine grid") \
-        if s["objective"] == "d" else None
+    ax.axhline(100 * d_f2, color="C1", ls="--", label=f"max d of f_2 = {100 * d_f2:.3f} %")
+    if OBJECTIVE[metric] == "d":
+        ax.plot(s["coarse_Q"], 100 * s["coarse_objective"], "o", ms=4, color="C2", label="coarse grid")
+        ax.plot(s["fine_Q"], 100 * s["fine_objective"], ".", color="C3", label="fine grid")
     ax.axvline(s["Q_continuous_best"], color="grey", lw=0.8,
-               label=f"continuous optimum of {s['metric']}: Q = {s['Q_continuous_best']:.4f}")
-    p = paper_value(config, "q_scan.d_fQ_at_Q")
+               label=f"continuous optimum of {metric}: Q = {s['Q_continuous_best']:.4f}")
+    p = paper_value(config, "accuracy.d_f_Q")
     if p is not None:
         ax.plot([0.64], [100 * p], **PAPER, label=f"paper: Q = 0.64, d = {100 * p:.3f} %")
     ax.set(xlabel="Q (level at which f_Q = cos^n)", ylabel="max relative error d in epicenter zone (%)",
-           title="Fig. 2: max d over n of f_Q and f_2 versus Q", ylim=(0, max(25, 110 * s["d_f2"])))
+           title="Fig. 2: max d over n of f_Q and f_2 versus Q", ylim=(0, max(25, 110 * d_f2)))
     ax.legend(fontsize=8)
     ax.grid(alpha=0.3)
     return _save(fig, out, "fig2_d_vs_Q.png")
 
 
 def fig3(out, config, r):
-    s = r["q_scan"]
+    s, D_f2, Q_used = r["q_scan"], r["f2_errors"]["D_f_2"], r["q_choice"]["Q_used"]
     fig, ax = plt.subplots(figsize=(7, 4.2))
     ax.plot(s["curve_Q"], s["curve_D"], label="max D of f_Q (this run)")
-    ax.axhline(s["D_f2"], color="C1", ls="--", label=f"max D of f_2 = {s['D_f2']:.4f}")
-    ax.axvline(s["Q_used"], color="grey", lw=0.8, label=f"Q used = {s['Q_used']:.4g}")
-    p = paper_value(config, "accuracy.D_f_2")
+    ax.axhline(D_f2, color="C1", ls="--", label=f"max D of f_2 = {D_f2:.4f}")
+    ax.axvline(Q_used, color="grey", lw=0.8, label=f"Q used = {Q_used:.4g}")
+    p = paper_value(config, "f2_errors.D_f_2")
     if p is not None:
         ax.plot([0.99], [p], **PAPER, label=f"paper: max D of f_2 = {p}")
     ax.set(xlabel="Q", ylabel="max absolute error D over x in [0, pi/2]",
@@ -66,27 +79,28 @@ def fig3(out, config, r):
 
 
 def fig4(out, config, r):
-    s = r["linear_coefficient"]
+    s, n = r["linear_coefficient"], n_of(config)
     fig, ax = plt.subplots(figsize=(7, 4.2))
-    ax.plot(s["n"], 100 * s["paper_line_rel_error"], label="paper's line 0.448 n + 0.099")
-    ax.plot(s["n"], 100 * s["lin_rel_error"], ls="--",
-            label=f"this run's {s['fit']} line {s['lin_slope']:.6f} n + {s['lin_intercept']:.6f}")
+    ax.plot(n, 100 * s["paper_line_rel_error"], label="paper's line 0.448 n + 0.099")
+    ax.plot(n, 100 * s["lin_rel_error"], ls="--",
+            label=f"this run's {config['derivation.fit']} line {s['lin_slope']:.6f} n + {s['lin_intercept']:.6f}")
     for b in (-0.5, 0.5):
         ax.axhline(b, color="black", lw=0.8, ls=":")
     ax.set(xscale="log", xlabel="specular exponent n", ylabel="relative error of the line vs k_Q(n) (%)",
-           title=f"Fig. 4: linear approximation of k_Q(n), Q = {s['Q']:.4g} (dotted: paper's 0.5 % bound)")
+           title=f"Fig. 4: linear approximation of k_Q(n), Q = {r['q_choice']['Q_used']:.4g} "
+                 "(dotted: paper's 0.5 % bound)")
     ax.legend(fontsize=8)
     ax.grid(alpha=0.3)
     return _save(fig, out, "fig4_linear_coefficient.png")
 
 
 def fig5(out, config, r):
-    s = r["accuracy"]
+    s, lin = r["accuracy"], r["linear_coefficient"]
     deg = np.degrees(s["fig5_x"])
     fig, ax = plt.subplots(figsize=(7, 4.2))
     ax.plot(deg, s["fig5_f_b"], "k", lw=2, label="f_b = cos^20 x (reference)")
     ax.plot(deg, s["fig5_f_2"], label="f_2")
-    ax.plot(deg, s["fig5_f_Q2"], ls="--", label=f"f_Q2 (k = {s['slope_used']:.4g} n + {s['intercept_used']:.4g})")
+    ax.plot(deg, s["fig5_f_Q2"], ls="--", label=f"f_Q2 (k = {lin['slope_used']:.4g} n + {lin['intercept_used']:.4g})")
     ax.axvline(np.degrees(s["fig5_zone_edge_x"]), color="grey", lw=0.8, label="edge of the epicenter zone")
     ax.set(xlim=(0, 45), xlabel="angle x (degrees)", ylabel="lobe value", title="Fig. 5: lobes at n = 20")
     ax.legend(fontsize=8)
@@ -95,20 +109,21 @@ def fig5(out, config, r):
 
 
 def fig6(out, config, r):
-    s = r["accuracy"]
+    s, n = r["accuracy"], n_of(config)
     fig, (a, b) = plt.subplots(1, 2, figsize=(11, 4.2))
-    a.plot(s["n"], 100 * s["d_f_Q2_curve"], label=f"f_Q2 (max {100 * s['d_f_Q2']:.3f} %)")
-    a.plot(s["n"], 100 * s["d_f_2_curve"], label=f"f_2 (max {100 * s['d_f_2']:.3f} %)")
+    a.plot(n, 100 * s["d_f_Q2_curve"], label=f"f_Q2 (max {100 * s['d_f_Q2']:.3f} %)")
+    f2 = r["f2_errors"]
+    a.plot(n, 100 * f2["d_f_2_curve"], label=f"f_2 (max {100 * f2['d_f_2']:.3f} %)")
     p = paper_value(config, "accuracy.d_f_Q2")
     if p is not None:
-        a.plot([s["n"][-1]], [100 * p], **PAPER, label=f"paper: {100 * p:.3f} %")
+        a.plot([n[-1]], [100 * p], **PAPER, label=f"paper: {100 * p:.3f} %")
     a.set(xscale="log", xlabel="n", ylabel="max relative error d in epicenter zone (%)",
           title="Fig. 6a: max d over x, per n")
-    b.plot(s["n"], s["D_f_Q2_curve"], label=f"f_Q2 (max {s['D_f_Q2']:.4f})")
-    b.plot(s["n"], s["D_f_2_curve"], label=f"f_2 (max {s['D_f_2']:.4f})")
+    b.plot(n, s["D_f_Q2_curve"], label=f"f_Q2 (max {s['D_f_Q2']:.4f})")
+    b.plot(n, f2["D_f_2_curve"], label=f"f_2 (max {f2['D_f_2']:.4f})")
     p = paper_value(config, "accuracy.D_f_Q2")
     if p is not None:
-        b.plot([s["n"][-1]], [p], **PAPER, label=f"paper: {p}")
+        b.plot([n[-1]], [p], **PAPER, label=f"paper: {p}")
     b.set(xscale="log", xlabel="n", ylabel="max absolute error D over [0, pi/2]",
           title="Fig. 6b: max D over x, per n")
     for ax in (a, b):
@@ -120,8 +135,9 @@ def fig6(out, config, r):
 def fig7(out, config, r):
     s = r["energy_dataset"]
     fig, ax = plt.subplots(figsize=(7, 4.2))
-    ax.plot(s["n"], s["y"], label="y(n) = 1 / (2 pi Int(n)), every n")
-    ax.plot(s["sample_n"], s["sample_y"], "o", ms=4, label=f"{s['sample_size']}-point sample (newenergy.csv)")
+    ax.plot(n_of(config), s["y"], label="y(n) = 1 / (2 pi Int(n)), every n")
+    ax.plot(r["sample"]["sample_n"], s["sample_y"], "o", ms=4,
+            label=f"{r['sample']['sample_size']}-point sample (newenergy.csv)")
     p = paper_value(config, "energy_dataset.y_n2_to_10")
     if p is not None:
         ax.plot(np.arange(2, 2 + len(p)), p, **{**PAPER, "markersize": 8}, label="paper's printed values, n = 2..10")
@@ -154,23 +170,23 @@ def fig9(out, config, r):
     text = "\n".join(f"{len(m['terms'])} terms: {m['expression']}" for m in s["front"])
     fig.text(0.01, 0.01, text, fontsize=7, family="monospace", va="bottom")
     fig.tight_layout(rect=(0, 0.03 * (len(s["front"]) + 1), 1, 1))
-    fig.savefig(out / "fig9_front.png", dpi=110)
+    fig.savefig(out / "fig9_front.png", dpi=110, pil_kwargs=FAST_PNG)
     plt.close(fig)
     return "fig9_front.png"
 
 
 def fig10(out, config, r):
-    s, e, h = r["sparse_regression"], r["energy_dataset"], r["hemispherical"]
+    s, e, h, n = r["sparse_regression"], r["energy_dataset"], r["hemispherical"], n_of(config)
     fig, (a, b) = plt.subplots(2, 1, figsize=(7, 6), sharex=True, height_ratios=(2, 1))
-    a.plot(e["sample_n"], e["sample_y"], "o", ms=4, label="sample")
-    fitted = s["coef_scale"] * (s["coef_offset"] + e["n"])
-    used = h["coef_scale_used"] * (h["coef_offset_used"] + e["n"])
-    a.plot(e["n"], fitted, label=f"fit: {s['coef_scale']:.6f} ({s['coef_offset']:.6f} + n)")
-    a.plot(e["n"], used, ls="--", label=f"used: {h['coef_scale_used']:.6g} ({h['coef_offset_used']:.6g} + n)")
+    a.plot(r["sample"]["sample_n"], e["sample_y"], "o", ms=4, label="sample")
+    fitted = s["coef_scale"] * (s["coef_offset"] + n)
+    used = h["coef_scale_used"] * (h["coef_offset_used"] + n)
+    a.plot(n, fitted, label=f"fit: {s['coef_scale']:.6f} ({s['coef_offset']:.6f} + n)")
+    a.plot(n, used, ls="--", label=f"used: {h['coef_scale_used']:.6g} ({h['coef_offset_used']:.6g} + n)")
     a.set(xscale="log", yscale="log", ylabel="coef(n)", title="Fig. 10: dataset and fitted coef(n)")
     a.legend(fontsize=8)
-    b.plot(e["n"], fitted - e["y"], label="fit - y(n)")
-    b.plot(e["n"], used - e["y"], ls="--", label="used - y(n)")
+    b.plot(n, fitted - e["y"], label="fit - y(n)")
+    b.plot(n, used - e["y"], ls="--", label="used - y(n)")
     b.set(xlabel="n", ylabel="residual")
     b.legend(fontsize=8)
     for ax in (a, b):
@@ -181,7 +197,7 @@ def fig10(out, config, r):
 def fig11(out, config, r):
     h = r["hemispherical"]
     fig, ax = plt.subplots(figsize=(7, 4.2))
-    ax.plot(h["n"], h["deviation"], label="coef(n) 2 pi Int(n) - 1")
+    ax.plot(n_of(config), h["deviation"], label="coef(n) 2 pi Int(n) - 1")
     p = paper_value(config, "hemispherical.hemi_max_abs_dev")
     if p is not None:
         ax.plot([2], [-p], **PAPER, label=f"paper: max |deviation| = {p}")
@@ -197,7 +213,8 @@ def zone_sensitivity(out, config, r):
     s, z = r["accuracy"], r["zone"]
     fig, ax = plt.subplots(figsize=(7, 4.2))
     for name in ("f_2", "f_Q", "f_Q2"):
-        ax.plot(s["zone_levels"], 100 * s[f"zone_d_{name}"], "o-", label=f"max d of {name}")
+        source = r["f2_errors"] if name == "f_2" else s
+        ax.plot(r["f2_errors"]["zone_levels"], 100 * source[f"zone_d_{name}"], "o-", label=f"max d of {name}")
     ax.axvline(z["level"], color="grey", lw=0.8, label=f"level used L = {z['level']:.5f}")
     ax.set(yscale="log", xlabel="zone level L (epicenter = {cos^n x >= L})", ylabel="max d (%)",
            title="Epicenter figures versus the zone's level")
@@ -207,10 +224,10 @@ def zone_sensitivity(out, config, r):
 
 
 def exact_normalization(out, config, r):
-    e = r["exact_normalization"]
+    e, h, n = r["exact_normalization"], r["hemispherical"], n_of(config)
     fig, (a, b) = plt.subplots(1, 2, figsize=(12, 4.4))
-    a.plot(e["n"], e["energy_run"], label=f"run's coef {e['coef_scale_used']:g} ({e['coef_offset_used']:g} + n)")
-    a.plot(e["n"], e["asymptotic_phong_dev"], ls="--", label="(3 / (2 pi)) (k + 1/4)  [= -1/(16 k^2)]")
+    a.plot(n, e["energy_run"], label=f"run's coef {h['coef_scale_used']:g} ({h['coef_offset_used']:g} + n)")
+    a.plot(n, e["asymptotic_phong_dev"], ls="--", label="(3 / (2 pi)) (k + 1/4)  [= -1/(16 k^2)]")
     a.axhline(0, color="black", lw=0.8, label="exact coef = 6 k^2 / (pi (4 k - 1))")
     if e["excess_ranges"]:
         lo, hi = e["excess_ranges"][0]
@@ -218,10 +235,10 @@ def exact_normalization(out, config, r):
     a.set(xscale="log", xlabel="n", ylabel="coef(n) 2 pi Int(n) - 1 (reflected / received - 1)",
           title=f"Phong form: largest excess {e['paper_coef_max_excess']:+.2e} at n = "
                 f"{e['paper_coef_n_at_max_excess']:g}", ylim=(-0.07, 0.01))
-    b.plot(e["n"], e["asymptotic_blinn_dev"], ls="--", color="C1", label="(3 / (8 pi)) (k + 5/4)")
+    b.plot(n, e["asymptotic_blinn_dev"], ls="--", color="C1", label="(3 / (8 pi)) (k + 5/4)")
     b.axhline(0, color="black", lw=0.8, label="exact Blinn coef (see report)")
     b.set(xscale="log", xlabel="n", ylabel="coef_B(n) 2 pi Int_B(n) - 1",
-          title=f"Blinn form (N.H): own normalization; at n = {e['n'][-1]:g} it is "
+          title=f"Blinn form (N.H): own normalization; at n = {n[-1]:g} it is "
                 f"{e['blinn_to_phong_ratio_at_n_max']:.4f} x the Phong one")
     for ax in (a, b):
         ax.legend(fontsize=7)
@@ -253,14 +270,14 @@ def directional_albedo(out, config, r):
 
 
 def lobe_comparison(out, config, r):
-    c = r["lobe_comparison"]
+    c, n = r["lobe_comparison"], n_of(config)
     fig, (a, b) = plt.subplots(1, 2, figsize=(12, 4.6))
-    for key, name in c["lobe_names"].items():
-        tag = c["lobe_tags"][key]
-        if tag == "cosn":
+    for i, lobe in enumerate(c["lobes"]):
+        if lobe["tag"] == "cosn":
             continue
-        a.plot(c["n"], 100 * c[f"d_{tag}_curve"], label=f"{name} ({100 * c[f'd_{tag}']:.3f} %)")
-        b.plot(c["n"], c[f"D_{tag}_curve"], label=f"{name} ({c[f'D_{tag}']:.4f})")
+        d, D = c["d_curves"][i], c["D_curves"][i]
+        a.plot(n, 100 * d, label=f"{lobe['name']} ({100 * d.max():.3f} %)")
+        b.plot(n, D, label=f"{lobe['name']} ({D.max():.4f})")
     a.set(xscale="log", yscale="log", xlabel="n", ylabel="max relative error d in epicenter zone (%)",
           title="Cheap lobes against cos^n: d per n (max in legend)")
     b.set(xscale="log", xlabel="n", ylabel="max absolute error D over [0, pi/2]",
@@ -275,8 +292,9 @@ def renders(out, config, r):
     """One side-by-side image per exponent (rows: scenes; columns: lobes), at full resolution."""
     s = r["render"]
     names = []
-    res = s["resolution"]
-    for j, n in enumerate(s["exponents"]):
+    res = config["render.resolution"]
+    normalization = config["render.normalization"]
+    for j, n in enumerate(config["render.exponents"]):
         rows, cols = len(s["scenes"]), len(s["lobes"])
         fig, axes = plt.subplots(rows, cols, figsize=(cols * res / 100, rows * res / 100 + 0.6), dpi=100,
                                  squeeze=False)
@@ -286,13 +304,13 @@ def renders(out, config, r):
                 ax.imshow(s["display"][i, j, l], interpolation="nearest")
                 ax.set_axis_off()
                 label = ("reference cos^n (Giesen)" if lobe == "cos^n" else
-                         f"{lobe} ({'Giesen' if s['normalization'] == 'reference' else 'exact Blinn coef'})")
+                         f"{lobe} ({'Giesen' if normalization == 'reference' else 'exact Blinn coef'})")
                 ax.set_title(f"{label}, {scene}", fontsize=9)
-        fig.suptitle(f"n = {n:g}: Blinn form (t = N.H), normalization: {s['normalization']}; Reinhard tone map, sRGB",
+        fig.suptitle(f"n = {n:g}: Blinn form (t = N.H), normalization: {normalization}; Reinhard tone map, sRGB",
                      fontsize=10)
         fig.tight_layout()
         name = f"render_n{n:g}.png"
-        fig.savefig(out / name, dpi=100)
+        fig.savefig(out / name, dpi=100, pil_kwargs=FAST_PNG)
         plt.close(fig)
         names.append(name)
     return names
@@ -303,7 +321,7 @@ def render_errors(out, config, r):
     s = r["render"]
     names = []
     candidates = [l for l, lobe in enumerate(s["lobes"]) if lobe != "cos^n"]
-    for j, n in enumerate(s["exponents"]):
+    for j, n in enumerate(config["render.exponents"]):
         fig, axes = plt.subplots(len(candidates), 2 * len(s["scenes"]),
                                  figsize=(4.2 * 2 * len(s["scenes"]), 3.8 * len(candidates)), squeeze=False)
         for row, l in enumerate(candidates):
@@ -321,32 +339,50 @@ def render_errors(out, config, r):
         fig.suptitle(f"n = {n:g}: error against the reference cos^n", fontsize=10)
         fig.tight_layout()
         name = f"render_errors_n{n:g}.png"
-        fig.savefig(out / name, dpi=90)
+        fig.savefig(out / name, dpi=90, pil_kwargs=FAST_PNG)
         plt.close(fig)
         names.append(name)
     return names
 
 
-CAPTIONS = {
-    "fig2_d_vs_Q.png": "Fig. 2: max relative error in the epicenter zone versus Q",
-    "fig3_D_vs_Q.png": "Fig. 3: max absolute error versus Q",
-    "fig4_linear_coefficient.png": "Fig. 4: relative error of the linear coefficient",
-    "fig5_lobes_n20.png": "Fig. 5: f_Q2, f_2 and f_b at n = 20",
-    "fig6_fQ2_errors.png": "Fig. 6: max d and max D of f_Q2 (and f_2) per n",
-    "fig7_dataset.png": "Fig. 7: the ideal normalization dataset",
-    "fig9_front.png": "Fig. 9: sparse-regression front",
-    "fig10_coef_fit.png": "Fig. 10: dataset and coef(n)",
-    "fig11_hemispherical.png": "Fig. 11: hemispherical reflectivity minus 1",
-    "zone_sensitivity.png": "Epicenter figures versus the zone level",
-    "exact_normalization.png": "Beyond the paper: energy reflected at normal incidence with each coef(n)",
-    "directional_albedo.png": "Beyond the paper: directional albedo at every incidence angle",
-    "lobe_comparison.png": "Beyond the paper: cheap lobes side by side",
-}
+@dataclasses.dataclass(frozen=True)
+class Figure:
+    """One figure: its file (or, for one per rendered exponent, a pattern with {n}), caption, the
+    report section it belongs to, and its drawing function (returns the files it wrote)."""
+
+    file: str
+    caption: str
+    section: str
+    draw: Callable
 
 
-def draw_all(out: Path, config, results) -> list[str]:
-    """Draws every figure into `out`; returns the file names."""
-    names = [f(out, config, results) for f in (fig2, fig3, fig4, fig5, fig6, fig7, fig9, fig10, fig11,
-                                               zone_sensitivity, exact_normalization, directional_albedo,
-                                               lobe_comparison)]
-    return names + renders(out, config, results) + render_errors(out, config, results)
+FIGURES = (
+    Figure("fig2_d_vs_Q.png", "Fig. 2: max relative error in the epicenter zone versus Q", "paper", fig2),
+    Figure("fig3_D_vs_Q.png", "Fig. 3: max absolute error versus Q", "paper", fig3),
+    Figure("fig4_linear_coefficient.png", "Fig. 4: relative error of the linear coefficient", "paper", fig4),
+    Figure("fig5_lobes_n20.png", "Fig. 5: f_Q2, f_2 and f_b at n = 20", "paper", fig5),
+    Figure("fig6_fQ2_errors.png", "Fig. 6: max d and max D of f_Q2 (and f_2) per n", "paper", fig6),
+    Figure("fig7_dataset.png", "Fig. 7: the ideal normalization dataset", "paper", fig7),
+    Figure("fig9_front.png", "Fig. 9: sparse-regression front", "paper", fig9),
+    Figure("fig10_coef_fit.png", "Fig. 10: dataset and coef(n)", "paper", fig10),
+    Figure("fig11_hemispherical.png", "Fig. 11: hemispherical reflectivity minus 1", "paper", fig11),
+    Figure("zone_sensitivity.png", "Epicenter figures versus the zone level", "zone", zone_sensitivity),
+    Figure("exact_normalization.png", "Energy reflected at normal incidence with each coef(n)",
+           "exact_normalization", exact_normalization),
+    Figure("directional_albedo.png", "Directional albedo at every incidence angle", "directional_albedo",
+           directional_albedo),
+    Figure("lobe_comparison.png", "Cheap lobes side by side: d and D per n", "lobe_comparison", lobe_comparison),
+    Figure("render_n{n}.png", "Renders at n = {n}: reference, f_2, f_Q2", "render", renders),
+    Figure("render_errors_n{n}.png", "Render errors at n = {n}", "render", render_errors),
+)
+
+
+def draw_all(out: Path, config, results) -> dict[str, list[tuple[str, str]]]:
+    """Draws every figure into `out`; returns, per report section, the (file, caption) drawn."""
+    drawn: dict[str, list[tuple[str, str]]] = {}
+    for f in FIGURES:
+        files = f.draw(out, config, results)
+        for name in [files] if isinstance(files, str) else files:
+            n = name.split("_n")[-1][:-4] if "{n}" in f.file else ""
+            drawn.setdefault(f.section, []).append((name, f.caption.format(n=n)))
+    return drawn

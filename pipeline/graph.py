@@ -1,0 +1,305 @@
+"""The derivation's stage graph, declared by fields: what each stage reads and what it returns.
+
+Each stage names the config keys it reads (`reads`; `section.*` for a whole section), the upstream
+fields it reads (`inputs`, as `stage.field`) and every field it returns (`outputs`: name -> meaning
+and unit or range). The runner passes a stage exactly its declared config keys and input fields,
+checks that it returned exactly its declared outputs, and keys its cache on those values
+(`pipeline.cache`). Nothing here imports JAX, sympy or pysindy: `pipeline graph`, `pipeline keys`
+and config validation (which checks every expectation's result path against `OUTPUTS`) are
+answered from this module alone.
+
+The stages' code lives in `pipeline.stages.<name>` (a function `run(config, inputs, memo)`).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Mapping
+from types import MappingProxyType
+
+RANGE = ("derivation.n_min", "derivation.n_max")
+
+
+@dataclasses.dataclass(frozen=True)
+class Stage:
+    """One stage: its name, the config keys and upstream fields it reads, and its outputs."""
+
+    name: str
+    paper: str
+    reads: tuple[str, ...]
+    inputs: tuple[str, ...]
+    outputs: Mapping[str, str]
+
+    @property
+    def module(self) -> str:
+        return f"pipeline.stages.{self.name}"
+
+    @property
+    def upstream(self) -> tuple[str, ...]:
+        """The stages this one reads fields of, in first-read order."""
+        return tuple(dict.fromkeys(path.split(".", 1)[0] for path in self.inputs))
+
+
+def _stage(name, paper, reads, inputs, outputs) -> Stage:
+    return Stage(name, paper, tuple(reads), tuple(inputs), MappingProxyType(dict(outputs)))
+
+
+PER_N = "array over n in [n_min, n_max]"
+
+STAGES: tuple[Stage, ...] = (
+    _stage("zone", "undefined in the paper", RANGE + ("zone.level", "zone.calibration_target", "solver.*"), (), {
+        "level": "level L of the epicenter zone {x : cos^n x >= L} [in (0, 1)]",
+        "calibrated": "whether L was solved for from zone.calibration_target [bool]",
+    }),
+    _stage("q_scan", "Figs. 2, 3", RANGE + ("derivation.metric", "scan.*", "solver.*"), ("zone.level",), {
+        "coarse_Q": "the coarse Q grid [array]",
+        "coarse_objective": "the metric's objective on the coarse grid [array, fraction]",
+        "Q_scan_coarse": "best Q on the coarse grid [in (0, 1)]",
+        "fine_Q": "the refined Q grid around the coarse best [array]",
+        "fine_objective": "the objective on the fine grid [array]",
+        "Q_scan_best": "best Q on the fine grid [in (0, 1)]",
+        "Q_continuous_best": "continuous optimum of the objective [in (0, 1)]",
+        "objective_at_scan_best": "objective at Q_scan_best [fraction or absolute]",
+        "objective_at_continuous": "objective at Q_continuous_best [fraction or absolute]",
+        "d_f_Q_at_continuous": "max d of f_Q at Q_continuous_best [fraction]",
+        "D_f_Q_at_continuous": "max D of f_Q at Q_continuous_best [absolute]",
+        "curve_Q": "Q values of the Fig. 2/3 curves [array]",
+        "curve_d": "max d over n of f_Q per curve_Q [array, fraction]",
+        "curve_D": "max D over n of f_Q per curve_Q [array, absolute]",
+        "curve_rms": "max relative RMS error over n of f_Q per curve_Q [array, fraction]",
+    }),
+    _stage("q_choice", "Sec. 2", ("derivation.Q",), ("q_scan.Q_scan_best", "q_scan.Q_continuous_best"), {
+        "Q_used": "Q of f_Q used downstream: the grid best, the continuous optimum or a set value [in (0, 1)]",
+    }),
+    _stage("linear_coefficient", "Fig. 4",
+           RANGE + ("derivation.fit", "derivation.constants", "paper_model.slope", "paper_model.intercept",
+                    "solver.*"),
+           ("q_choice.Q_used",), {
+        "k_Q": f"k_Q(n) at Q_used [{PER_N}]",
+        "lin_slope": "slope of the fitted line through k_Q(n) [1]",
+        "lin_intercept": "intercept of the fitted line [1]",
+        "lin_max_rel_error": "max over n of |line / k_Q - 1| [fraction]",
+        "lin_rel_error": f"line / k_Q - 1 [{PER_N}]",
+        "paper_line_rel_error": f"paper's line / k_Q - 1 [{PER_N}]",
+        "paper_line_max_rel_error": "max over n of |paper's line / k_Q - 1| [fraction]",
+        "asymptotic_slope": "large-n slope of k_Q(n): (1 - sqrt Q) / (-ln Q) [1]",
+        "asymptotic_intercept": "large-n intercept of k_Q(n): (1 - sqrt Q) / 2 [1]",
+        "slope_used": "slope a of k = a n + b used downstream (paper's or fitted) [1]",
+        "intercept_used": "intercept b of k = a n + b used downstream [1]",
+    }),
+    _stage("f2_errors", "Figs. 6, P9, P10", RANGE + ("zone.sensitivity_levels", "solver.*"), ("zone.level",), {
+        **{f"{m}_f_2": f"max over n of {what} of f_2 = ((n/2)(cos x - 1) + 1)^2 [{unit}]"
+           for m, what, unit in (("d", "the relative error d in the zone", "fraction"),
+                                 ("D", "the absolute error D on [0, pi/2]", "absolute"),
+                                 ("rms", "the relative RMS error over the lobe", "fraction"))},
+        "d_f_2_curve": f"d of f_2 per n [{PER_N}]", "D_f_2_curve": f"D of f_2 per n [{PER_N}]",
+        "d_f_2_n_at_max": "n where max d of f_2 is attained [n]",
+        "D_f_2_n_at_max": "n where max D of f_2 is attained [n]",
+        "D_f_2_x_at_max": "angle x where max D of f_2 is attained [rad]",
+        "zone_levels": "zone levels of the sensitivity table: zone.sensitivity_levels and the level used [array]",
+        "zone_d_f_2": "max d of f_2 per zone level [array, fraction]",
+    }),
+    _stage("accuracy", "Figs. 5, 6", RANGE + ("solver.*",),
+           ("zone.level", "q_choice.Q_used", "linear_coefficient.slope_used", "linear_coefficient.intercept_used",
+            "f2_errors.d_f_2", "f2_errors.D_f_2", "f2_errors.zone_levels"),
+           {
+        **{f"{m}_{lobe}": f"max over n of {what} of {lobe} [{unit}]"
+           for lobe in ("f_Q2", "f_Q")
+           for m, what, unit in (("d", "the relative error d in the zone", "fraction"),
+                                 ("D", "the absolute error D on [0, pi/2]", "absolute"),
+                                 ("rms", "the relative RMS error over the lobe", "fraction"))},
+        **{f"{m}_{lobe}_curve": f"{m} of {lobe} per n [{PER_N}]" for lobe in ("f_Q2", "f_Q") for m in "dD"},
+        **{f"{m}_{lobe}_n_at_max": f"n where max {m} of {lobe} is attained [n]"
+           for lobe in ("f_Q2", "f_Q") for m in "dD"},
+        **{f"D_{lobe}_x_at_max": f"angle x where max D of {lobe} is attained [rad]" for lobe in ("f_Q2", "f_Q")},
+        "epicenter_gain": "max d of f_2 / max d of f_Q2 [ratio]",
+        "absolute_gain": "max D of f_2 / max D of f_Q2 [ratio]",
+        "D_f_Q_zone_edge_x": "zone edge x at the n where f_Q's max D is attained [rad]",
+        "D_f_Q_in_blooming_zone": "f_Q's max D lies outside the epicenter zone [bool]",
+        "D_f_Q_below_f_2": "max D of f_Q < max D of f_2 [bool]",
+        "D_f_Q_below_f_2_in_blooming_zone": "both of the above (the paper's P4) [bool]",
+        **{f"zone_d_{lobe}": f"max d of {lobe} per zone level of f2_errors.zone_levels [array, fraction]"
+           for lobe in ("f_Q2", "f_Q")},
+        "fig5_x": "angles of Fig. 5 [array, rad]",
+        "fig5_f_b": "cos^20 x [array]", "fig5_f_2": "f_2 at n = 20 [array]", "fig5_f_Q2": "f_Q2 at n = 20 [array]",
+        "fig5_zone_edge_x": "zone edge at n = 20 [rad]",
+    }),
+    _stage("sample", "newenergy.txt", RANGE + ("sample.consecutive_to", "sample.spread_from", "sample.spread_count"),
+           (), {
+        "sample_n": "the regression sample's exponents n [array]",
+        "sample_size": "number of sample points [count]",
+    }),
+    _stage("energy_dataset", "Fig. 7", RANGE + ("energy.*", "sample.y_decimals"),
+           ("linear_coefficient.slope_used", "linear_coefficient.intercept_used", "sample.sample_n"), {
+        "Int": f"Int(n) = int_0^gran f_Q2 cos sin dg [{PER_N}]",
+        "y": f"ideal normalization y(n) = 1 / (2 pi Int(n)) [{PER_N}, 1/sr]",
+        "gran": f"zero crossing gran(n) of f_Q2 [{PER_N}, rad]",
+        "sample_y": "y at the sample's n, rounded to sample.y_decimals [array, 1/sr]",
+        "sample_mean_y": "mean of sample_y [1/sr]",
+        "sample_std_y": "RMS spread of sample_y about its mean [1/sr]",
+        "y_n2_to_10": "y(n) for n = 2..10 in range [array, 1/sr]",
+        "lobe_below_horizon_n": "n whose zero crossing lies past the horizon (k < 1) [array]",
+    }),
+    _stage("sparse_regression", "Figs. 9, 10", RANGE + ("regression.*", "sample.*"),
+           ("sample.sample_n", "energy_dataset.sample_y", "energy_dataset.y"), {
+        "front": "one model per distinct STLSQ support: terms, coefficients, RMS [list]",
+        "coef_scale": "scale of the two-term model scale (offset + n) [1/sr]",
+        "coef_offset": "offset of the two-term model [n]",
+        "coef_rms": "RMS error of the two-term model on the sample [1/sr]",
+        "constant_model": "size-1 model: the sample mean [1/sr]",
+        "constant_model_rms": "RMS of the sample about its mean [1/sr]",
+        "sample_sensitivity": "two-term constants for other samples of the same kind [list]",
+        "one_term_scale": "coefficient c of the one-term model c n [1/sr]",
+        "one_term_rms": "RMS error of c n on the sample [1/sr]",
+        "three_term_n": "coefficient of n in c_n n + c_1 + c_-1/n [1/sr]",
+        "three_term_1": "constant of the three-term model [1/sr]",
+        "three_term_inv_n": "coefficient of 1/n of the three-term model [1/sr]",
+        "three_term_rms": "RMS error of the three-term model [1/sr]",
+    }),
+    _stage("hemispherical", "Fig. 11",
+           RANGE + ("derivation.constants", "paper_model.coef_scale", "paper_model.coef_offset"),
+           ("energy_dataset.Int", "sparse_regression.coef_scale", "sparse_regression.coef_offset"), {
+        "coef_scale_used": "scale of coef(n) used downstream (paper's or fitted) [1/sr]",
+        "coef_offset_used": "offset of coef(n) used downstream [n]",
+        "deviation": f"coef(n) 2 pi Int(n) - 1 [{PER_N}]",
+        "hemi_max_abs_dev": "max over n of |coef(n) 2 pi Int(n) - 1| [fraction]",
+        "hemi_n_at_max": "n where it is attained [n]",
+        "hemi_max_excess": "max over n of coef(n) 2 pi Int(n) - 1 (> 0: energy created) [fraction]",
+    }),
+    _stage("exact_normalization", "beyond", RANGE + ("albedo.quadrature_nodes",),
+           ("linear_coefficient.slope_used", "linear_coefficient.intercept_used", "energy_dataset.Int",
+            "hemispherical.coef_scale_used", "hemispherical.coef_offset_used"), {
+        "coef_exact": f"exact Phong-form coef(n) = 1 / (2 pi Int_hemisphere) [{PER_N}, 1/sr]",
+        "coef_blinn": f"exact Blinn-form coef(n) at normal view [{PER_N}, 1/sr]",
+        "Int_hemisphere": f"Int(n) over the upper hemisphere, closed form [{PER_N}]",
+        "Int_gran": f"the paper's Int(n) up to gran, closed form [{PER_N}]",
+        "energy_run": f"coef(n) 2 pi Int_hemisphere(n) - 1 with the run's coef [{PER_N}]",
+        "paper_coef_max_excess": "max of energy_run (> 0: energy created) [fraction]",
+        "paper_coef_n_at_max_excess": "n where it is attained [n]",
+        "paper_coef_max_abs_dev": "max of |energy_run| [fraction]",
+        "paper_coef_n_at_max_abs_dev": "n where it is attained [n]",
+        "excess_ranges": "contiguous [first, last] n where energy_run > 0 [list]",
+        "excess_count": "number of n where energy_run > 0 [count]",
+        "exact_coef_max_abs_dev": "max |coef_exact 2 pi Int - 1| by the albedo quadrature at normal incidence [fraction]",
+        "dataset_quadrature_max_rel_dev": "max |Int (quadrature) / Int_gran (closed form) - 1| [fraction]",
+        "below_horizon_n": "n with k < 1 [array]",
+        "below_horizon_Int_difference": "Int_hemisphere - Int_gran there [array]",
+        "below_horizon_coef": "exact coef there [array, 1/sr]",
+        "below_horizon_coef_gran": "coef from the paper's integral there [array, 1/sr]",
+        "formula_Int": "Int(k), sympy [text]", "formula_Int_gran": "Int up to gran(k), sympy [text]",
+        "formula_coef": "coef(k), sympy [text]", "formula_Int_blinn": "Int_B(k), sympy [text]",
+        "formula_coef_blinn": "coef_B(k), sympy [text]",
+        "formula_expansion_k": "large-k expansion of coef(k) [text]",
+        "formula_expansion_blinn_k": "large-k expansion of coef_B(k) [text]",
+        "formula_expansion_n": "large-n expansion of coef(n) [text]",
+        "code_coef": "generated jax code of coef(n) [text]", "code_coef_blinn": "generated jax code of coef_B(n) [text]",
+        "expansion_n": "coefficient of n in the expansion [1/sr]", "expansion_1": "its constant [1/sr]",
+        "expansion_inv_n": "its coefficient of 1/n [1/sr]",
+        "expansion_scale": "two-term expansion as scale (offset + n): scale [1/sr]",
+        "expansion_offset": "... and offset [n]",
+        "asymptotic_phong_dev": f"(3/(2pi))(k + 1/4) / coef_exact - 1 [{PER_N}]",
+        "asymptotic_blinn_dev": f"(3/(8pi))(k + 5/4) / coef_blinn - 1 [{PER_N}]",
+        "asymptotic_phong_max_abs_dev": "max |asymptotic_phong_dev| [fraction]",
+        "asymptotic_phong_max_excess": "max asymptotic_phong_dev [fraction]",
+        "asymptotic_blinn_max_abs_dev": "max |asymptotic_blinn_dev| [fraction]",
+        "asymptotic_blinn_max_excess": "max asymptotic_blinn_dev [fraction]",
+        "blinn_to_phong_ratio_at_n_max": "coef_blinn / coef_exact at n_max [ratio]",
+    }),
+    _stage("directional_albedo", "beyond", RANGE + ("albedo.*",),
+           ("linear_coefficient.slope_used", "linear_coefficient.intercept_used", "hemispherical.coef_scale_used",
+            "hemispherical.coef_offset_used", "exact_normalization.coef_exact", "exact_normalization.coef_blinn"), {
+        "theta": "incidence angles [array, rad]",
+        "curve_n": "exponents of the drawn curves [array]",
+        **{f"{v}_{m}": f"{what} ({v.replace('_', ' ')}) [{unit}]"
+           for v in ("phong_run_coef", "phong_exact_coef", "blinn_exact_coef", "blinn_asymptotic_coef",
+                     "blinn_with_phong_coef")
+           for m, what, unit in (("max", "largest albedo over n and angle", "fraction of the received energy"),
+                                 ("n_at_max", "n of the largest albedo", "n"),
+                                 ("theta_at_max_deg", "angle of the largest albedo", "deg"),
+                                 ("normal_max_abs_dev", "max |a(0) - 1| over n", "fraction"),
+                                 ("curves", "albedo at curve_n x theta", "array"),
+                                 ("normal", "albedo at normal incidence", PER_N),
+                                 ("peak_at_normal", "albedo largest at normal incidence for every n", "bool"))},
+        "quadrature_error": "largest change of a table with twice the nodes [absolute]",
+        "monte_carlo": "Monte Carlo cross-check rows: form, n, angle, quadrature, estimate, s.e., z [list]",
+        "monte_carlo_max_abs_z": "largest |z| of the Monte Carlo rows [standard errors]",
+        "reciprocity_max_rel_dev": "max |f(L, V) / f(V, L) - 1| on random pairs [fraction]",
+    }),
+    _stage("lobe_comparison", "beyond", RANGE + ("solver.*", "albedo.quadrature_nodes", "comparison.*"),
+           ("zone.level", "q_choice.Q_used", "q_scan.Q_continuous_best", "linear_coefficient.slope_used",
+            "linear_coefficient.intercept_used", "hemispherical.coef_scale_used", "hemispherical.coef_offset_used"), {
+        "lobes": "the compared lobes: key, tag, name, formula, operations per pixel and per material [list]",
+        **{f"{m}_{tag}": f"max over n of {m} of {name} [{unit}]"
+           for tag, name in (("cosn", "cos^n (zero: a check)"), ("schlick", "Schlick's lobe"),
+                             ("sg", "exp(n (t - 1))"), ("sg_lagarde", "exp((n + 0.775)(t - 1))"))
+           for m, unit in (("d", "fraction"), ("D", "absolute"))},
+        "rows": "energy rows: lobe, form, normalization, d, D, albedo errors, operations [list]",
+        "d_curves": "d per n of each lobe, in the order of `lobes` [array lobes x n, fraction]",
+        "D_curves": "D per n of each lobe [array lobes x n, absolute]",
+        "quadrature_error": "largest change of an albedo table with twice the nodes [absolute]",
+    }),
+    _stage("render", "beyond", ("render.*",),
+           ("zone.level", "linear_coefficient.slope_used", "linear_coefficient.intercept_used"), {
+        "lobes": "rendered lobes, reference first [list]",
+        "scenes": "rendered scenes [list]",
+        "display": "displayed images: scene x n x lobe x H x W x RGB [array, uint8 sRGB]",
+        "luminance": "linear luminance: scene x n x lobe x H x W [array, float32]",
+        "statistics": "per scene, n, candidate lobe: image errors against the reference [list]",
+        "psnr_f_Q2_min": "worst PSNR of f_Q2's displayed images [dB]",
+        "psnr_f_2_min": "worst PSNR of f_2's displayed images [dB]",
+    }),
+)
+
+BY_NAME: Mapping[str, Stage] = MappingProxyType({s.name: s for s in STAGES})
+PAPER_STAGES = ("zone", "q_scan", "q_choice", "linear_coefficient", "f2_errors", "accuracy", "sample", "energy_dataset",
+                "sparse_regression", "hemispherical")
+
+
+def output_paths() -> tuple[str, ...]:
+    """Every declared output as `stage.field`."""
+    return tuple(f"{s.name}.{f}" for s in STAGES for f in s.outputs)
+
+
+def validate() -> None:
+    """Raises ValueError unless every input is an earlier stage's declared output (the graph is a DAG)."""
+    seen: set[str] = set()
+    for s in STAGES:
+        for path in s.inputs:
+            if path not in seen:
+                raise ValueError(f"stage '{s.name}' reads '{path}', which no earlier stage declares")
+        seen.update(f"{s.name}.{f}" for f in s.outputs)
+
+
+def config_dependencies(path: str, keys) -> set[str]:
+    """Every config key (of `keys`) that the field `stage.field` depends on, transitively."""
+    from .config import expand_patterns
+    stage = BY_NAME[path.split(".", 1)[0]]
+    found = set(expand_patterns(stage.reads, keys))
+    for upstream in stage.inputs:
+        found |= config_dependencies(upstream, keys)
+    return found
+
+
+def downstream(stages: set[str]) -> list[str]:
+    """The stages that read, directly or transitively, a field of `stages` (in order, excluding them)."""
+    hit, out = set(stages), []
+    for s in STAGES:
+        if s.name not in hit and any(u in hit for u in s.upstream):
+            hit.add(s.name)
+            out.append(s.name)
+    return out
+
+
+def describe() -> str:
+    """The graph as text: each stage, what it reads and what it returns (`pipeline graph`)."""
+    lines = []
+    for i, s in enumerate(STAGES, 1):
+        lines.append(f"[{i}] {s.name}  ({s.paper})")
+        lines.append("    config: " + (", ".join(s.reads) or "-"))
+        lines.append("    reads:  " + (", ".join(s.inputs) or "-"))
+        readers = [f"{r.name}" for r in STAGES if any(p.startswith(s.name + ".") for p in r.inputs)]
+        lines.append("    read by: " + (", ".join(readers) or "- (outputs only)"))
+        lines.append("    returns:")
+        width = max(len(f) for f in s.outputs)
+        lines += [f"      {f:<{width}}  {meaning}" for f, meaning in s.outputs.items()]
+    return "\n".join(lines)
