@@ -1,0 +1,153 @@
+"""The command line: the graph, dry runs, fast errors, exit codes, and recovery from kills."""
+
+import json
+import random
+import shutil
+import signal
+import subprocess
+import sys
+import time
+
+import pytest
+
+from pipeline import graph, paths
+
+from .conftest import cli_env
+
+HEAVY = ("jax", "sympy", "pysindy", "matplotlib", "optimistix")
+
+
+def run_cli(args, tmp_path, **kwargs):
+    return subprocess.run([sys.executable, "-m", "pipeline", *args], capture_output=True, text=True,
+                          env=cli_env(tmp_path), cwd=paths.ROOT, **kwargs)
+
+
+def imported_after(code: str) -> list[str]:
+    """Which heavy libraries a fresh interpreter has imported after running `code`."""
+    probe = f"import sys\n{code}\nprint('imported:' + ','.join(m for m in {HEAVY!r} if m in sys.modules))"
+    done = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, cwd=paths.ROOT)
+    assert done.returncode == 0, done.stderr
+    return [m for m in done.stdout.strip().splitlines()[-1].removeprefix("imported:").split(",") if m]
+
+
+@pytest.mark.parametrize("args", [["keys"], ["graph"],
+                                  ["refit", "--config", "configs/paper.toml", "--set", "derivation.Q=2", "--out", "x"],
+                                  ["explain", "nosuch.key=1"]])
+def test_fast_answers_import_no_numerical_library(args):
+    code = f"from pipeline.cli import main\ntry:\n    main({args!r})\nexcept SystemExit:\n    pass"
+    assert imported_after(code) == []
+
+
+def test_graph_lists_every_stage_with_its_reads_and_outputs(tmp_path):
+    done = run_cli(["graph"], tmp_path)
+    assert done.returncode == 0
+    for stage in graph.STAGES:
+        assert f"] {stage.name}  (" in done.stdout
+        for field in stage.outputs:
+            assert f"      {field} " in done.stdout
+    assert "    reads:  q_choice.Q_used" in done.stdout     # linear_coefficient reads one field
+
+
+def test_the_graph_is_a_dag_of_declared_fields():
+    graph.validate()
+    names = [s.name for s in graph.STAGES]
+    assert len(set(names)) == len(names)
+    for s in graph.STAGES:
+        assert all(names.index(u) < names.index(s.name) for u in s.upstream)
+
+
+def test_config_dependencies_follow_the_graph():
+    from pipeline.config import KEYS
+    # The scan's best Q depends on the zone (through zone.level) but not on Q or the line.
+    deps = graph.config_dependencies("q_scan.Q_scan_best", KEYS)
+    assert "zone.calibration_target" in deps and "scan.fine_step" in deps
+    assert "derivation.Q" not in deps and "derivation.fit" not in deps
+    assert "derivation.Q" in graph.config_dependencies("hemispherical.hemi_max_abs_dev", KEYS)
+    assert graph.config_dependencies("sample.sample_size", KEYS) == {
+        "derivation.n_min", "derivation.n_max", "sample.consecutive_to", "sample.spread_from", "sample.spread_count"}
+
+
+@pytest.mark.parametrize("args,message", [
+    (["refit", "--config", "configs/paper.toml", "--set", "nosuch.key=1", "--out", "x"],
+     "section 'nosuch' does not exist; allowed sections are run, derivation, paper_model"),
+    (["refit", "--config", "configs", "--out", "x"], "config file 'configs' is a directory"),
+])
+def test_bad_config_paths_and_sections_exit_2(args, message, tmp_path):
+    done = run_cli(args, tmp_path)
+    assert done.returncode == 2 and message in done.stderr and "Traceback" not in done.stderr
+
+
+def test_a_config_that_is_not_utf8_exits_2(tmp_path):
+    bad = tmp_path / "latin1.toml"
+    bad.write_bytes("[run]\nquestion = \"r\xe9flexion\"\n".encode("latin-1"))
+    done = run_cli(["refit", "--config", str(bad), "--out", "x"], tmp_path)
+    assert done.returncode == 2 and "is not UTF-8 text" in done.stderr and "Traceback" not in done.stderr
+
+
+def test_a_misspelled_expectation_path_is_a_config_error(tmp_path):
+    text = paths.PAPER_CONFIG.read_text().replace('result = "linear_coefficient.lin_slope"',
+                                                  'result = "linear_coefficient.lin_slop"')
+    bad = tmp_path / "bad.toml"
+    bad.write_text(text)
+    start = time.perf_counter()
+    done = run_cli(["refit", "--config", str(bad), "--out", "x"], tmp_path)
+    assert done.returncode == 2
+    assert "'expectations.P5_slope.result' = 'linear_coefficient.lin_slop' is not allowed" in done.stderr
+    assert "linear_coefficient.lin_slope" in done.stderr        # the allowed names are listed
+    assert not (tmp_path / "cache").exists() and not (tmp_path / "out").exists()
+    assert time.perf_counter() - start < 60      # nothing was computed (a loose bound, not a benchmark)
+
+
+def test_a_solver_that_does_not_converge_exits_1_naming_its_inputs(tmp_path):
+    done = run_cli(["refit", "--config", "configs/paper.toml", "--set", "solver.max_steps=8", "--out", "x"],
+                   tmp_path)
+    assert done.returncode == 1
+    assert "zone calibration: bisection on L did not converge for target 0.07924" in done.stderr
+    assert "solver.max_steps = 8" in done.stderr
+    assert not (tmp_path / "out" / "x").exists()
+
+
+@pytest.mark.slow
+def test_explain_says_what_a_change_recomputes_without_computing(paper_run, paper_cache, tmp_path):
+    shutil.copytree(paper_cache, tmp_path / "cache")
+    before = sorted(p.name for p in (tmp_path / "cache").rglob("*") if p.is_dir())
+    done = run_cli(["explain", "scan.curve_points=200"], tmp_path)
+    assert done.returncode == 0, done.stderr
+    lines = {line.split()[0]: line for line in done.stdout.splitlines() if line.startswith("  ")}
+    assert "zone" in lines and lines["zone"].split()[1] == "cached"
+    assert "recomputes (reads scan.curve_points)" in lines["q_scan"]
+    assert "recomputes if q_scan.Q_scan_best, q_scan.Q_continuous_best change" in lines["q_choice"]
+    # The render reads the line, which is below the scan: known only once the scan has rerun.
+    assert "recomputes if linear_coefficient.slope_used, linear_coefficient.intercept_used change" in lines["render"]
+    assert sorted(p.name for p in (tmp_path / "cache").rglob("*") if p.is_dir()) == before
+    dry = run_cli(["refit", "--config", "configs/paper.toml", "--set", "render.resolution=64", "--out", "r",
+                   "--dry-run"], tmp_path)
+    assert dry.returncode == 0 and "recomputes (reads render.resolution)" in dry.stdout
+    assert not (tmp_path / "out").exists()
+
+
+@pytest.mark.slow
+def test_runs_killed_at_random_moments_recover_with_identical_results(paper_run, paper_cache, tmp_path):
+    shutil.copytree(paper_cache, tmp_path / "cache")
+    args = ["refit", "--config", "configs/paper.toml", "--set", "render.resolution=48",
+            "--set", "regression.threshold_count=60", "--out", "killed"]
+    rng = random.Random(0)
+    for _ in range(3):
+        proc = subprocess.Popen([sys.executable, "-m", "pipeline", *args], env=cli_env(tmp_path), cwd=paths.ROOT,
+                                stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        time.sleep(rng.uniform(2.0, 9.0))
+        proc.send_signal(signal.SIGKILL)
+        proc.wait()
+    done = run_cli(args, tmp_path)
+    assert done.returncode == 0, done.stderr
+    recovered = (tmp_path / "out" / "killed" / "results.json").read_bytes()
+    # The same run, never interrupted, in a fresh copy of the paper's cache.
+    clean = tmp_path / "clean"
+    clean.mkdir()
+    shutil.copytree(paper_cache, clean / "cache")
+    assert run_cli(args, clean).returncode == 0
+    assert recovered == (clean / "out" / "killed" / "results.json").read_bytes()
+    doc = json.loads(recovered)
+    assert doc["stages"]["sparse_regression"]["coef_scale"] == paper_run["sparse_regression"]["coef_scale"]
+    # Nothing half written is left behind.
+    assert [p.name for p in (tmp_path / "out").iterdir() if p.is_dir() and p.name.startswith(".")] == []
