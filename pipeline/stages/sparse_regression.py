@@ -22,20 +22,16 @@ TERMS = {
 }
 
 
-def library(terms):
-    """A pysindy library with exactly the given terms of n, in that order."""
-    return ps.CustomLibrary(library_functions=[TERMS[t] for t in terms],
-                            function_names=[(lambda s, t=t: t) for t in terms])
-
-
 def stlsq_fit(n, y, terms, threshold):
-    """Coefficients (one per term) of STLSQ at one threshold; all zero if it removes every term."""
-    model = ps.SINDy(optimizer=ps.STLSQ(threshold=threshold, alpha=0.0), feature_library=library(terms))
+    """Coefficients (one per term) of pysindy's STLSQ at one threshold on the library matrix of
+    `terms`; all zero if it removes every term."""
+    theta = np.column_stack([TERMS[t](n) for t in terms])
+    optimizer = ps.STLSQ(threshold=threshold, alpha=0.0)
     with warnings.catch_warnings():
         # STLSQ warns when the threshold removes every term; that is one end of the sweep.
         warnings.filterwarnings("ignore", message="Sparsity parameter is too big")
-        model.fit(n.reshape(-1, 1), t=1.0, x_dot=y.reshape(-1, 1))
-    return np.asarray(model.coefficients()[0], dtype=np.float64)
+        optimizer.fit(theta, y.reshape(-1, 1))
+    return np.asarray(optimizer.coef_[0], dtype=np.float64)
 
 
 def sweep(n, y, terms, thresholds):
