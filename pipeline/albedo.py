@@ -171,6 +171,24 @@ def monte_carlo_albedo(form: str, shape: str, p, u_end, coef, theta_i, key, samp
     return jnp.mean(values), jnp.std(values) / np.sqrt(samples)
 
 
+@functools.partial(jax.jit, static_argnames="count")
+def random_directions(key, count: int):
+    """`count` unit vectors uniform over the upper hemisphere (z >= 0)."""
+    v = jax.random.normal(key, (count, 3))
+    v = v / jnp.linalg.norm(v, axis=1, keepdims=True)
+    return v.at[:, 2].set(jnp.abs(v[:, 2]))
+
+
+@functools.partial(jax.jit, static_argnames=("form", "shape"))
+def reciprocity_error(form: str, shape: str, p, coef, L, V):
+    """max |f(L, V) - f(V, L)| / f(L, V) over the direction pairs (rows of L, V) where f(L, V) > 0."""
+    def lobe(u, _):
+        return SHAPES[shape](u, p)
+    f_lv = brdf(form, lobe, 0.0, coef, L, V)
+    f_vl = brdf(form, lobe, 0.0, coef, V, L)
+    return jnp.max(jnp.abs(f_lv - f_vl) / jnp.maximum(jnp.abs(f_lv), 1e-300) * (f_lv > 0))
+
+
 def brdf(form: str, lobe, n, coef, L, V):
     """f(L, V) for unit vectors L, V (last axis 3) above the surface N = (0, 0, 1)."""
     N = jnp.array([0.0, 0.0, 1.0])

@@ -90,11 +90,13 @@ def expansion_in_n(expr_k):
 
 
 def jax_function(expr, args):
-    """(function, source): `expr` compiled by sympy's code generator for jax.numpy."""
+    """(function, source): `expr` compiled by sympy's code generator for jax.numpy, then jitted."""
+    from .numerics import jax
     fn = sp.lambdify(args, expr, modules="jax")
-    return fn, inspect.getsource(fn)
+    return jax.jit(fn), inspect.getsource(fn)
 
 
+@functools.cache
 def exact_coef_code(which: str):
     """(function of (n, a, b), generated source) for the exact coef(n) of the Phong or Blinn form."""
     integral = {"phong": phong_integral(), "blinn": blinn_integral()}[which]

@@ -96,6 +96,19 @@ def shade(scene: Scene, resolution: int, shape: str, p, coef):
     return jnp.where(hit[..., None], radiance, jnp.array(BACKGROUND))
 
 
+@jax.jit
+def highlight_mask(reference, base, level):
+    """The highlight's epicenter: where the reference's specular luminance is at least `level` of its peak."""
+    spec = luminance(reference - base)
+    return spec >= level * jnp.max(spec)
+
+
+@jax.jit
+def display_and_luminance(radiance):
+    """(8-bit sRGB display values, linear luminance as float32) of a radiance image."""
+    return jnp.round(255.0 * to_display(radiance)).astype(jnp.uint8), luminance(radiance).astype(jnp.float32)
+
+
 def to_display(radiance):
     """Reinhard tone map, then the sRGB transfer function; values in [0, 1]."""
     x = radiance / (1.0 + radiance)

@@ -99,8 +99,9 @@ def test_a_misspelled_expectation_path_is_a_config_error(tmp_path):
 
 
 def test_a_solver_that_does_not_converge_exits_1_naming_its_inputs(tmp_path):
-    done = run_cli(["refit", "--config", "configs/paper.toml", "--set", "solver.max_steps=8", "--out", "x"],
-                   tmp_path)
+    config = tmp_path / "few_steps.toml"
+    config.write_text('[run]\nname = "x"\n[solver]\nmax_steps = 8\n')
+    done = run_cli(["reproduce", "--config", str(config)], tmp_path)
     assert done.returncode == 1
     assert "zone calibration: bisection on L did not converge for target 0.07924" in done.stderr
     assert "solver.max_steps = 8" in done.stderr
@@ -135,7 +136,7 @@ def test_runs_killed_at_random_moments_recover_with_identical_results(paper_run,
     for _ in range(3):
         proc = subprocess.Popen([sys.executable, "-m", "pipeline", *args], env=cli_env(tmp_path), cwd=paths.ROOT,
                                 stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-        time.sleep(rng.uniform(2.0, 9.0))
+        time.sleep(rng.uniform(1.0, 7.0))    # startup, stages, or writing the outputs
         proc.send_signal(signal.SIGKILL)
         proc.wait()
     done = run_cli(args, tmp_path)

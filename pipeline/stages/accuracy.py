@@ -7,6 +7,7 @@ Each lobe's measures are one memoized call, so a refit that moves only the line 
 
 import numpy as np
 
+from ..numerics import jax
 from ..lobes import f_b, k_2, k_Q, k_Q2, quadratic
 from .common import n_range
 from .f2_errors import quadratic_errors, summary
@@ -20,7 +21,7 @@ def run(config, inputs, memo):
     a, b = inputs["linear_coefficient.slope_used"], inputs["linear_coefficient.intercept_used"]
     levels = list(inputs["f2_errors.zone_levels"])
     solver = dict(rtol=config["solver.rtol"], atol=config["solver.atol"], max_steps=config["solver.max_steps"])
-    ks = {"f_Q2": np.asarray(k_Q2(n, a, b)), "f_Q": np.asarray(k_Q(n, inputs["q_choice.Q_used"]))}
+    ks = {"f_Q2": np.asarray(k_Q2(n, a, b)), "f_Q": np.asarray(jax.jit(k_Q)(n, inputs["q_choice.Q_used"]))}
     m = {name: memo("quadratic_errors", quadratic_errors, n=n, k=k, level=level, levels=levels, **solver)
          for name, k in ks.items()}
     out = summary("f_Q2", n, m["f_Q2"]) | summary("f_Q", n, m["f_Q"])
@@ -37,7 +38,8 @@ def run(config, inputs, memo):
                 D_f_Q_below_f_2=below, D_f_Q_below_f_2_in_blooming_zone=below and in_blooming)
 
     x = np.linspace(0.0, np.pi / 2, 721)
-    out |= dict(fig5_x=x, fig5_f_b=np.asarray(f_b(x, FIG5_N)), fig5_f_2=np.asarray(quadratic(x, k_2(FIG5_N))),
-                fig5_f_Q2=np.asarray(quadratic(x, k_Q2(FIG5_N, a, b))),
+    out |= dict(fig5_x=x, fig5_f_b=np.asarray(jax.jit(f_b)(x, FIG5_N)),
+                fig5_f_2=np.asarray(jax.jit(quadratic)(x, k_2(FIG5_N))),
+                fig5_f_Q2=np.asarray(jax.jit(quadratic)(x, k_Q2(FIG5_N, a, b))),
                 fig5_zone_edge_x=float(np.arccos(level ** (1.0 / FIG5_N))))
     return out

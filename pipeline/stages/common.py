@@ -10,9 +10,9 @@ from ..error_measures import absolute_parts, relative_parts, rms_relative
 from ..roots import SolverError, SolverSettings
 
 
-def n_range(config) -> jnp.ndarray:
+def n_range(config) -> np.ndarray:
     """Every integer exponent n in [n_min, n_max], as float64."""
-    return jnp.arange(config["derivation.n_min"], config["derivation.n_max"] + 1, dtype=jnp.float64)
+    return np.arange(config["derivation.n_min"], config["derivation.n_max"] + 1, dtype=np.float64)
 
 
 def lobe_measures(n, k, level, settings: SolverSettings):

@@ -12,11 +12,9 @@ is evaluated on random direction pairs.
 """
 
 from ..numerics import jax
-import jax.numpy as jnp
 import numpy as np
 
-from ..albedo import albedo_table, brdf, monte_carlo_albedo
-from ..lobes import quadratic_u
+from ..albedo import albedo_table, monte_carlo_albedo, random_directions, reciprocity_error
 from .common import n_range
 
 MC_ANGLES_DEG = (0.0, 30.0, 60.0, 80.0)
@@ -86,19 +84,10 @@ def run(config, inputs, memo):
 
     # Reciprocity on random pairs of directions above the surface.
     key, k1, k2 = jax.random.split(key, 3)
-
-    def directions(key_):
-        v = jax.random.normal(key_, (RECIPROCITY_PAIRS, 3))
-        v = v / jnp.linalg.norm(v, axis=1, keepdims=True)
-        return v.at[:, 2].set(jnp.abs(v[:, 2]))
-    L, V = directions(k1), directions(k2)
+    L, V = random_directions(k1, RECIPROCITY_PAIRS), random_directions(k2, RECIPROCITY_PAIRS)
     worst = 0.0
-    for m, i in zip(curve_n, pick):
-        lobe = (lambda u, _, k_=k[i]: quadratic_u(u, k_))
+    for i in pick:
         for form, coef in (("phong", variants["phong_exact_coef"][1][i]), ("blinn", variants["blinn_exact_coef"][1][i])):
-            f_lv = brdf(form, lobe, m, coef, L, V)
-            f_vl = brdf(form, lobe, m, coef, V, L)
-            worst = max(worst, float(jnp.max(jnp.abs(f_lv - f_vl) / jnp.maximum(jnp.abs(f_lv), 1e-300)
-                                             * (f_lv > 0))))
+            worst = max(worst, float(reciprocity_error(form, "quadratic", k[i], coef, L, V)))
     out["reciprocity_max_rel_dev"] = worst
     return out

@@ -42,7 +42,7 @@ def run(config, inputs, memo):
     decimals = config["sample.y_decimals"]
     if decimals >= 0:
         y_sample = np.round(y_sample, decimals)
-    return dict(Int=np.asarray(integral), y=y_np, gran=np.asarray(gran(k)),
+    return dict(Int=np.asarray(integral), y=y_np, gran=np.asarray(jax.jit(gran)(k)),
                 sample_y=y_sample, sample_mean_y=float(np.mean(y_sample)),
                 sample_std_y=float(np.std(y_sample)),
                 y_n2_to_10=y_np[(n_np >= 2) & (n_np <= 10)],

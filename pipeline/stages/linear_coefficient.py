@@ -50,7 +50,7 @@ def minimax_line(n, k):
 def run(config, inputs, memo):
     n = n_range(config)
     Q = inputs["q_choice.Q_used"]
-    k = k_Q(n, Q)
+    k = np.asarray(jax.jit(k_Q)(n, Q))
     fit = config["derivation.fit"]
     if fit == "least_squares":
         slope, intercept = least_squares_line(n, k, config["solver.rtol"], config["solver.atol"],

@@ -9,12 +9,11 @@ the image-space error statistics of each candidate against the reference.
 """
 
 from ..numerics import jax  # noqa: F401  (float64 before any array)
-import jax.numpy as jnp
 import numpy as np
 
 from .. import exact
 from ..cheap_lobes import giesen
-from ..render import SCENES, image_statistics, luminance, shade, to_display
+from ..render import SCENES, display_and_luminance, highlight_mask, image_statistics, shade
 
 LOBES = ("cos^n", "f_2", "f_Q2")
 
@@ -41,15 +40,12 @@ def run(config, inputs, memo):
         for j, n in enumerate(exponents):
             images = {name: shade(scene, res, shape, p, coef) for name, (shape, p, coef) in lobes(n).items()}
             ref = images["cos^n"]
-            spec = luminance(ref - base)
-            # The highlight's epicenter: where the reference lobe is at least the zone level of its peak.
-            highlight = spec >= level * jnp.max(spec)
+            highlight = highlight_mask(ref, base, level)
             for l, name in enumerate(LOBES):
-                display[i, j, l] = np.asarray(jnp.round(255.0 * to_display(images[name]))).astype(np.uint8)
-                lum[i, j, l] = np.asarray(luminance(images[name]), dtype=np.float32)
+                display[i, j, l], lum[i, j, l] = (np.asarray(v) for v in display_and_luminance(images[name]))
                 if name != "cos^n":
                     stats.append(dict(scene=scene.name, n=n, lobe=name, coef=float(lobes(n)[name][2]),
-                                      highlight_pixels=int(jnp.sum(highlight)),
+                                      highlight_pixels=int(np.sum(np.asarray(highlight))),
                                       **image_statistics(images[name], ref, highlight)))
     return dict(lobes=list(LOBES), scenes=[s.name for s in SCENES], display=display, luminance=lum,
                 statistics=stats, psnr_f_Q2_min=min(s["psnr"] for s in stats if s["lobe"] == "f_Q2"),
