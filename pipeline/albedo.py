@@ -99,9 +99,10 @@ def directional_albedo(form: str, lobe, n, u_end, coef, theta_i, nodes, weights)
     return coef * sum(pieces)
 
 
-# Tables are computed in blocks of N_BLOCK exponents x THETA_BLOCK angles by one compiled program
-# per (form, nodes): array sizes, the lobe's shape and parameters are all traced or padded.
-N_BLOCK, THETA_BLOCK = 64, 16
+# Tables are computed in blocks of N_BLOCK exponents (SMALL_N_BLOCK for tables of a few exponents)
+# x THETA_BLOCK angles, by one compiled program per (form, nodes, block): array sizes, the lobe's
+# shape and its parameters are all traced or padded.
+N_BLOCK, SMALL_N_BLOCK, THETA_BLOCK = 64, 8, 16
 
 
 @functools.partial(jax.jit, static_argnames=("form", "nodes"))
@@ -128,15 +129,16 @@ def albedo_table(form: str, shape: str, n, p, u_end, theta_i, nodes: int) -> np.
     n = np.atleast_1d(np.asarray(n, dtype=np.float64))
     p, u_end = (np.broadcast_to(np.asarray(v, dtype=np.float64), n.shape) for v in (p, u_end))
     theta_i = np.atleast_1d(np.asarray(theta_i, dtype=np.float64))
-    per_n = [_padded(v, N_BLOCK) for v in (n, p, u_end)]
+    rows = SMALL_N_BLOCK if len(n) <= SMALL_N_BLOCK else N_BLOCK
+    per_n = [_padded(v, rows) for v in (n, p, u_end)]
     angles = _padded(theta_i, THETA_BLOCK)
     index = SHAPE_NAMES.index(shape)
     # Every block is dispatched before any is read back, so that computation overlaps dispatch.
-    blocks = {(i, j): _block(form, nodes, index, *(v[i:i + N_BLOCK] for v in per_n), angles[j:j + THETA_BLOCK])
-              for i in range(0, len(per_n[0]), N_BLOCK) for j in range(0, len(angles), THETA_BLOCK)}
+    blocks = {(i, j): _block(form, nodes, index, *(v[i:i + rows] for v in per_n), angles[j:j + THETA_BLOCK])
+              for i in range(0, len(per_n[0]), rows) for j in range(0, len(angles), THETA_BLOCK)}
     out = np.empty((len(per_n[0]), len(angles)))
     for (i, j), block in blocks.items():
-        out[i:i + N_BLOCK, j:j + THETA_BLOCK] = np.asarray(block)
+        out[i:i + rows, j:j + THETA_BLOCK] = np.asarray(block)
     return out[: len(n), : len(theta_i)]
 
 

@@ -5,7 +5,8 @@ fields it reads (not the upstream stages' keys: a change whose upstream values c
 stops there), (3) the source of its module and of every `pipeline` module that module imports,
 transitively, and (4) the versions of the numerical libraries. `Memo` caches one function call the
 same way, keyed on its arguments' values, so that work which does not depend on a setting (one
-lobe's error curves, one albedo table, one image) is reused when the setting changes.
+lobe's error curves, one albedo table) is reused when the setting changes. Figures are kept under
+`<root>/_figures/` by `pipeline.publish.figures`, keyed on the stage keys and config values they read.
 
 An entry is a folder `<root>/<stage>/<key>/` (memo entries: `<root>/_memo/<name>/<key>/`) holding
 `values.json` (numbers, strings, lists), `arrays.npz` (numpy arrays, loaded with allow_pickle=False)

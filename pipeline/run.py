@@ -18,8 +18,10 @@ import importlib
 import json
 import shutil
 import tempfile
+import threading
 import time
 from collections.abc import Callable
+from concurrent.futures import FIRST_COMPLETED, ThreadPoolExecutor, wait
 from pathlib import Path
 from typing import Any
 
@@ -61,16 +63,18 @@ def key_of(stage: graph.Stage, config: Config, results) -> str:
     return stage_key(stage.name, values, inputs, code_hash(stage.module))
 
 
+_setup_lock = threading.Lock()
 _compile_cache_on = False
 
 
 def _compute(stage: graph.Stage, values, inputs, cache: Cache) -> dict[str, Any]:
     global _compile_cache_on
-    module = importlib.import_module(stage.module)      # imports JAX only when something is computed
-    if not _compile_cache_on:
-        from .numerics import use_compilation_cache
-        use_compilation_cache(cache.root / XLA)
-        _compile_cache_on = True
+    with _setup_lock:
+        module = importlib.import_module(stage.module)      # imports JAX only when something is computed
+        if not _compile_cache_on:
+            from .numerics import use_compilation_cache
+            use_compilation_cache(cache.root / XLA)
+            _compile_cache_on = True
     memo = Memo(cache)
     result = module.run(values, inputs, memo)
     declared, returned = set(stage.outputs), set(result)
@@ -81,38 +85,65 @@ def _compute(stage: graph.Stage, values, inputs, cache: Cache) -> dict[str, Any]
     return result
 
 
-def run_stages(config: Config, cache: Cache, log: Callable[[str], None] = print,
-               stages: tuple[str, ...] | None = None):
-    """Each stage's result (every stage by default, in graph order), from cache where its key matches.
+def _compute_and_store(stage, values, inputs, cache, key, label, log) -> dict[str, Any]:
+    log(f"{label} computing ...")
+    start = time.perf_counter()
+    cache.store(stage.name, key, _compute(stage, values, inputs, cache))
+    # Read back what was stored, so a computed run and a cached run see identical values.
+    result = cache.load(stage.name, key)
+    log(f"{label} computed in {time.perf_counter() - start:.1f} s ({key[:12]})")
+    return result
 
-    Returns (results, keys, computed). `stages` (names) must include every stage they read from.
+
+def run_stages(config: Config, cache: Cache, log: Callable[[str], None] = print,
+               stages: tuple[str, ...] | None = None, workers: int = 2):
+    """Each stage's result (every stage by default), from cache where its key matches.
+
+    Returns (results, keys, computed), `computed` in graph order. `stages` (names) must include
+    every stage they read from. A stage starts as soon as the stages it reads are done, up to
+    `workers` at a time: independent stages overlap (one waits in XLA while another imports or
+    runs Python), and since each depends only on its inputs, the results do not depend on the order.
     """
     chosen = [s for s in graph.STAGES if stages is None or s.name in stages]
-    results, keys, computed = {}, {}, []
+    order = {s.name: i for i, s in enumerate(chosen, 1)}
     width = max(len(s.name) for s in chosen)
-    for i, stage in enumerate(chosen, 1):
-        values, inputs = stage_inputs(stage, config, results)
-        key = stage_key(stage.name, values, inputs, code_hash(stage.module))
-        keys[stage.name] = key
-        label = f"[{i:>2}/{len(chosen)}] {stage.name:<{width}}"
-        try:
-            result = cache.load(stage.name, key)
-        except DamagedEntry as e:
-            log(f"{label} cache entry {key[:12]} is damaged ({e}); recomputing")
-            cache.discard(stage.name, key)
-            result = None
-        if result is not None:
-            log(f"{label} cached ({key[:12]})")
-        else:
-            log(f"{label} computing ...")
-            start = time.perf_counter()
-            cache.store(stage.name, key, _compute(stage, values, inputs, cache))
-            # Read back what was stored, so a computed run and a cached run see identical values.
-            result = cache.load(stage.name, key)
-            computed.append(stage.name)
-            log(f"{label} computed in {time.perf_counter() - start:.1f} s ({key[:12]})")
-        results[stage.name] = result
-    return results, keys, computed
+    results, keys, computed = {}, {}, []
+    pending = list(chosen)
+    with ThreadPoolExecutor(workers) as pool:
+        running = {}
+        while pending or running:
+            progress = True
+            while progress:
+                progress = False
+                for stage in list(pending):
+                    if len(running) >= workers or not all(u in results for u in stage.upstream):
+                        continue
+                    pending.remove(stage)
+                    progress = True
+                    values, inputs = stage_inputs(stage, config, results)
+                    key = stage_key(stage.name, values, inputs, code_hash(stage.module))
+                    keys[stage.name] = key
+                    label = f"[{order[stage.name]:>2}/{len(chosen)}] {stage.name:<{width}}"
+                    try:
+                        result = cache.load(stage.name, key)
+                    except DamagedEntry as e:
+                        log(f"{label} cache entry {key[:12]} is damaged ({e}); recomputing")
+                        cache.discard(stage.name, key)
+                        result = None
+                    if result is not None:
+                        log(f"{label} cached ({key[:12]})")
+                        results[stage.name] = result
+                    else:
+                        future = pool.submit(_compute_and_store, stage, values, inputs, cache, key, label, log)
+                        running[future] = stage
+            if running:
+                done, _ = wait(running, return_when=FIRST_COMPLETED)
+                for future in done:
+                    stage = running.pop(future)
+                    results[stage.name] = future.result()      # a stage's error propagates here
+                    computed.append(stage.name)
+    computed.sort(key=order.get)
+    return {s.name: results[s.name] for s in chosen}, {s.name: keys[s.name] for s in chosen}, computed
 
 
 def explain(config: Config, cache: Cache) -> list[tuple[str, str]]:
@@ -166,7 +197,7 @@ def run_derivation(config: Config, cache_dir: Path = paths.CACHE, outputs: Path 
     out_dir = paths.output_dir(config.name, outputs) if write_outputs else None
     if out_dir is not None:
         publish(out_dir, _outputs_key(config, keys, baseline), log,
-                lambda tmp: _write_outputs(tmp, config, results, keys, checks, baseline))
+                lambda tmp: _write_outputs(tmp, config, results, keys, checks, baseline, cache.root))
     return RunOutcome(results, keys, computed, checks, out_dir, config)
 
 
@@ -201,12 +232,12 @@ def publish(out_dir: Path, stamp_key: str, log, write: Callable[[Path], str]) ->
         log(f"wrote {out_dir} ({summary}) in {time.perf_counter() - start:.1f} s")
 
 
-def _write_outputs(tmp: Path, config, results, keys, checks, baseline) -> str:
+def _write_outputs(tmp: Path, config, results, keys, checks, baseline, cache_root: Path) -> str:
     from .publish import figures, report, results as results_mod, shader, tables  # matplotlib only here
 
     doc = results_mod.write(tmp / "results.json", config, keys, results, checks)
     tables.write(tmp, config, results)
-    drawn = figures.draw_all(tmp, config, results)
+    drawn = figures.draw_all(tmp, config, results, keys, cache_root)
     shader.write(tmp, config, results, keys)
     report.write(tmp / "report.md", config, doc, results, checks, drawn, baseline)
     return f"{sum(len(v) for v in drawn.values())} figures, report.md, results.json"

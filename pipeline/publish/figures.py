@@ -7,8 +7,12 @@ from __future__ import annotations
 
 import dataclasses
 import multiprocessing
+import os
+import shutil
+import tempfile
 from collections.abc import Callable
 from concurrent.futures import ProcessPoolExecutor
+from contextlib import nullcontext
 from pathlib import Path
 
 import matplotlib
@@ -352,61 +356,137 @@ def render_errors(out, config, r):
 @dataclasses.dataclass(frozen=True)
 class Figure:
     """One figure: its file (or, for one per rendered exponent, a pattern with {n}), caption, the
-    report section it belongs to, and its drawing function (returns the files it wrote)."""
+    report section it belongs to, its drawing function (returns the files it wrote), the stages
+    and config keys it reads (it is passed nothing else), and whether it is slow enough to be drawn
+    in a second process."""
 
     file: str
     caption: str
     section: str
     draw: Callable
-    reads: tuple[str, ...] = ()     # set for the slow figures drawn in a second process: the stages they read
+    stages: tuple[str, ...]
+    config: tuple[str, ...] = ()
+    in_worker: bool = False
 
 
+RANGE = ("derivation.n_min", "derivation.n_max")
+FIGURE_CACHE = "_figures"       # under the stage cache's root
 FIGURES = (
-    Figure("fig2_d_vs_Q.png", "Fig. 2: max relative error in the epicenter zone versus Q", "paper", fig2),
-    Figure("fig3_D_vs_Q.png", "Fig. 3: max absolute error versus Q", "paper", fig3),
-    Figure("fig4_linear_coefficient.png", "Fig. 4: relative error of the linear coefficient", "paper", fig4),
-    Figure("fig5_lobes_n20.png", "Fig. 5: f_Q2, f_2 and f_b at n = 20", "paper", fig5),
-    Figure("fig6_fQ2_errors.png", "Fig. 6: max d and max D of f_Q2 (and f_2) per n", "paper", fig6),
-    Figure("fig7_dataset.png", "Fig. 7: the ideal normalization dataset", "paper", fig7),
-    Figure("fig9_front.png", "Fig. 9: sparse-regression front", "paper", fig9),
-    Figure("fig10_coef_fit.png", "Fig. 10: dataset and coef(n)", "paper", fig10),
-    Figure("fig11_hemispherical.png", "Fig. 11: hemispherical reflectivity minus 1", "paper", fig11),
-    Figure("zone_sensitivity.png", "Epicenter figures versus the zone level", "zone", zone_sensitivity),
+    Figure("fig2_d_vs_Q.png", "Fig. 2: max relative error in the epicenter zone versus Q", "paper", fig2,
+           ("q_scan", "f2_errors"), ("derivation.metric",)),
+    Figure("fig3_D_vs_Q.png", "Fig. 3: max absolute error versus Q", "paper", fig3, ("q_scan", "f2_errors", "q_choice")),
+    Figure("fig4_linear_coefficient.png", "Fig. 4: relative error of the linear coefficient", "paper", fig4,
+           ("linear_coefficient", "q_choice"), RANGE + ("derivation.fit",)),
+    Figure("fig5_lobes_n20.png", "Fig. 5: f_Q2, f_2 and f_b at n = 20", "paper", fig5,
+           ("accuracy", "linear_coefficient")),
+    Figure("fig6_fQ2_errors.png", "Fig. 6: max d and max D of f_Q2 (and f_2) per n", "paper", fig6,
+           ("accuracy", "f2_errors"), RANGE),
+    Figure("fig7_dataset.png", "Fig. 7: the ideal normalization dataset", "paper", fig7,
+           ("energy_dataset", "sample"), RANGE),
+    Figure("fig9_front.png", "Fig. 9: sparse-regression front", "paper", fig9, ("sparse_regression",)),
+    Figure("fig10_coef_fit.png", "Fig. 10: dataset and coef(n)", "paper", fig10,
+           ("sparse_regression", "energy_dataset", "hemispherical", "sample"), RANGE),
+    Figure("fig11_hemispherical.png", "Fig. 11: hemispherical reflectivity minus 1", "paper", fig11,
+           ("hemispherical",), RANGE),
+    Figure("zone_sensitivity.png", "Epicenter figures versus the zone level", "zone", zone_sensitivity,
+           ("accuracy", "f2_errors", "zone")),
     Figure("exact_normalization.png", "Energy reflected at normal incidence with each coef(n)",
-           "exact_normalization", exact_normalization),
+           "exact_normalization", exact_normalization, ("exact_normalization", "hemispherical"), RANGE),
     Figure("directional_albedo.png", "Directional albedo at every incidence angle", "directional_albedo",
-           directional_albedo),
-    Figure("lobe_comparison.png", "Cheap lobes side by side: d and D per n", "lobe_comparison", lobe_comparison),
-    Figure("render_n{n}.png", "Renders at n = {n}: reference, f_2, f_Q2", "render", renders, ("render",)),
-    Figure("render_errors_n{n}.png", "Render errors at n = {n}", "render", render_errors, ("render",)),
+           directional_albedo, ("directional_albedo",)),
+    Figure("lobe_comparison.png", "Cheap lobes side by side: d and D per n", "lobe_comparison", lobe_comparison,
+           ("lobe_comparison",), RANGE),
+    Figure("render_n{n}.png", "Renders at n = {n}: reference, f_2, f_Q2", "render", renders, ("render",),
+           ("render.*",), in_worker=True),
+    Figure("render_errors_n{n}.png", "Render errors at n = {n}", "render", render_errors, ("render",),
+           ("render.exponents",), in_worker=True),
 )
 
 
-def _draw_in_worker(file: str, out: Path, config_values: dict, results) -> list[str]:
-    figure = next(f for f in FIGURES if f.file == file)
-    files = figure.draw(out, config_values, results)
+class FigureConfig:
+    """The config keys a figure declares, and the config's expectations (the paper's values it marks).
+    Reading any other key is an error, so a figure's cache key covers everything it reads."""
+
+    def __init__(self, config, keys):
+        self.values = config.subset(keys)
+        self.expectations = config.expectations
+
+    def __getitem__(self, key):
+        if key not in self.values:
+            raise KeyError(f"a figure read config key '{key}', which it does not declare in FIGURES")
+        return self.values[key]
+
+
+def _draw(figure: Figure, out: Path, config: FigureConfig, results) -> list[str]:
+    files = figure.draw(out, config, results)
     return [files] if isinstance(files, str) else files
 
 
-def draw_all(out: Path, config, results) -> dict[str, list[tuple[str, str]]]:
+def _draw_in_worker(file: str, out: Path, config: FigureConfig, results) -> list[str]:
+    return _draw(next(f for f in FIGURES if f.file == file), out, config, results)
+
+
+def figure_key(figure: Figure, config, stage_keys) -> str:
+    """A figure's cache key: its drawing code, the keys of the stages it reads (which are keyed on
+    their values), the config values it reads, and the expectations it may mark."""
+    from ..cache import code_hash, digest
+    return digest("figure", figure.file, code_hash(__name__), {s: stage_keys[s] for s in figure.stages},
+                  config.subset(figure.config), [dataclasses.asdict(e) for e in config.expectations])
+
+
+def draw_all(out: Path, config, results, stage_keys=None, cache_root: Path | None = None
+             ) -> dict[str, list[tuple[str, str]]]:
     """Draws every figure into `out`; returns, per report section, the (file, caption) drawn.
 
-    The slow figures (those declaring `reads`) are drawn in a second process meanwhile (started
-    with "spawn": it imports matplotlib, never JAX), which about halves the time on two cores.
+    A figure whose inputs are those of a figure already drawn (in `cache_root`, by this or another
+    run) is copied from there instead. The slow figures are drawn in a second process meanwhile
+    (started with "spawn": it imports matplotlib, never JAX), which about halves the time on two cores.
     """
     files: dict[str, list[str]] = {}
-    with ProcessPoolExecutor(1, mp_context=multiprocessing.get_context("spawn")) as pool:
-        pending = {f.file: pool.submit(_draw_in_worker, f.file, out, dict(config.values),
-                                       {stage: results[stage] for stage in f.reads})
-                   for f in FIGURES if f.reads}
-        for f in FIGURES:
-            if not f.reads:
-                drawn = f.draw(out, config, results)
-                files[f.file] = [drawn] if isinstance(drawn, str) else drawn
+    keys = {f.file: figure_key(f, config, stage_keys) for f in FIGURES} if cache_root is not None else {}
+    todo = []
+    for f in FIGURES:
+        stored = cache_root / FIGURE_CACHE / keys[f.file] if cache_root is not None else None
+        if stored is not None and (stored / "files.txt").is_file():
+            files[f.file] = (stored / "files.txt").read_text().split()
+            os.utime(stored)            # last use, for `pipeline cache --prune`
+            for name in files[f.file]:
+                shutil.copyfile(stored / name, out / name)
+        else:
+            todo.append(f)
+
+    def inputs(f):
+        return FigureConfig(config, f.config), {stage: results[stage] for stage in f.stages}
+
+    workers = [f for f in todo if f.in_worker]
+    with ProcessPoolExecutor(1, mp_context=multiprocessing.get_context("spawn")) if workers else nullcontext() as pool:
+        pending = {f.file: pool.submit(_draw_in_worker, f.file, out, *inputs(f)) for f in workers}
+        for f in todo:
+            if not f.in_worker:
+                files[f.file] = _draw(f, out, *inputs(f))
         files |= {file: future.result() for file, future in pending.items()}
+    if cache_root is not None:
+        for f in todo:
+            _store(cache_root / FIGURE_CACHE, keys[f.file], out, files[f.file])
     sections: dict[str, list[tuple[str, str]]] = {}
     for f in FIGURES:
         for name in files[f.file]:
             n = name.split("_n")[-1][:-4] if "{n}" in f.file else ""
             sections.setdefault(f.section, []).append((name, f.caption.format(n=n)))
     return sections
+
+
+def _store(folder: Path, key: str, out: Path, names: list[str]) -> None:
+    """Keeps copies of a figure's files under folder/key, published by one rename."""
+    folder.mkdir(parents=True, exist_ok=True)
+    tmp = Path(tempfile.mkdtemp(prefix=f".{key}.tmp.", dir=folder))
+    try:
+        for name in names:
+            shutil.copyfile(out / name, tmp / name)
+        (tmp / "files.txt").write_text("\n".join(names))
+        try:
+            os.rename(tmp, folder / key)
+        except OSError:
+            pass        # already stored by another run
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)
