@@ -103,7 +103,11 @@ def write(path: Path, config, doc, r, checks, figures, baseline=None) -> None:
     n_diff = sum(c.verdict == checks_mod.DIFFERS for c in checks)
     n_na = sum(c.verdict == checks_mod.NOT_COMPARABLE for c in checks)
     lines = [f"# Derivation of the modified cosine-quadratic lobe: run `{config.name}`", ""]
-    if config["run.question"]:
+    changed = [k for k in config.changed_from_file(config.values) if not k.startswith("run.")]
+    if config["run.question"] and changed and "run.question" not in config.changed_from_file(["run.question"]):
+        lines += [f"**Question of `{config.source}`** (this run changes {', '.join(changed)}): "
+                  f"{config['run.question']}", ""]
+    elif config["run.question"]:
         lines += [f"**Question.** {config['run.question']}", ""]
     lines += [f"Config: `{config.source}`. Checks: {len(checks) - n_fail - n_diff - n_na} pass, {n_diff} differ "
               f"with a documented cause, {n_fail} fail, {n_na} not comparable (this run's settings differ from "
