@@ -96,13 +96,15 @@ def _compute_and_store(stage, values, inputs, cache, key, label, log) -> dict[st
 
 
 def run_stages(config: Config, cache: Cache, log: Callable[[str], None] = print,
-               stages: tuple[str, ...] | None = None, workers: int = 2):
+               stages: tuple[str, ...] | None = None, workers: int = 2,
+               on_result: Callable[[dict, dict], None] | None = None):
     """Each stage's result (every stage by default), from cache where its key matches.
 
     Returns (results, keys, computed), `computed` in graph order. `stages` (names) must include
     every stage they read from. A stage starts as soon as the stages it reads are done, up to
     `workers` at a time: independent stages overlap (one waits in XLA while another imports or
     runs Python), and since each depends only on its inputs, the results do not depend on the order.
+    `on_result(results, keys)` is called after each stage is done (the figures start from it).
     """
     chosen = [s for s in graph.STAGES if stages is None or s.name in stages]
     order = {s.name: i for i, s in enumerate(chosen, 1)}
@@ -133,6 +135,8 @@ def run_stages(config: Config, cache: Cache, log: Callable[[str], None] = print,
                     if result is not None:
                         log(f"{label} cached ({key[:12]})")
                         results[stage.name] = result
+                        if on_result is not None:
+                            on_result(results, keys)
                     else:
                         future = pool.submit(_compute_and_store, stage, values, inputs, cache, key, label, log)
                         running[future] = stage
@@ -142,6 +146,8 @@ def run_stages(config: Config, cache: Cache, log: Callable[[str], None] = print,
                     stage = running.pop(future)
                     results[stage.name] = future.result()      # a stage's error propagates here
                     computed.append(stage.name)
+                    if on_result is not None:
+                        on_result(results, keys)
     computed.sort(key=order.get)
     return {s.name: results[s.name] for s in chosen}, {s.name: keys[s.name] for s in chosen}, computed
 
@@ -179,7 +185,8 @@ def explain(config: Config, cache: Cache) -> list[tuple[str, str]]:
 
 
 def _outputs_key(config: Config, keys: dict[str, str], baseline: RunOutcome | None) -> str:
-    code = "".join(code_hash(m) for m in ("pipeline.publish.figures", "pipeline.publish.report",
+    code = "".join(code_hash(m) for m in ("pipeline.publish.figures", "pipeline.publish.plots",
+                                          "pipeline.publish.report",
                                           "pipeline.publish.results", "pipeline.publish.shader",
                                           "pipeline.publish.tables", "pipeline.checks"))
     return digest("outputs", keys, baseline.keys if baseline else None, dict(config.values), config.source,
@@ -192,12 +199,21 @@ def run_derivation(config: Config, cache_dir: Path = paths.CACHE, outputs: Path 
                    baseline: RunOutcome | None = None) -> RunOutcome:
     """Runs every stage, evaluates the checks and (re)writes `outputs/<name>/` if anything changed."""
     cache = Cache(cache_dir)
-    results, keys, computed = run_stages(config, cache, log)
-    checks = checks_mod.evaluate(config, results)
     out_dir = paths.output_dir(config.name, outputs) if write_outputs else None
+    drawer = None
     if out_dir is not None:
-        publish(out_dir, _outputs_key(config, keys, baseline), log,
-                lambda tmp: _write_outputs(tmp, config, results, keys, checks, baseline, cache.root))
+        from .publish.figures import FigureDrawer
+        # Figures are drawn in a second process while later stages compute.
+        drawer = FigureDrawer(config, cache.root)
+    try:
+        results, keys, computed = run_stages(config, cache, log, on_result=drawer.update if drawer else None)
+        checks = checks_mod.evaluate(config, results)
+        if out_dir is not None:
+            publish(out_dir, _outputs_key(config, keys, baseline), log,
+                    lambda tmp: _write_outputs(tmp, config, results, keys, checks, baseline, drawer))
+    finally:
+        if drawer is not None:
+            drawer.close()
     return RunOutcome(results, keys, computed, checks, out_dir, config)
 
 
@@ -232,12 +248,12 @@ def publish(out_dir: Path, stamp_key: str, log, write: Callable[[Path], str]) ->
         log(f"wrote {out_dir} ({summary}) in {time.perf_counter() - start:.1f} s")
 
 
-def _write_outputs(tmp: Path, config, results, keys, checks, baseline, cache_root: Path) -> str:
-    from .publish import figures, report, results as results_mod, shader, tables  # matplotlib only here
+def _write_outputs(tmp: Path, config, results, keys, checks, baseline, drawer) -> str:
+    from .publish import report, results as results_mod, shader, tables
 
     doc = results_mod.write(tmp / "results.json", config, keys, results, checks)
     tables.write(tmp, config, results)
-    drawn = figures.draw_all(tmp, config, results, keys, cache_root)
+    drawn = drawer.collect(tmp, results, keys)
     shader.write(tmp, config, results, keys)
     report.write(tmp / "report.md", config, doc, results, checks, drawn, baseline)
     return f"{sum(len(v) for v in drawn.values())} figures, report.md, results.json"

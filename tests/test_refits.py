@@ -144,3 +144,27 @@ def test_rms_metric_optimum_is_a_minimum(cache):
     assert r["q_choice"]["Q_used"] == Q
     assert rms_1000(Q) == pytest.approx(r["accuracy"]["rms_f_Q"], rel=1e-7)
     assert rms_1000(Q - 0.002) > rms_1000(Q) < rms_1000(Q + 0.002)
+
+
+@pytest.mark.slow
+def test_a_figure_is_redrawn_only_when_what_it_shows_changes(cache, tmp_path, paper_config):
+    from pipeline.publish.figures import FIGURE_CACHE
+    run_derivation(paper_config, cache_dir=cache.root, outputs=tmp_path, log=lambda s: None)
+    folder = cache.root / FIGURE_CACHE
+    before = {p.name for p in folder.iterdir() if not p.name.startswith(".")}
+    config = pipeline.load_config(paths.PAPER_CONFIG, ("scan.curve_points=101",), name="curves")
+    run_derivation(config, cache_dir=cache.root, outputs=tmp_path, log=lambda s: None)
+    new = {p.name for p in folder.iterdir() if not p.name.startswith(".")} - before
+    drawn = {(folder / key / "files.txt").read_text() for key in new}
+    assert drawn == {"fig2_d_vs_Q.png", "fig3_D_vs_Q.png"}      # the two figures of the scan's curves
+    # The copied figures are the paper run's files, byte for byte.
+    for name in ("fig6_fQ2_errors.png", "render_n100.png"):
+        assert (tmp_path / "curves" / name).read_bytes() == (tmp_path / "paper" / name).read_bytes()
+
+
+def test_a_figure_reading_an_undeclared_config_key_is_an_error(paper_config):
+    from pipeline.publish.figures import FigureConfig
+    view = FigureConfig(paper_config, ("render.*",))
+    assert view["render.resolution"] == 512
+    with pytest.raises(KeyError, match="figure read config key 'derivation.Q', which it does not declare"):
+        view["derivation.Q"]
