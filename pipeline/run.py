@@ -69,8 +69,8 @@ _compile_cache_on = False
 
 def _compute(stage: graph.Stage, values, inputs, cache: Cache) -> dict[str, Any]:
     global _compile_cache_on
+    module = importlib.import_module(stage.module)      # imports JAX only when something is computed
     with _setup_lock:
-        module = importlib.import_module(stage.module)      # imports JAX only when something is computed
         if not _compile_cache_on:
             from .numerics import use_compilation_cache
             use_compilation_cache(cache.root / XLA)
