@@ -125,14 +125,14 @@ def library_versions() -> dict[str, str]:
 
 def _feed(h, value) -> None:
     """Feeds a canonical, type-tagged encoding of `value` into the hash `h`."""
-    if isinstance(value, np.ndarray) or hasattr(value, "__array__") and not isinstance(value, (str, bytes)):
+    if isinstance(value, np.generic):           # a numpy scalar hashes as the Python number it holds
+        _feed(h, value.item())
+    elif isinstance(value, np.ndarray) or hasattr(value, "__array__"):     # numpy or JAX arrays
         a = np.ascontiguousarray(np.asarray(value))
         if a.dtype == object:
             raise TypeError("object arrays cannot be hashed")
         h.update(f"a{a.dtype.str}{a.shape}".encode())
         h.update(a.tobytes())
-    elif isinstance(value, np.generic):
-        _feed(h, value.item())
     elif value is None or isinstance(value, bool):
         h.update(f"c{value!r};".encode())
     elif isinstance(value, int):

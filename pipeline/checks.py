@@ -42,7 +42,8 @@ class Check:
 
 
 def lookup(results: dict[str, dict[str, Any]], path: str) -> Any:
-    """The value at 'stage.key' in the run's results; KeyError names what is missing."""
+    """The value at 'stage.field' in the run's results (paths are validated against the graph when
+    the config is loaded)."""
     stage, _, key = path.partition(".")
     value = results[stage][key]
     return value.tolist() if isinstance(value, np.ndarray) else value

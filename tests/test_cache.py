@@ -147,7 +147,7 @@ def test_keys_hash_values_not_identities():
     assert digest(dict(x=a, y=[1, "s"])) == digest(dict(y=[1, "s"], x=a.copy()))
     assert digest(a) != digest(a.astype(np.float32))          # the dtype is part of the value
     assert digest(a) != digest(np.nextafter(a, 2))             # so is the last bit
-    assert digest(1.0) == digest(1) and digest(0.5) != digest("0.5")
+    assert digest(1.0) == digest(1) and digest(0.5) != digest("0.5") and digest(np.float64(0.5)) == digest(0.5)
     assert digest([1, 2]) != digest([[1, 2]])
 
 
