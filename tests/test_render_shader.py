@@ -121,3 +121,42 @@ void main() {
 """)
     done = subprocess.run([validator, str(frag)], capture_output=True, text=True)
     assert done.returncode == 0, done.stdout + done.stderr
+
+
+def _main_instructions(source):
+    from pipeline import shader_cost
+    return shader_cost.count(shader_cost.function_body(shader_cost.optimized_disassembly(source)))
+
+
+def test_exported_lobe_has_no_transcendental_instruction_after_optimization(exported):
+    from pipeline import shader_cost
+    try:
+        shader_cost.tool("spirv-opt")
+    except shader_cost.ToolMissing as e:
+        pytest.skip(str(e))
+    source = "#version 450\n" + (exported / "cosquad.glsl").read_text() + """
+layout(location = 0) in float t_in;
+layout(location = 0) out vec4 color;
+layout(binding = 0) uniform Material { float n; };
+void main() { color = vec4(cosquad_lobe(t_in, n)); }
+"""
+    counts = _main_instructions(source)
+    assert counts["transcendental"] == 0 and counts["division"] == 0
+    assert not set(counts["ops"]) & set(shader_cost.TRANSCENDENTAL)
+    # k t + (1 - k) with k = a n + b, the max and the square: a handful of arithmetic instructions.
+    assert 4 <= counts["arithmetic"] <= 8
+    # The check can fail: the same lobe written with pow() keeps its Pow through the optimizer.
+    with_pow = source.replace("return b * b;", "return pow(b, 2.0);")
+    assert _main_instructions(with_pow)["ops"].get("Pow") == 1
+
+
+def test_shader_cost_table(paper_run):
+    cost = paper_run["shader_cost"]
+    if not cost["available"]:
+        pytest.skip(cost["tools"])
+    rows = {row["lobe"]: row for row in cost["lobes"]}
+    assert rows["cos^n (pow)"]["ops"] == {"Pow": 1}
+    assert rows["f_Q2"]["transcendental"] == 0 and rows["f_Q2"]["division"] == 0
+    assert rows["f_Q2"] == rows["f_2"] | {"lobe": "f_Q2"}          # the same per-pixel code
+    assert rows["Schlick"]["division"] == 1 and rows["Schlick"]["transcendental"] == 0
+    assert rows["SG exp(n (t - 1))"]["ops"]["Exp"] == 1

@@ -229,7 +229,7 @@ def exact_normalization(out, config, r):
     a.axhline(0, color="black", lw=0.8, label="exact coef = 6 k^2 / (pi (4 k - 1))")
     if e["excess_ranges"]:
         lo, hi = e["excess_ranges"][0]
-        a.axvspan(lo, hi, color="C3", alpha=0.08, label=f"energy created: n in {e['excess_ranges']}")
+        a.axvspan(lo, hi, color="C3", alpha=0.08, label="energy created: n = " + ", ".join(f"{a:g} to {b:g}" for a, b in e["excess_ranges"]))
     a.set(xscale="log", xlabel="n", ylabel="coef(n) 2 pi Int(n) - 1 (reflected / received - 1)",
           title=f"Phong form: largest excess {e['paper_coef_max_excess']:+.2e} at n = "
                 f"{e['paper_coef_n_at_max_excess']:g}", ylim=(-0.07, 0.01))

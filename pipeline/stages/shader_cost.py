@@ -1,0 +1,13 @@
+"""Cost on a GPU (beyond the paper): each cheap lobe written in GLSL, compiled to SPIR-V and
+optimized by spirv-opt, its instructions counted by kind (`pipeline.shader_cost`). If the
+compilers are not installed, the stage says so instead of counting.
+"""
+
+from .. import shader_cost
+
+
+def run(config, inputs, memo):
+    try:
+        return dict(available=True, tools=shader_cost.tool_versions(), lobes=shader_cost.lobe_costs())
+    except shader_cost.ToolMissing as e:
+        return dict(available=False, tools=str(e), lobes=[])
