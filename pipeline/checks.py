@@ -95,9 +95,11 @@ def fmt(value: Any) -> str:
 
 def table(checks: list[Check]) -> str:
     """The check table as Markdown (also printed to the terminal)."""
-    rows = ["| id | quantity | paper | reproduced | tolerance | verdict |", "|---|---|---|---|---|---|"]
+    rows = ["| id | quantity | paper | reproduced | tolerance | verdict | how it holds |",
+            "|---|---|---|---|---|---|---|"]
     for c in checks:
         e = c.expectation
         tol = ("<= paper + " if e.compare == "at_most" else "± ") + f"{e.tolerance:.3g}"
-        rows.append(f"| {e.id} | {e.quantity} | {fmt(e.paper)} | {fmt(c.reproduced)} | {tol} | {c.verdict_text} |")
+        rows.append(f"| {e.id} | {e.quantity} | {fmt(e.paper)} | {fmt(c.reproduced)} | {tol} | {c.verdict_text} | "
+                    f"{e.agreement} |")
     return "\n".join(rows)

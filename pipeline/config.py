@@ -151,7 +151,10 @@ KEYS: Mapping[str, Key] = MappingProxyType({k.name: k for k in SCHEMA})
 SECTIONS = tuple(dict.fromkeys(k.name.split(".")[0] for k in SCHEMA))
 OUTPUT_PATHS = frozenset(graph.output_paths())
 EXPECTATION_FIELDS = ("quantity", "paper", "result", "tolerance", "reason")
-EXPECTATION_OPTIONAL = ("compare", "known_difference", "known_value", "known_tolerance")
+EXPECTATION_OPTIONAL = ("compare", "known_difference", "known_value", "known_tolerance", "agreement")
+# How an agreement holds: from an independent computation; because a setting was solved for it (the
+# zone level is calibrated on P9); or because a choice was designed to match it (the sample design).
+AGREEMENTS = ("independent", "by calibration", "by design")
 
 
 @dataclasses.dataclass(frozen=True)
@@ -168,6 +171,7 @@ class Expectation:
     known_difference: str = ""
     known_value: Any = None
     known_tolerance: float = 0.0
+    agreement: str = "independent"
 
 
 @dataclasses.dataclass(frozen=True)
@@ -292,8 +296,11 @@ def _check_expectations(raw: Mapping[str, Any]) -> tuple[Expectation, ...]:
             raise ConfigError(f"config table '{where}': known_difference and known_value go together")
         if known_value is not None and not (_is_number(known_value) and _is_number(known_tol) and known_tol >= 0):
             raise _fail(f"{where}.known_value/known_tolerance", (known_value, known_tol), "numbers, tolerance >= 0")
+        agreement = body.get("agreement", "independent")
+        if agreement not in AGREEMENTS:
+            raise _fail(f"{where}.agreement", agreement, " or ".join(f'"{a}"' for a in AGREEMENTS))
         out.append(Expectation(eid, body["quantity"], paper, body["result"], float(tol), body["reason"],
-                               compare, known, known_value, float(known_tol)))
+                               compare, known, known_value, float(known_tol), agreement))
     return tuple(out)
 
 

@@ -71,10 +71,15 @@ STAGES: tuple[Stage, ...] = (
     _stage("q_choice", "Sec. 2", ("derivation.Q",), ("q_scan.Q_scan_best", "q_scan.Q_continuous_best"), {
         "Q_used": "Q of f_Q used downstream: the grid best, the continuous optimum or a set value [in (0, 1)]",
     }),
+    _stage("sample", "newenergy.txt", RANGE + ("sample.consecutive_to", "sample.spread_from", "sample.spread_count"),
+           (), {
+        "sample_n": "the regression sample's exponents n [array]",
+        "sample_size": "number of sample points [count]",
+    }),
     _stage("linear_coefficient", "Fig. 4",
            RANGE + ("derivation.fit", "derivation.constants", "paper_model.slope", "paper_model.intercept",
                     "solver.*"),
-           ("q_choice.Q_used",), {
+           ("q_choice.Q_used", "sample.sample_n"), {
         "k_Q": f"k_Q(n) at Q_used [{PER_N}]",
         "lin_slope": "slope of the fitted line through k_Q(n) [1]",
         "lin_intercept": "intercept of the fitted line [1]",
@@ -84,6 +89,8 @@ STAGES: tuple[Stage, ...] = (
         "paper_line_max_rel_error": "max over n of |paper's line / k_Q - 1| [fraction]",
         "asymptotic_slope": "large-n slope of k_Q(n): (1 - sqrt Q) / (-ln Q) [1]",
         "asymptotic_intercept": "large-n intercept of k_Q(n): (1 - sqrt Q) / 2 [1]",
+        "intercept_variants": "slope and intercept of other least-squares fits (other n, relative weights) [list]",
+        "intercept_at_bound": "intercept putting the paper's slope on its 0.5 % bound at n_min [1]",
         "slope_used": "slope a of k = a n + b used downstream (paper's or fitted) [1]",
         "intercept_used": "intercept b of k = a n + b used downstream [1]",
     }),
@@ -101,7 +108,7 @@ STAGES: tuple[Stage, ...] = (
     }),
     _stage("accuracy", "Figs. 5, 6", RANGE + ("solver.*",),
            ("zone.level", "q_choice.Q_used", "linear_coefficient.slope_used", "linear_coefficient.intercept_used",
-            "f2_errors.d_f_2", "f2_errors.D_f_2", "f2_errors.zone_levels"),
+            "f2_errors.d_f_2", "f2_errors.D_f_2", "f2_errors.zone_levels", "f2_errors.zone_d_f_2"),
            {
         **{f"{m}_{lobe}": f"max over n of {what} of {lobe} [{unit}]"
            for lobe in ("f_Q2", "f_Q")
@@ -113,6 +120,8 @@ STAGES: tuple[Stage, ...] = (
            for lobe in ("f_Q2", "f_Q") for m in "dD"},
         **{f"D_{lobe}_x_at_max": f"angle x where max D of {lobe} is attained [rad]" for lobe in ("f_Q2", "f_Q")},
         "epicenter_gain": "max d of f_2 / max d of f_Q2 [ratio]",
+        "zone_gain": "the same at each zone level of f2_errors.zone_levels [array, ratio]",
+        "d_f_Q_large_n": "d of f_Q at the Q used for n = 10^6: its supremum as n grows [fraction]",
         "absolute_gain": "max D of f_2 / max D of f_Q2 [ratio]",
         "D_f_Q_zone_edge_x": "zone edge x at the n where f_Q's max D is attained [rad]",
         "D_f_Q_in_blooming_zone": "f_Q's max D lies outside the epicenter zone [bool]",
@@ -123,11 +132,6 @@ STAGES: tuple[Stage, ...] = (
         "fig5_x": "angles of Fig. 5 [array, rad]",
         "fig5_f_b": "cos^20 x [array]", "fig5_f_2": "f_2 at n = 20 [array]", "fig5_f_Q2": "f_Q2 at n = 20 [array]",
         "fig5_zone_edge_x": "zone edge at n = 20 [rad]",
-    }),
-    _stage("sample", "newenergy.txt", RANGE + ("sample.consecutive_to", "sample.spread_from", "sample.spread_count"),
-           (), {
-        "sample_n": "the regression sample's exponents n [array]",
-        "sample_size": "number of sample points [count]",
     }),
     _stage("energy_dataset", "Fig. 7", RANGE + ("energy.*", "sample.y_decimals"),
            ("linear_coefficient.slope_used", "linear_coefficient.intercept_used", "sample.sample_n"), {
@@ -149,6 +153,8 @@ STAGES: tuple[Stage, ...] = (
         "constant_model": "size-1 model: the sample mean [1/sr]",
         "constant_model_rms": "RMS of the sample about its mean [1/sr]",
         "sample_sensitivity": "two-term constants for other samples of the same kind [list]",
+        "sensitivity_offset_range": "[min, max] two-term offset over the samples of the configured size [n]",
+        "sensitivity_rms_range": "[min, max] two-term RMS over the samples of the configured size [1/sr]",
         "one_term_scale": "coefficient c of the one-term model c n [1/sr]",
         "one_term_rms": "RMS error of c n on the sample [1/sr]",
         "three_term_n": "coefficient of n in c_n n + c_1 + c_-1/n [1/sr]",
@@ -237,6 +243,8 @@ STAGES: tuple[Stage, ...] = (
         "d_curves": "d per n of each lobe, in the order of `lobes` [array lobes x n, fraction]",
         "D_curves": "D per n of each lobe [array lobes x n, absolute]",
         "quadrature_error": "largest change of an albedo table with twice the nodes [absolute]",
+        "per_n": "per lobe and measure (d, D): [first, last] n where f_Q2 is better, and where the other is [list]",
+        "large_n": "d and D of every lobe at n = 10^4 and 10^5, their limits as n grows [list]",
     }),
     _stage("shader_cost", "beyond", (), (), {
         "available": "whether glslangValidator and spirv-opt were found [bool]",
@@ -257,7 +265,7 @@ STAGES: tuple[Stage, ...] = (
 )
 
 BY_NAME: Mapping[str, Stage] = MappingProxyType({s.name: s for s in STAGES})
-PAPER_STAGES = ("zone", "q_scan", "q_choice", "linear_coefficient", "f2_errors", "accuracy", "sample", "energy_dataset",
+PAPER_STAGES = ("zone", "q_scan", "q_choice", "sample", "linear_coefficient", "f2_errors", "accuracy", "energy_dataset",
                 "sparse_regression", "hemispherical")
 
 

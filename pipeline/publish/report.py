@@ -31,8 +31,13 @@ def _choices(config, r) -> list[str]:
         f"- **Linear coefficient**: {config['derivation.fit']} over every integer n in range: "
         f"k_Q(n) ~ {lin['lin_slope']:.8f} n + {lin['lin_intercept']:.8f} (max relative error "
         f"{_pct(lin['lin_max_rel_error'])}); large-n asymptote of k_Q: {lin['asymptotic_slope']:.8f} n + "
-        f"{lin['asymptotic_intercept']:.8f}. Downstream constants: **{config['derivation.constants']}**, "
-        f"k = {lin['slope_used']:g} n + {lin['intercept_used']:g}.",
+        f"{lin['asymptotic_intercept']:.8f}. Other least-squares fits of the same line: "
+        + "; ".join(f"{v['variant']}: {v['slope']:.6f} n + {v['intercept']:.6f}" for v in lin["intercept_variants"])
+        + f". The intercept that puts slope {config['paper_model.slope']:g} exactly on the 0.5 % bound at "
+        f"n = {config['derivation.n_min']} is {lin['intercept_at_bound']:.6f}. Downstream constants: "
+        f"**{config['derivation.constants']}**, k = {lin['slope_used']:g} n + {lin['intercept_used']:g}.",
+        f"- **f_Q at large n**: max d of f_Q (Q = {Q_used:g}) grows with n; at n = 10^6 it is "
+        f"{_pct(r['accuracy']['d_f_Q_large_n'])}, its supremum to 1e-6.",
         f"- **Energy dataset**: Int(n) by {config['energy.quadrature_nodes']}-node Gauss-Legendre "
         f"quadrature over [0, gran(n)] for every n; the lobe's zero crossing lies past the horizon "
         f"(k < 1) for n = {ns(e['lobe_below_horizon_n'])}, where the paper's integral "
@@ -68,11 +73,11 @@ def _differences(checks) -> list[str]:
 
 def _zone_table(r) -> list[str]:
     s, f2, z = r["accuracy"], r["f2_errors"], r["zone"]
-    rows = ["| zone level L | max d f_2 | max d f_Q | max d f_Q2 |", "|---|---|---|---|"]
+    rows = ["| zone level L | max d f_2 | max d f_Q | max d f_Q2 | gain f_2 / f_Q2 |", "|---|---|---|---|---|"]
     for i, L in enumerate(f2["zone_levels"]):
         mark = " (used)" if abs(L - z["level"]) < 1e-12 else ""
         rows.append(f"| {L:.5f}{mark} | {_pct(f2['zone_d_f_2'][i])} | {_pct(s['zone_d_f_Q'][i])} | "
-                    f"{_pct(s['zone_d_f_Q2'][i])} |")
+                    f"{_pct(s['zone_d_f_Q2'][i])} | {s['zone_gain'][i]:.2f} |")
     return rows
 
 
@@ -125,8 +130,13 @@ def write(path: Path, config, doc, r, checks, figures, baseline=None) -> None:
               "How the epicenter figures move with the zone's level L. Where a lobe's max d comes from its "
               "interior stationary point, it does not depend on L at all.", ""] + _zone_table(r) + [""]
     lines += embed(figures, "zone")
-    lines += ["## Sparse-regression front", "", front_markdown(r["sparse_regression"]), "",
-              "## How the coef(n) constants move with the sample", ""] + _sample_table(r["sparse_regression"])
+    reg = r["sparse_regression"]
+    lines += ["## Sparse-regression front", "", front_markdown(reg), "",
+              "## How the coef(n) constants move with the sample", "",
+              f"Over the samples of {r['sample']['sample_size']} points below (y rounded), the two-term offset "
+              f"ranges from {reg['sensitivity_offset_range'][0]:.4f} to {reg['sensitivity_offset_range'][1]:.4f} "
+              f"and its RMS from {reg['sensitivity_rms_range'][0]:.2g} to {reg['sensitivity_rms_range'][1]:.2g}.",
+              ""] + _sample_table(reg)
     lines += ["", "## The paper's figures, reproduced", ""] + embed(figures, "paper")
     lines += beyond_sections(config, r, figures)
     lines += ["## Files", "", "- `results.json`: every number (`headline` holds the main ones, as fractions)",

@@ -179,12 +179,21 @@ def verdict_section(config, r) -> list[str]:
     else:
         lines.append(f"- **\"Energetically correct\"**: yes: with this coef no n reflects more than it receives "
                      f"(largest deviation {e['paper_coef_max_abs_dev']:.4f}).")
+    lines.append(f"- **The largest practical risk**: the paper frames the lobe as a Blinn-Phong replacement, but its "
+                 f"coef normalizes the Phong form (t = R.V). Used with t = N.H, the same coef reflects up to "
+                 f"{s['blinn_with_phong_coef_max']:.2f}x what it receives (n = {s['blinn_with_phong_coef_n_at_max']:g}, "
+                 f"incidence {s['blinn_with_phong_coef_theta_at_max_deg']:g} deg). The Blinn form needs its own "
+                 f"normalization (exported as `cosquad_coef_blinn`; largest albedo {s['blinn_exact_coef_max']:.6f}).")
     f2 = r["f2_errors"]
     better = q2["d"] < f2["d_f_2"] and q2["D"] < f2["D_f_2"]
+    gains = a["zone_gain"]
     lines.append(f"- **\"More accurate than f_2\"**: {'yes' if better else 'no'}: max d {pct(q2['d'])} vs "
                  f"{pct(f2['d_f_2'])}, max D {q2['D']:.4f} vs {f2['D_f_2']:.4f}. Among all the cheap lobes, "
-                 f"ranked by d: " + ", ".join(f"{k} {pct(v)}" for k, v in by_d) + "; by D: "
-                 + ", ".join(f"{k} {v:.4f}" for k, v in by_D) + ".")
+                 f"ranked by their worst n (n = 2 or 3 for most): by d: " + ", ".join(f"{k} {pct(v)}" for k, v in by_d)
+                 + "; by D: " + ", ".join(f"{k} {v:.4f}" for k, v in by_D) + ". The gain over f_2 holds near the "
+                 f"calibrated zone level: {a['epicenter_gain']:.2f}x there, "
+                 + ", ".join(f"{g:.2f}x at L = {L:g}" for L, g in zip(r["f2_errors"]["zone_levels"], gains)) + ".")
+    lines.append("- **Per n, the ranking changes.** " + per_n_text(c) + " ")
     cost = r["shader_cost"]
     if cost["available"]:
         spirv = {row["lobe"]: row for row in cost["lobes"]}
@@ -211,6 +220,23 @@ def _spirv_text(row) -> str:
     if row["transcendental"]:
         parts.append(f"{row['transcendental']} transcendental ({', '.join(k for k in row['ops'] if k[0] != 'O' and k not in ('FMax', 'FMin', 'Fma'))})")
     return ", ".join(parts)
+
+
+def per_n_text(c) -> str:
+    """Where each lobe beats f_Q2, per n, and what each tends to as n grows."""
+    parts = []
+    for row in c["per_n"]:
+        if row["other_better"] and row["f_Q2_better"]:
+            parts.append(f"{row['lobe']} beats f_Q2 on {row['measure']} for n = {ranges(row['other_better'])} "
+                         f"(f_Q2 is better for n = {ranges(row['f_Q2_better'])})")
+    large = {}
+    for row in c["large_n"]:
+        large[row["lobe"]] = row        # the largest n listed last
+    n_big = max(row["n"] for row in c["large_n"])
+    limits = "; ".join(f"{name} d {pct(row['d'])}, D {row['D']:.4g}" for name, row in large.items()
+                       if name != "cos^n")
+    return ("; ".join(parts) + f". As n grows the errors tend to (n = {n_big:g}): {limits}. f_Q2's errors do not "
+            "shrink with n; the spherical Gaussians' go to 0.")
 
 
 def cost_section(config, r) -> list[str]:

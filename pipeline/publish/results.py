@@ -77,6 +77,7 @@ def write(path: Path, config, stage_keys, results, checks) -> dict:
         headline=headline(results), headline_fields=HEADLINE, stages=scalars, stage_keys=stage_keys,
         checks=[dict(id=c.expectation.id, quantity=c.expectation.quantity, paper=c.expectation.paper,
                      reproduced=c.reproduced, tolerance=c.expectation.tolerance, verdict=c.verdict,
+                     agreement=c.expectation.agreement,
                      settings_differ=list(c.settings_differ))
                 for c in checks],
     )

@@ -43,3 +43,16 @@ def require_converged(ok, what: str, **inputs) -> None:
     named = ", ".join(f"{name}={np.asarray(v)[tuple(where[:np.ndim(v)])]:.6g}" for name, v in inputs.items())
     raise SolverError(f"{what}: the root finder did not converge at {named} "
                       f"({int((~ok).sum())} failures); raise solver.max_steps or loosen solver.rtol/atol")
+
+
+def runs_of(mask, n):
+    """Contiguous [first, last] n where mask holds."""
+    out, start = [], None
+    for i, m in enumerate(mask):
+        if m and start is None:
+            start = i
+        if start is not None and (not m or i == len(mask) - 1):
+            end = i if m else i - 1
+            out.append([float(n[start]), float(n[end])])
+            start = None
+    return out

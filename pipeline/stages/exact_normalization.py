@@ -17,20 +17,7 @@ import sympy as sp
 
 from .. import exact
 from ..albedo import albedo_table
-from .common import n_range
-
-
-def runs_of(mask, n):
-    """Contiguous [first, last] n where mask holds."""
-    out, start = [], None
-    for i, m in enumerate(mask):
-        if m and start is None:
-            start = i
-        if start is not None and (not m or i == len(mask) - 1):
-            end = i if m else i - 1
-            out.append([float(n[start]), float(n[end])])
-            start = None
-    return out
+from .common import n_range, runs_of
 
 
 def run(config, inputs, memo):

@@ -61,6 +61,22 @@ def run(config, inputs, memo):
     paper_slope, paper_intercept = config["paper_model.slope"], config["paper_model.intercept"]
     rel_paper = np.asarray((paper_slope * n + paper_intercept) / k - 1.0)
     use_paper = config["derivation.constants"] == "paper"
+
+    # Other fits of the same line, to show where the paper's intercept could come from: ordinary
+    # least squares on other sets of n, and least squares of the relative error (weights 1/k^2).
+    def ols(ns, weights=None):
+        ks = np.asarray(jax.jit(k_Q)(ns, Q))
+        w = np.ones_like(ns) if weights is None else weights(ks)
+        A = np.column_stack([ns, np.ones_like(ns)]) * np.sqrt(w)[:, None]
+        (a, b), *_ = np.linalg.lstsq(A, ks * np.sqrt(w), rcond=None)
+        return dict(slope=float(a), intercept=float(b))
+    n_max = config["derivation.n_max"]
+    variants = [dict(variant=f"every n from 1 to {n_max}", **ols(np.arange(1.0, n_max + 1))),
+                dict(variant=f"every n from {n[0]:g} to {min(100, n_max)}", **ols(np.arange(n[0], min(100, n_max) + 1))),
+                dict(variant="the regression sample's n", **ols(np.asarray(inputs["sample.sample_n"]))),
+                dict(variant="relative error (weights 1/k^2), every n", **ols(n, lambda ks: 1.0 / ks**2))]
+    # The intercept that puts the paper's rounded slope exactly on its 0.5 % bound at the smallest n.
+    intercept_at_bound = float((1.0 - 0.005) * k[0] - paper_slope * n[0])
     # The large-n asymptote of k_Q(n), a check on the fit: k_Q(n) = n (1 - sqrt Q) / (-ln Q)
     # + (1 - sqrt Q) / 2 + O(1/n).
     return dict(
@@ -69,6 +85,7 @@ def run(config, inputs, memo):
         paper_line_max_rel_error=float(np.max(np.abs(rel_paper))),
         asymptotic_slope=float((1.0 - np.sqrt(Q)) / -np.log(Q)),
         asymptotic_intercept=float((1.0 - np.sqrt(Q)) / 2.0),
+        intercept_variants=variants, intercept_at_bound=intercept_at_bound,
         slope_used=paper_slope if use_paper else slope,
         intercept_used=paper_intercept if use_paper else intercept,
     )

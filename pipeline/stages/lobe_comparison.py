@@ -15,9 +15,10 @@ from .. import cheap_lobes
 from ..albedo import albedo_table
 from ..extrema import error_curves
 from ..roots import SolverSettings
-from .common import n_range, require_converged
+from .common import n_range, require_converged, runs_of
 
 QUADRATURE_CHECK_N = (2.0, 10.0, 100.0, 1000.0)
+LARGE_N = (1e4, 1e5)        # where the errors are reported as their limits
 LOBE_KEYS = ("cos^n", "f_2", "f_Q used", "f_Q best", "f_Q2", "Schlick", "SG", "SG (Lagarde)")
 
 # (row label, form, lobe name, normalization name): each approximation of cos^n is paired with
@@ -125,7 +126,23 @@ def run(config, inputs, memo):
                          ops_pixel=shape["ops_pixel"], ops_with_n_per_pixel=per_pixel_n,
                          ops_pixel_text=_short(shape["ops_pixel"]), ops_with_n_text=_short(per_pixel_n)))
 
-    out = dict(lobes=lobe_rows, rows=rows, quadrature_error=quad_error,
+    # Per n: where f_Q2 is better than each other lobe, and where the other is; and the errors at large n.
+    per_n = []
+    for key in LOBE_KEYS:
+        if key in ("cos^n", "f_Q2"):
+            continue
+        for measure in ("d", "D"):
+            ours, theirs = shapes["f_Q2"][f"{measure}_curve"], shapes[key][f"{measure}_curve"]
+            per_n.append(dict(lobe=lobes[key].name, measure=measure, f_Q2_better=runs_of(ours < theirs, n),
+                              other_better=runs_of(theirs < ours, n)))
+    large = np.array(LARGE_N)
+    large_n = []
+    for key, lobe in lobes.items():
+        m = memo("shape_errors", shape_errors, shape=lobe.shape, n=large,
+                 p=np.asarray(lobe.param(large), dtype=np.float64), level=level, cells=cells, **solver)
+        large_n += [dict(lobe=lobe.name, n=float(v), d=float(d), D=float(D)) for v, d, D in zip(large, m["d"], m["D"])]
+
+    out = dict(lobes=lobe_rows, rows=rows, quadrature_error=quad_error, per_n=per_n, large_n=large_n,
                d_curves=np.stack([shapes[k]["d_curve"] for k in LOBE_KEYS]),
                D_curves=np.stack([shapes[k]["D_curve"] for k in LOBE_KEYS]))
     for key in ("cos^n", "Schlick", "SG", "SG (Lagarde)"):

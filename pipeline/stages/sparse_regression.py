@@ -109,10 +109,13 @@ def run(config, inputs, memo):
                                 scale=alt[0] if alt else float("nan"),
                                 offset=alt[1] if alt else float("nan"),
                                 rms=alt[2] if alt else float("nan")))
+    same_kind = [row for row in sensitivity if row["size"] == size and "unrounded" not in row["sample"]]
     mean = float(np.mean(y_s))
     return dict(front=front, coef_scale=scale, coef_offset=offset, coef_rms=rms,
                 constant_model=mean, constant_model_rms=float(np.sqrt(np.mean((y_s - mean) ** 2))),
                 sample_sensitivity=sensitivity,
+                sensitivity_offset_range=[min(r["offset"] for r in same_kind), max(r["offset"] for r in same_kind)],
+                sensitivity_rms_range=[min(r["rms"] for r in same_kind), max(r["rms"] for r in same_kind)],
                 one_term_scale=next((m["coefficients"][0] for m in front if m["terms"] == ["n"]), float("nan")),
                 one_term_rms=next((m["rms"] for m in front if m["terms"] == ["n"]), float("nan")),
                 **_three_term(front))
