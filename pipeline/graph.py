@@ -67,6 +67,9 @@ STAGES: tuple[Stage, ...] = (
         "curve_d": "max d over n of f_Q per curve_Q [array, fraction]",
         "curve_D": "max D over n of f_Q per curve_Q [array, absolute]",
         "curve_rms": "max relative RMS error over n of f_Q per curve_Q [array, fraction]",
+        "curve_D_min": "smallest max D on the curve (Fig. 3's minimum) [absolute]",
+        "curve_Q_at_D_min": "the curve's Q there [in (0, 1)]",
+        "curve_d_at_D_min": "max d of f_Q at that Q [fraction]",
     }),
     _stage("q_choice", "Sec. 2", ("derivation.Q",), ("q_scan.Q_scan_best", "q_scan.Q_continuous_best"), {
         "Q_used": "Q of f_Q used downstream: the grid best, the continuous optimum or a set value [in (0, 1)]",
@@ -155,6 +158,7 @@ STAGES: tuple[Stage, ...] = (
         "sample_sensitivity": "two-term constants for other samples of the same kind [list]",
         "sensitivity_offset_range": "[min, max] two-term offset over the samples of the configured size [n]",
         "sensitivity_rms_range": "[min, max] two-term RMS over the samples of the configured size [1/sr]",
+        "sensitivity_three_term_rms_range": "[min, max] RMS of c n + c + c/n over the same samples [1/sr]",
         "one_term_scale": "coefficient c of the one-term model c n [1/sr]",
         "one_term_rms": "RMS error of c n on the sample [1/sr]",
         "three_term_n": "coefficient of n in c_n n + c_1 + c_-1/n [1/sr]",

@@ -27,7 +27,10 @@ def _choices(config, r) -> list[str]:
         f"- **Q**: derivation.Q = {config['derivation.Q']!r}, metric {config['derivation.metric']}: coarse grid best "
         f"{q['Q_scan_coarse']:g}, fine grid best {q['Q_scan_best']:g}, continuous optimum "
         f"{q['Q_continuous_best']:.8f} (objective there {q['objective_at_continuous']:.6g}, "
-        f"at the grid best {q['objective_at_scan_best']:.6g}); used: Q = {Q_used:g}.",
+        f"at the grid best {q['objective_at_scan_best']:.6g}); used: Q = {Q_used:g}. The two error measures "
+        f"pull Q apart: on Fig. 3's curve max D is smallest, {q['curve_D_min']:.4f}, at Q = "
+        f"{q['curve_Q_at_D_min']:.3f}, where max d is {_pct(q['curve_d_at_D_min'])} (configs/absolute_error.toml "
+        "asks that question).",
         f"- **Linear coefficient**: {config['derivation.fit']} over every integer n in range: "
         f"k_Q(n) ~ {lin['lin_slope']:.8f} n + {lin['lin_intercept']:.8f} (max relative error "
         f"{_pct(lin['lin_max_rel_error'])}); large-n asymptote of k_Q: {lin['asymptotic_slope']:.8f} n + "

@@ -98,6 +98,7 @@ def run(config, inputs, memo):
     at = scan(n, np.array([Q_opt]), level, settings)
     curve_Q = np.linspace(0.02, 0.98, config["scan.curve_points"])
     curve = scan(n, curve_Q, level, settings)
+    i_min = int(np.argmin(curve["D"]))
     return dict(
         coarse_Q=coarse_Q, coarse_objective=coarse[objective], Q_scan_coarse=Q_coarse,
         fine_Q=fine_Q, fine_objective=fine[objective], Q_scan_best=Q_best,
@@ -105,4 +106,6 @@ def run(config, inputs, memo):
         objective_at_scan_best=float(fine[objective][i_best]),
         d_f_Q_at_continuous=float(at["d"][0]), D_f_Q_at_continuous=float(at["D"][0]),
         curve_Q=curve_Q, curve_d=curve["d"], curve_D=curve["D"], curve_rms=curve["rms"],
+        curve_D_min=float(curve["D"][i_min]), curve_Q_at_D_min=float(curve_Q[i_min]),
+        curve_d_at_D_min=float(curve["d"][i_min]),
     )

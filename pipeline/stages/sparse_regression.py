@@ -104,11 +104,13 @@ def run(config, inputs, memo):
     alternatives[f"{len(geo)} log-spaced n"] = (geo, at(geo))
     sensitivity = []
     for label, (ns, ys) in alternatives.items():
-        alt = two_term(sweep(ns, ys, terms, thresholds))
+        alt_front = sweep(ns, ys, terms, thresholds)
+        alt = two_term(alt_front)
         sensitivity.append(dict(sample=label, size=int(len(ns)), mean_y=float(np.mean(ys)),
                                 scale=alt[0] if alt else float("nan"),
                                 offset=alt[1] if alt else float("nan"),
-                                rms=alt[2] if alt else float("nan")))
+                                rms=alt[2] if alt else float("nan"),
+                                three_term_rms=_three_term(alt_front)["three_term_rms"]))
     same_kind = [row for row in sensitivity if row["size"] == size and "unrounded" not in row["sample"]]
     mean = float(np.mean(y_s))
     return dict(front=front, coef_scale=scale, coef_offset=offset, coef_rms=rms,
@@ -116,6 +118,8 @@ def run(config, inputs, memo):
                 sample_sensitivity=sensitivity,
                 sensitivity_offset_range=[min(r["offset"] for r in same_kind), max(r["offset"] for r in same_kind)],
                 sensitivity_rms_range=[min(r["rms"] for r in same_kind), max(r["rms"] for r in same_kind)],
+                sensitivity_three_term_rms_range=[min(r["three_term_rms"] for r in same_kind),
+                                                  max(r["three_term_rms"] for r in same_kind)],
                 one_term_scale=next((m["coefficients"][0] for m in front if m["terms"] == ["n"]), float("nan")),
                 one_term_rms=next((m["rms"] for m in front if m["terms"] == ["n"]), float("nan")),
                 **_three_term(front))
