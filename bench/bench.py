@@ -9,7 +9,10 @@ less than a time. Measured, each in a fresh cache and outputs folder:
 - a refit that changes `derivation.Q`; a refit that changes only `scan.curve_points` (which must
   recompute `q_scan` alone); a warm `pipeline reproduce` (nothing changed);
 - `pipeline keys` and a run with a bad config (answered without importing JAX);
-- `make test` (`python -m pytest -q`), unless BENCH_TESTS=0.
+- `make test` (`python -m pytest -q`), unless BENCH_TESTS=0;
+- the throughput of each cheap lobe compiled by XLA (evaluations per second over 2^24 values of t in
+  float32, as a shader would use; median of 9 repeats and the range), on the CPU and, where JAX sees
+  one, on a GPU.
 
 Targets (the issue "Refits in seconds"): cold <= 10x floor, Q refit <= 5x, curve_points refit
 <= 3x, warm <= 1.2x, keys and bad config < 1 s, make test < 120 s.
@@ -49,6 +52,45 @@ def recomputed(output: str) -> str:
     return line.split(";")[0]
 
 
+LOBES = {
+    "cos^n (pow)": lambda t, n, k: t ** n,
+    "f_2 / f_Q2": lambda t, n, k: jnp_square(k * t + (1.0 - k)),
+    "Schlick": lambda t, n, k: t / (n - n * t + t),
+    "SG exp(n (t - 1))": lambda t, n, k: jnp_exp(n * (t - 1.0)),
+}
+
+
+def jnp_square(b):
+    import jax.numpy as jnp
+    b = jnp.maximum(b, 0.0)
+    return b * b
+
+
+def jnp_exp(x):
+    import jax.numpy as jnp
+    return jnp.exp(x)
+
+
+def lobe_throughput(device, size=2**24, repeats=9) -> list[tuple[str, float, float, float]]:
+    """(lobe, median, min, max) evaluations per second of each lobe on `device`."""
+    import jax
+    import jax.numpy as jnp
+    t = jax.device_put(jnp.linspace(0.0, 1.0, size, dtype=jnp.float32), device)
+    n, k = jnp.float32(100.0), jnp.float32(0.448 * 100.0 + 0.099)
+    rows = []
+    for name, fn in LOBES.items():
+        f = jax.jit(fn)
+        f(t, n, k).block_until_ready()
+        times = []
+        for _ in range(repeats):
+            start = time.perf_counter()
+            f(t, n, k).block_until_ready()
+            times.append(time.perf_counter() - start)
+        rates = sorted(size / s for s in times)
+        rows.append((name, statistics.median(rates), rates[0], rates[-1]))
+    return rows
+
+
 def main() -> int:
     py = sys.executable
     floor = statistics.median(timed([py, "-c", FLOOR], dict(os.environ))[0] for _ in range(3))
@@ -76,12 +118,27 @@ def main() -> int:
         seconds, out = timed([py, "-m", "pytest", "-q", "-p", "no:cacheprovider"], dict(os.environ))
         rows.append(("make test", seconds, None, out.strip().splitlines()[-1] + "; target < 120 s"))
 
+    import jax
+    devices = [("CPU", jax.devices("cpu")[0])]
+    try:
+        devices.append(("GPU", jax.devices("gpu")[0]))
+    except RuntimeError:
+        pass
+    throughput = [(label, lobe_throughput(device)) for label, device in devices]
+
     print(f"import floor ({FLOOR}): {floor:.2f} s\n")
     print(f"{'':<30} {'seconds':>8} {'x floor':>8}  {'target':>8}  note")
     for label, seconds, target, note in rows:
         ratio = seconds / floor
         verdict = "" if target is None else f"<= {target:g}x " + ("ok" if ratio <= target else "MISSED")
         print(f"{label:<30} {seconds:8.2f} {ratio:8.2f}  {verdict:>13}  {note}")
+    for label, rows in throughput:
+        print(f"\nlobe throughput, XLA on the {label} (float32, 2^24 values of t; 10^9 evaluations per second: "
+              "median [min, max] of 9)")
+        for name, median, low, high in rows:
+            print(f"  {name:<20} {median / 1e9:7.3f}  [{low / 1e9:.3f}, {high / 1e9:.3f}]")
+    if len(throughput) == 1:
+        print("  (JAX sees no GPU here; on a machine where it does, the same table follows for it)")
     return 0
 
 
