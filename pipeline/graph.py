@@ -159,6 +159,8 @@ STAGES: tuple[Stage, ...] = (
         "sensitivity_offset_range": "[min, max] two-term offset over the samples of the configured size [n]",
         "sensitivity_rms_range": "[min, max] two-term RMS over the samples of the configured size [1/sr]",
         "sensitivity_three_term_rms_range": "[min, max] RMS of c n + c + c/n over the same samples [1/sr]",
+        "sensitivity_one_term_scale_range": "[min, max] c of the model c n over the same samples [1/sr]",
+        "sensitivity_one_term_rms_range": "[min, max] RMS of c n over the same samples [1/sr]",
         "one_term_scale": "coefficient c of the one-term model c n [1/sr]",
         "one_term_rms": "RMS error of c n on the sample [1/sr]",
         "three_term_n": "coefficient of n in c_n n + c_1 + c_-1/n [1/sr]",
@@ -233,6 +235,8 @@ STAGES: tuple[Stage, ...] = (
         "quadrature_error": "largest change of a table with twice the nodes [absolute]",
         "monte_carlo": "Monte Carlo cross-check rows: form, n, angle, quadrature, estimate, s.e., z [list]",
         "monte_carlo_max_abs_z": "largest |z| of the Monte Carlo rows [standard errors]",
+        "monte_carlo_worst_point": "that point drawn again with 16 independent seeds: the z of each, their mean "
+                                   "and spread [dict]",
         "reciprocity_max_rel_dev": "max |f(L, V) / f(V, L) - 1| on random pairs [fraction]",
     }),
     _stage("lobe_comparison", "beyond", RANGE + ("solver.*", "albedo.quadrature_nodes", "comparison.*"),
@@ -249,6 +253,12 @@ STAGES: tuple[Stage, ...] = (
         "quadrature_error": "largest change of an albedo table with twice the nodes [absolute]",
         "per_n": "per lobe and measure (d, D): [first, last] n where f_Q2 is better, and where the other is [list]",
         "large_n": "d and D of every lobe at n = 10^4 and 10^5, their limits as n grows [list]",
+    }),
+    _stage("half_precision", "beyond", ("render.exponents",),
+           ("linear_coefficient.slope_used", "linear_coefficient.intercept_used"), {
+        "rows": "per n, lobe and route for 1 - cos x: distinct float16 values over the visible highlight, and "
+                "the largest absolute error against float64 [list]",
+        "samples": "angles sampled per n [count]",
     }),
     _stage("shader_cost", "beyond", (), (), {
         "available": "whether glslangValidator and spirv-opt were found [bool]",

@@ -160,3 +160,31 @@ def test_shader_cost_table(paper_run):
     assert rows["f_Q2"] == rows["f_2"] | {"lobe": "f_Q2"}          # the same per-pixel code
     assert rows["Schlick"]["division"] == 1 and rows["Schlick"]["transcendental"] == 0
     assert rows["SG exp(n (t - 1))"]["ops"]["Exp"] == 1
+
+
+def test_half_precision_rows_against_a_direct_float16_evaluation(paper_run):
+    h = paper_run["half_precision"]
+    rows = {(r["n"], r["lobe"], r["route"]): r for r in h["rows"]}
+    # At t = 1 - 2^-11 (the float16 step below 1) and n = 1000, k t + (1 - k) in float16 is far from the
+    # float64 value 1 - k 2^-11: the cancellation the table reports.
+    k = np.float16(0.448 * 1000 + 0.099)
+    t = np.float16(1) - np.float16(2.0 ** -11)
+    half = float(k * t + (np.float16(1) - k))
+    # (float16 spaces numbers near 448 by 0.25, so k t alone may be off by 0.125).
+    assert abs(half - (1 - float(k) * 2.0 ** -11)) > 0.02
+    big = rows[(1000.0, "f_Q2", "1 - N.H")]
+    assert big["max_abs_error"] > 0.5 and big["distinct"] < 20
+    # The cross-product route keeps the lobe within a few percent of its peak and hundreds of levels.
+    good = rows[(1000.0, "f_Q2", "dot(c, c) / (1 + N.H), c = N x H")]
+    assert good["max_abs_error"] < 0.05 and good["distinct"] > 500
+    # cos^n's levels are those of float16 t near 1 at every route: few at n = 1000.
+    assert rows[(1000.0, "cos^n", "1 - N.H")]["distinct"] < 30
+
+
+def test_twin_lobe_of_u_matches_the_lobe_of_t(exported):
+    spec = importlib.util.spec_from_file_location("cosquad_twin_u", exported / "cosquad_twin.py")
+    twin = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(twin)
+    for n in (2.0, 10.0, 100.0, 1000.0):
+        for t in np.linspace(0, 1, 41):
+            assert twin.cosquad_lobe_u(1 - t, n) == pytest.approx(twin.cosquad_lobe(t, n), rel=1e-9, abs=1e-12)

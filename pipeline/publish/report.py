@@ -138,7 +138,12 @@ def write(path: Path, config, doc, r, checks, figures, baseline=None) -> None:
               "## How the coef(n) constants move with the sample", "",
               f"Over the samples of {r['sample']['sample_size']} points below (y rounded), the two-term offset "
               f"ranges from {reg['sensitivity_offset_range'][0]:.4f} to {reg['sensitivity_offset_range'][1]:.4f} "
-              f"and its RMS from {reg['sensitivity_rms_range'][0]:.2g} to {reg['sensitivity_rms_range'][1]:.2g}.",
+              f"and its RMS from {reg['sensitivity_rms_range'][0]:.2g} to {reg['sensitivity_rms_range'][1]:.2g}; the "
+              f"one-term c n has c from {reg['sensitivity_one_term_scale_range'][0]:.6f} to "
+              f"{reg['sensitivity_one_term_scale_range'][1]:.6f} and RMS from "
+              f"{reg['sensitivity_one_term_rms_range'][0]:.4f} to {reg['sensitivity_one_term_rms_range'][1]:.4f}; "
+              f"c n + c + c/n has RMS from {reg['sensitivity_three_term_rms_range'][0]:.2g} to "
+              f"{reg['sensitivity_three_term_rms_range'][1]:.2g}. These spreads set the P14 tolerances.",
               ""] + _sample_table(reg)
     lines += ["", "## The paper's figures, reproduced", ""] + embed(figures, "paper")
     lines += beyond_sections(config, r, figures)

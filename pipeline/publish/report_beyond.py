@@ -122,7 +122,13 @@ def albedo_section(config, r, figures) -> list[str]:
              f"{config['albedo.quadrature_nodes']} nodes per piece). Quadrature error, measured against twice the "
              f"nodes at n = {ns(s['curve_n'])}: {s['quadrature_error']:.1e}. "
              f"Monte Carlo ({config['albedo.mc_samples']} samples per point, {len(s['monte_carlo'])} points) agrees "
-             f"within max |z| = {s['monte_carlo_max_abs_z']:.2f} standard errors. Reciprocity f(L, V) = f(V, L) on "
+             f"within max |z| = {s['monte_carlo_max_abs_z']:.2f} standard errors; that point ("
+             f"{s['monte_carlo_worst_point']['form']} form, n = {s['monte_carlo_worst_point']['n']:g}, "
+             f"{s['monte_carlo_worst_point']['theta_deg']:g} deg) drawn again with "
+             f"{len(s['monte_carlo_worst_point']['rerun_z'])} independent seeds gives z of mean "
+             f"{s['monte_carlo_worst_point']['rerun_mean_z']:+.2f} and standard deviation "
+             f"{s['monte_carlo_worst_point']['rerun_std_z']:.2f}, as an unbiased estimator with a right standard "
+             "error should (0 and 1): the first draw was a tail event, not a bias. Reciprocity f(L, V) = f(V, L) on "
              f"random direction pairs: max relative difference {s['reciprocity_max_rel_dev']:.1e} (both forms are "
              "symmetric in L and V by construction: R(L).V = R(V).L and H is symmetric).", ""] + rows + [""]
     verdict = ("at most 1 at every angle within the quadrature error" if s["phong_exact_coef_max"] <= 1 + 10 * s["quadrature_error"]
@@ -151,7 +157,9 @@ def comparison_section(config, r, figures) -> list[str]:
         lines.append(f"| {row['label']} | {row['formula']} | {row['normalization']} | {pct(row['d'])} | "
                      f"{row['D']:.4f} | {row['albedo_normal_max_abs_dev']:.4f} | {row['albedo_max']:.4f} "
                      f"(n = {row['albedo_max_n']:g}) | {row['ops_pixel_text']} | {row['ops_with_n_text']} |")
-    lines += ["", "The Blinn rows share their lobes' d and D (the error is measured in the lobe's own angle). "
+    lines += ["", "Gotanda's linear normalization (0.0397436 n + 0.0856832) was fitted for his complete Blinn-Phong "
+              "specular model, not for the bare lobe; its row shows what it does when paired with the bare lobe, "
+              "as a shader that borrowed it would.", "", "The Blinn rows share their lobes' d and D (the error is measured in the lobe's own angle). "
               "The approximations of cos^n are shown with cos^n's normalization, as a shader that swaps "
               "out pow() would keep it; their albedo error is then the energy their shape gains or loses.", ""]
     return lines + embed(figures, "lobe_comparison")
@@ -194,6 +202,7 @@ def verdict_section(config, r) -> list[str]:
                  f"calibrated zone level: {a['epicenter_gain']:.2f}x there, "
                  + ", ".join(f"{g:.2f}x at L = {L:g}" for L, g in zip(r["f2_errors"]["zone_levels"], gains)) + ".")
     lines.append("- **Per n, the ranking changes.** " + per_n_text(c) + " ")
+    lines.append("- **Half precision** (table above): " + half_text(r["half_precision"]))
     cost = r["shader_cost"]
     if cost["available"]:
         spirv = {row["lobe"]: row for row in cost["lobes"]}
@@ -222,6 +231,18 @@ def _spirv_text(row) -> str:
     return ", ".join(parts)
 
 
+def half_text(h) -> str:
+    rows = {(row["n"], row["lobe"], row["route"]): row for row in h["rows"]}
+    n = max(row["n"] for row in h["rows"])
+    t, u = "1 - N.H", "dot(c, c) / (1 + N.H), c = N x H"
+    q_t, q_u, c_t = rows[(n, "f_Q2", t)], rows[(n, "f_Q2", u)], rows[(n, "cos^n", t)]
+    return (f"at n = {n:g}, f_Q2 written as k t + (1 - k) from t = N.H takes {q_t['distinct']} values across the "
+            f"highlight and errs by up to {q_t['max_abs_error']:.2g} of its peak (k t and 1 - k cancel in float16), "
+            f"cos^n takes {c_t['distinct']}; f_Q2 written as (1 - k u)^2 with u = dot(c, c) / (1 + N.H), c = N x H takes "
+            f"{q_u['distinct']} values and errs by at most {q_u['max_abs_error']:.2g}. In half precision the "
+            "quadratic lobe is better than pow, provided it is fed u from the cross product.")
+
+
 def per_n_text(c) -> str:
     """Where each lobe beats f_Q2, per n, and what each tends to as n grows."""
     parts = []
@@ -237,6 +258,21 @@ def per_n_text(c) -> str:
                        if name != "cos^n")
     return ("; ".join(parts) + f". As n grows the errors tend to (n = {n_big:g}): {limits}. f_Q2's errors do not "
             "shrink with n; the spherical Gaussians' go to 0.")
+
+
+def half_section(config, r) -> list[str]:
+    h = r["half_precision"]
+    lines = ["## Half precision: banding and error in float16", "",
+             f"Unit vectors N and H at {h['samples']} angles across the visible highlight (cos^n x >= 1/255), "
+             "rounded to float16 and the lobe evaluated in float16 (one rounding per operation), with u = 1 - cos x "
+             "formed two ways: from t = dot(N, H), or as dot(c, c) / (1 + N.H), c = N x H. Distinct values: how many levels "
+             "the lobe takes across the highlight (few levels show as bands). Error: largest absolute difference "
+             "from the float64 lobe (peak 1).", "",
+             "| n | lobe | u from | distinct values | max abs error |", "|---|---|---|---|---|"]
+    for row in h["rows"]:
+        lines.append(f"| {row['n']:g} | {row['lobe']} | {row['route']} | {row['distinct']} | {row['max_abs_error']:.3g} |")
+    return lines + ["", "`shader/cosquad.glsl` exports `cosquad_lobe_u(u, n)` for this route: with "
+                    "`vec3 c = cross(N, H); float u = dot(c, c) / (1.0 + dot(N, H));`.", ""]
 
 
 def cost_section(config, r) -> list[str]:
@@ -288,5 +324,6 @@ def render_section(config, r, figures) -> list[str]:
 
 def sections(config, r, figures) -> list[str]:
     return (exact_section(config, r, figures) + albedo_section(config, r, figures)
-            + comparison_section(config, r, figures) + cost_section(config, r) + verdict_section(config, r)
+            + comparison_section(config, r, figures) + cost_section(config, r) + half_section(config, r)
+            + verdict_section(config, r)
             + render_section(config, r, figures))

@@ -46,6 +46,8 @@ def functions(slope: float, intercept: float, coef_scale: float, coef_offset: fl
 DOCS = {
     "k": "k(n) = slope n + intercept, the lobe's coefficient",
     "lobe": "the lobe ((k (t - 1) + 1)^2, 0 past its zero crossing); t = cos x",
+    "lobe_u": "the same lobe of u = 1 - cos x, for half precision: vec3 c = cross(N, H); "
+              "float u = dot(c, c) / (1.0 + dot(N, H)); (k t + 1 - k cancels in float16 at large n)",
     "coef": "the run's normalization scale (offset + n) (the paper's 0.214 (0.807 + n))",
     "coef_exact": "exact Phong-form normalization 1 / (2 pi Int(n)): albedo 1 at normal incidence",
     "coef_blinn": "exact Blinn-form normalization (t = dot(N, H)), at normal view",
@@ -97,6 +99,11 @@ def render_sources(config, slope, intercept, coef_scale, coef_offset, version_ta
                 lines += [f"// {DOCS['lobe']}", f"float {PREFIX}lobe(float t, float n)"] + body
             py += [f"def {PREFIX}lobe(t, n):", f'    """{DOCS["lobe"]}"""', f"    k = {PREFIX}k(n)",
                    "    b = max(k * t + (1.0 - k), 0.0)", "    return b * b", "", ""]
+            body_u = ["{", f"    float k = {PREFIX}k(n);", "    float b = max(1.0 - k * u, 0.0);", "    return b * b;", "}", ""]
+            for lines in (glsl, hlsl):
+                lines += [f"// {DOCS['lobe_u']}", f"float {PREFIX}lobe_u(float u, float n)"] + body_u
+            py += [f"def {PREFIX}lobe_u(u, n):", f'    """{DOCS["lobe_u"]}"""', f"    k = {PREFIX}k(n)",
+                   "    b = max(1.0 - k * u, 0.0)", "    return b * b", "", ""]
     return {"cosquad.glsl": "\n".join(glsl), "cosquad.hlsl": "\n".join(hlsl),
             "cosquad_twin.py": "\n".join(py).rstrip() + "\n"}
 

@@ -110,7 +110,8 @@ def run(config, inputs, memo):
                                 scale=alt[0] if alt else float("nan"),
                                 offset=alt[1] if alt else float("nan"),
                                 rms=alt[2] if alt else float("nan"),
-                                three_term_rms=_three_term(alt_front)["three_term_rms"]))
+                                three_term_rms=_three_term(alt_front)["three_term_rms"],
+                                one_term_scale=_one_term(alt_front)[0], one_term_rms=_one_term(alt_front)[1]))
     same_kind = [row for row in sensitivity if row["size"] == size and "unrounded" not in row["sample"]]
     mean = float(np.mean(y_s))
     return dict(front=front, coef_scale=scale, coef_offset=offset, coef_rms=rms,
@@ -120,9 +121,20 @@ def run(config, inputs, memo):
                 sensitivity_rms_range=[min(r["rms"] for r in same_kind), max(r["rms"] for r in same_kind)],
                 sensitivity_three_term_rms_range=[min(r["three_term_rms"] for r in same_kind),
                                                   max(r["three_term_rms"] for r in same_kind)],
-                one_term_scale=next((m["coefficients"][0] for m in front if m["terms"] == ["n"]), float("nan")),
-                one_term_rms=next((m["rms"] for m in front if m["terms"] == ["n"]), float("nan")),
+                sensitivity_one_term_scale_range=[min(r["one_term_scale"] for r in same_kind),
+                                                  max(r["one_term_scale"] for r in same_kind)],
+                sensitivity_one_term_rms_range=[min(r["one_term_rms"] for r in same_kind),
+                                                max(r["one_term_rms"] for r in same_kind)],
+                one_term_scale=_one_term(front)[0], one_term_rms=_one_term(front)[1],
                 **_three_term(front))
+
+
+def _one_term(front):
+    """(c, rms) of the model c n on the front (nan if absent)."""
+    for m in front:
+        if m["terms"] == ["n"]:
+            return m["coefficients"][0], m["rms"]
+    return float("nan"), float("nan")
 
 
 def _three_term(front):

@@ -1,0 +1,60 @@
+"""Half precision (beyond the paper): what a mobile shader computing in float16 sees across the
+visible highlight (where cos^n x >= 1/255) at each rendered exponent n.
+
+Pairs of unit vectors N, H at angles x spread over the highlight (random orientations, fixed seed)
+are rounded to float16 and the lobe is evaluated in float16, one rounding per operation (numpy's
+float16 arithmetic), by two routes for u = 1 - cos x:
+
+- "1 - N.H": t = dot(N, H) in float16, then the lobe of t. Near t = 1 float16 steps by 2^-11, so a
+  narrow lobe sees only a few distinct t;
+- "dot(c, c) / (1 + N.H), c = N x H": u from the cross product, which keeps its relative precision at small
+  angles; the quadratic lobe is then (1 - k u)^2 (cos^n must still form 1 - u, which rounds again).
+
+Reported per n and route: the number of distinct values the lobe takes over the highlight (fewer
+means visible bands) and the largest absolute error against the float64 lobe (peak 1).
+"""
+
+import numpy as np
+
+SAMPLES = 20000
+VISIBLE = 1.0 / 255.0
+
+
+def _vectors(x, seed):
+    """Unit vectors N, H (float64) at the angles x between them, in random orientations."""
+    rng = np.random.default_rng(seed)
+    N = rng.normal(size=(len(x), 3))
+    N /= np.linalg.norm(N, axis=1, keepdims=True)
+    r = rng.normal(size=(len(x), 3))
+    r -= np.sum(r * N, axis=1, keepdims=True) * N
+    r /= np.linalg.norm(r, axis=1, keepdims=True)
+    return N, np.cos(x)[:, None] * N + np.sin(x)[:, None] * r
+
+
+def half_lobes(n: float, k: float, seed: int = 0) -> list[dict]:
+    """Rows (lobe, route, distinct values, max absolute error) at exponent n, f_Q2 coefficient k."""
+    x = np.linspace(0.0, np.arccos(VISIBLE ** (1.0 / n)), SAMPLES)
+    N, H = (v.astype(np.float16) for v in _vectors(x, seed))
+    one, zero, k16 = np.float16(1), np.float16(0), np.float16(k)
+    t = np.sum(N * H, axis=1, dtype=np.float16)
+    cross = np.cross(N, H).astype(np.float16)
+    u = (np.sum(cross * cross, axis=1, dtype=np.float16) / (one + t)).astype(np.float16)
+    quad_t = np.maximum(k16 * t + (one - k16), zero)
+    quad_u = np.maximum(one - k16 * u, zero)
+    # GPUs evaluate pow through exp2(n log2(t)) at higher precision and round the result: so here.
+    values = {
+        ("cos^n", "1 - N.H"): np.power(np.clip(t, 0, 1).astype(np.float32), np.float32(n)).astype(np.float16),
+        ("cos^n", "dot(c, c) / (1 + N.H), c = N x H"): np.power((one - u).astype(np.float32), np.float32(n)).astype(np.float16),
+        ("f_Q2", "1 - N.H"): (quad_t * quad_t).astype(np.float16),
+        ("f_Q2", "dot(c, c) / (1 + N.H), c = N x H"): (quad_u * quad_u).astype(np.float16),
+    }
+    exact = {"cos^n": np.cos(x) ** n, "f_Q2": np.maximum(1.0 - k * (1.0 - np.cos(x)), 0.0) ** 2}
+    return [dict(n=float(n), lobe=lobe, route=route, distinct=int(len(np.unique(v))),
+                 max_abs_error=float(np.max(np.abs(v.astype(np.float64) - exact[lobe]))))
+            for (lobe, route), v in values.items()]
+
+
+def run(config, inputs, memo):
+    a, b = inputs["linear_coefficient.slope_used"], inputs["linear_coefficient.intercept_used"]
+    rows = [row for n in config["render.exponents"] for row in half_lobes(float(n), a * float(n) + b)]
+    return dict(rows=rows, samples=SAMPLES)
