@@ -40,7 +40,8 @@ def _choices(config, r) -> list[str]:
         f"n = {config['derivation.n_min']} is {lin['intercept_at_bound']:.6f}. Downstream constants: "
         f"**{config['derivation.constants']}**, k = {lin['slope_used']:g} n + {lin['intercept_used']:g}.",
         f"- **f_Q at large n**: max d of f_Q (Q = {Q_used:g}) grows with n; at n = 10^6 it is "
-        f"{_pct(r['accuracy']['d_f_Q_large_n'])}, its supremum to 1e-6.",
+        f"{_pct(next(row['d'] for row in r['lobe_comparison']['large_n'] if row['lobe'] == f'f_Q, Q = {Q_used:g}' and row['n'] == 1e6))}"
+        ", its supremum to 1e-6 (`lobe_comparison.large_n`).",
         f"- **Energy dataset**: Int(n) by {config['energy.quadrature_nodes']}-node Gauss-Legendre "
         f"quadrature over [0, gran(n)] for every n; the lobe's zero crossing lies past the horizon "
         f"(k < 1) for n = {ns(e['lobe_below_horizon_n'])}, where the paper's integral "

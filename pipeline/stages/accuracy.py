@@ -13,7 +13,6 @@ from .common import n_range
 from .f2_errors import quadratic_errors, summary
 
 FIG5_N = 20.0
-LARGE_N = 1e6
 
 
 def run(config, inputs, memo):
@@ -29,10 +28,6 @@ def run(config, inputs, memo):
     d_f_2, D_f_2 = inputs["f2_errors.d_f_2"], inputs["f2_errors.D_f_2"]
     out["epicenter_gain"] = d_f_2 / out["d_f_Q2"]
     out["zone_gain"] = np.asarray(inputs["f2_errors.zone_d_f_2"]) / out["zone_d_f_Q2"]
-    # d of f_Q grows with n towards its supremum; at n = 10^6 it is within 1e-6 of it.
-    large = np.array([LARGE_N])
-    out["d_f_Q_large_n"] = float(quadratic_errors(large, np.asarray(jax.jit(k_Q)(large, inputs["q_choice.Q_used"])),
-                                                  level, [], **solver)["d"][0])
     out["absolute_gain"] = D_f_2 / out["D_f_Q2"]
 
     # Where f_Q attains its max D: outside the epicenter zone means the blooming zone (P4).

@@ -18,7 +18,7 @@ from ..roots import SolverSettings
 from .common import n_range, require_converged, runs_of
 
 QUADRATURE_CHECK_N = (2.0, 10.0, 100.0, 1000.0)
-LARGE_N = (1e4, 1e5)        # where the errors are reported as their limits
+LARGE_N = (1e4, 1e6)        # where the errors are reported as their limits
 LOBE_KEYS = ("cos^n", "f_2", "f_Q used", "f_Q best", "f_Q2", "Schlick", "SG", "SG (Lagarde)")
 
 # (row label, form, lobe name, normalization name): each approximation of cos^n is paired with
@@ -82,10 +82,15 @@ def run(config, inputs, memo):
                                        inputs["hemispherical.coef_offset_used"])
     cells = config["comparison.grid_cells"]
 
-    shapes, lobe_rows = {}, []
+    shapes, lobe_rows, large_n = {}, [], []
+    # The large n are evaluated with the range, in one call (one compiled program).
+    n_ext = np.concatenate([n, LARGE_N])
     for key, lobe in lobes.items():
-        m = memo("shape_errors", shape_errors, shape=lobe.shape, n=n, p=np.asarray(lobe.param(n), dtype=np.float64),
-                 level=level, cells=cells, **solver)
+        m = memo("shape_errors", shape_errors, shape=lobe.shape, n=n_ext,
+                 p=np.asarray(lobe.param(n_ext), dtype=np.float64), level=level, cells=cells, **solver)
+        large_n += [dict(lobe=lobe.name, n=float(v), d=float(d), D=float(D))
+                    for v, d, D in zip(LARGE_N, m["d"][len(n):], m["D"][len(n):])]
+        m = {name: m[name][: len(n)] for name in ("d", "D")}
         pixel, material = cheap_lobes.count_operations(lobe.expr)
         shapes[key] = dict(d=float(m["d"].max()), D=float(m["D"].max()), d_curve=m["d"], D_curve=m["D"],
                            ops_pixel=pixel, ops_material=material)
@@ -135,12 +140,6 @@ def run(config, inputs, memo):
             ours, theirs = shapes["f_Q2"][f"{measure}_curve"], shapes[key][f"{measure}_curve"]
             per_n.append(dict(lobe=lobes[key].name, measure=measure, f_Q2_better=runs_of(ours < theirs, n),
                               other_better=runs_of(theirs < ours, n)))
-    large = np.array(LARGE_N)
-    large_n = []
-    for key, lobe in lobes.items():
-        m = memo("shape_errors", shape_errors, shape=lobe.shape, n=large,
-                 p=np.asarray(lobe.param(large), dtype=np.float64), level=level, cells=cells, **solver)
-        large_n += [dict(lobe=lobe.name, n=float(v), d=float(d), D=float(D)) for v, d, D in zip(large, m["d"], m["D"])]
 
     out = dict(lobes=lobe_rows, rows=rows, quadrature_error=quad_error, per_n=per_n, large_n=large_n,
                d_curves=np.stack([shapes[k]["d_curve"] for k in LOBE_KEYS]),
