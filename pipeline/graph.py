@@ -250,7 +250,7 @@ STAGES: tuple[Stage, ...] = (
         "d_curves": "d per n of each lobe, in the order of `lobes` [array lobes x n, fraction]",
         "D_curves": "D per n of each lobe [array lobes x n, absolute]",
         "quadrature_error": "largest change of an albedo table with twice the nodes [absolute]",
-        "per_n": "per lobe and measure (d, D): [first, last] n where f_Q2 is better, and where the other is [list]",
+        "per_n": "per pair of lobes and measure (d, D): the [first, last] n where each is better [list]",
         "large_n": "d and D of every lobe at n = 10^4 and 10^6, their limits as n grows (within 1e-6) [list]",
     }),
     _stage("half_precision", "beyond", ("render.exponents",),

@@ -223,3 +223,19 @@ def test_monte_carlo_worst_point_is_a_tail_event_not_a_bias(paper_run):
     # degrees of freedom: outside with probability < 1e-3).
     assert len(w["rerun_z"]) == 16
     assert abs(w["rerun_mean_z"]) < 1.0 and 0.5 < w["rerun_std_z"] < 1.6
+
+
+def test_per_n_ranges_against_the_curves(paper_run, n_all):
+    c = paper_run["lobe_comparison"]
+    names = [lobe["name"] for lobe in c["lobes"]]
+    for row in c["per_n"]:
+        i, j = names.index(row["lobe_a"]), names.index(row["lobe_b"])
+        curves = c["d_curves"] if row["measure"] == "d" else c["D_curves"]
+        better = curves[i] < curves[j]
+        covered = np.zeros(len(n_all), bool)
+        for lo, hi in row["a_better"]:
+            covered |= (n_all >= lo) & (n_all <= hi)
+        np.testing.assert_array_equal(covered, better)
+    # The spherical Gaussian overtakes f_Q2 on d at some n and stays ahead to n_max.
+    sg = next(r for r in c["per_n"] if r["lobe_a"] == "f_Q2" and r["lobe_b"] == "SG" and r["measure"] == "d")
+    assert sg["b_better"][-1][1] == n_all[-1] and sg["a_better"][0][0] == n_all[0]

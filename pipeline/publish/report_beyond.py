@@ -247,9 +247,9 @@ def per_n_text(c) -> str:
     """Where each lobe beats f_Q2, per n, and what each tends to as n grows."""
     parts = []
     for row in c["per_n"]:
-        if row["other_better"] and row["f_Q2_better"]:
-            parts.append(f"{row['lobe']} beats f_Q2 on {row['measure']} for n = {ranges(row['other_better'])} "
-                         f"(f_Q2 is better for n = {ranges(row['f_Q2_better'])})")
+        if row["lobe_a"] == "f_Q2" and row["b_better"] and row["a_better"]:
+            parts.append(f"{row['lobe_b']} beats f_Q2 on {row['measure']} for n = {ranges(row['b_better'])} "
+                         f"(f_Q2 is better for n = {ranges(row['a_better'])})")
     large = {}
     for row in c["large_n"]:
         large[row["lobe"]] = row        # the largest n listed last

@@ -131,15 +131,15 @@ def run(config, inputs, memo):
                          ops_pixel=shape["ops_pixel"], ops_with_n_per_pixel=per_pixel_n,
                          ops_pixel_text=_short(shape["ops_pixel"]), ops_with_n_text=_short(per_pixel_n)))
 
-    # Per n: where f_Q2 is better than each other lobe, and where the other is; and the errors at large n.
+    # Per n, for each pair of lobes (f_Q2 first): where each is better on d and on D.
+    order = ["f_Q2"] + [key for key in LOBE_KEYS if key not in ("cos^n", "f_Q2")]
     per_n = []
-    for key in LOBE_KEYS:
-        if key in ("cos^n", "f_Q2"):
-            continue
-        for measure in ("d", "D"):
-            ours, theirs = shapes["f_Q2"][f"{measure}_curve"], shapes[key][f"{measure}_curve"]
-            per_n.append(dict(lobe=lobes[key].name, measure=measure, f_Q2_better=runs_of(ours < theirs, n),
-                              other_better=runs_of(theirs < ours, n)))
+    for i, key_a in enumerate(order):
+        for key_b in order[i + 1:]:
+            for measure in ("d", "D"):
+                a_, b_ = shapes[key_a][f"{measure}_curve"], shapes[key_b][f"{measure}_curve"]
+                per_n.append(dict(lobe_a=lobes[key_a].name, lobe_b=lobes[key_b].name, measure=measure,
+                                  a_better=runs_of(a_ < b_, n), b_better=runs_of(b_ < a_, n)))
 
     out = dict(lobes=lobe_rows, rows=rows, quadrature_error=quad_error, per_n=per_n, large_n=large_n,
                d_curves=np.stack([shapes[k]["d_curve"] for k in LOBE_KEYS]),
