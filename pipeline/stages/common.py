@@ -1,6 +1,5 @@
 """Helpers shared by the stages: the exponent range and the vectorized error measures."""
 
-import functools
 
 from ..numerics import jax
 import jax.numpy as jnp
