@@ -51,7 +51,7 @@ def _choices(config, r) -> list[str]:
         f"{config['sample.spread_count']} evenly spaced from {config['sample.spread_from']}) is chosen so "
         f"that the sample's mean y and RMS spread match TuringBot's size-1 row: here "
         f"{e['sample_mean_y']:.4f} and {e['sample_std_y']:.4f} (paper 48.259 and 66.453671).",
-        f"- **Sparse regression**: pysindy STLSQ over the library {config['regression.library']}, "
+        f"- **Sparse regression**: pysindy STLSQ over the library {', '.join(config['regression.library'])}, "
         f"{config['regression.threshold_count']} thresholds log-spaced in [{config['regression.threshold_min']:g}, "
         f"{config['regression.threshold_max']:g}]; two-term model {reg['coef_scale']:.8f} "
         f"({reg['coef_offset']:.8f} + n), RMS {reg['coef_rms']:.6g}.",
