@@ -168,3 +168,16 @@ def test_a_figure_reading_an_undeclared_config_key_is_an_error(paper_config):
     assert view["render.resolution"] == 512
     with pytest.raises(KeyError, match="figure read config key 'derivation.Q', which it does not declare"):
         view["derivation.Q"]
+
+
+@pytest.mark.slow
+def test_a_damaged_figure_entry_is_redrawn(cache, tmp_path, paper_config):
+    from pipeline.publish.figures import FIGURE_CACHE
+    run_derivation(paper_config, cache_dir=cache.root, outputs=tmp_path, log=lambda s: None)
+    entry = next(p for p in (cache.root / FIGURE_CACHE).iterdir()
+                 if not p.name.startswith(".") and (p / "files.txt").read_text() == "fig5_lobes_n20.png")
+    (entry / "fig5_lobes_n20.png").unlink()
+    (tmp_path / "paper" / ".stamp").unlink()          # force the outputs to be written again
+    run_derivation(paper_config, cache_dir=cache.root, outputs=tmp_path, log=lambda s: None)
+    assert (tmp_path / "paper" / "fig5_lobes_n20.png").stat().st_size > 10_000
+    assert (entry / "fig5_lobes_n20.png").is_file()

@@ -129,12 +129,24 @@ class FigureDrawer:
         self.pending = {}
         self.pool: ProcessPoolExecutor | None = None
 
+    def _stored(self, key: str) -> list[str] | None:
+        """The files of a complete cache entry, or None (an incomplete one is removed, to be redrawn)."""
+        folder = self.folder / key
+        try:
+            files = (folder / "files.txt").read_text().split()
+        except OSError:
+            return None
+        if files and all((folder / name).is_file() for name in files):
+            return files
+        shutil.rmtree(folder, ignore_errors=True)
+        return None
+
     def update(self, results, stage_keys) -> None:
         for f in FIGURES:
             if f.file in self.keys or not all(s in results for s in f.stages):
                 continue
             key = self.keys[f.file] = figure_key(f, self.config, stage_keys)
-            if (self.folder / key / "files.txt").is_file():
+            if self._stored(key) is not None:
                 continue
             if self.pool is None:
                 self.pool = ProcessPoolExecutor(1, mp_context=multiprocessing.get_context("spawn"))
@@ -151,8 +163,12 @@ class FigureDrawer:
         sections: dict[str, list[tuple[str, str]]] = {}
         for f in FIGURES:
             stored = self.folder / self.keys[f.file]
+            files = self._stored(self.keys[f.file])
+            if files is None:       # removed meanwhile (a prune, a damaged entry): draw it here
+                files = draw_into_cache(f, self.folder, self.keys[f.file], FigureConfig(self.config, f.config),
+                                        {stage: results[stage] for stage in f.stages})
             os.utime(stored)            # last use, for `pipeline cache --prune`
-            for name in (stored / "files.txt").read_text().split():
+            for name in files:
                 shutil.copyfile(stored / name, out / name)
                 n = name.split("_n")[-1][:-4] if "{n}" in f.file else ""
                 sections.setdefault(f.section, []).append((name, f.caption.format(n=n)))
