@@ -171,8 +171,10 @@ def test_a_figure_reading_an_undeclared_config_key_is_an_error(paper_config):
 
 
 @pytest.mark.slow
-def test_a_damaged_figure_entry_is_redrawn(cache, tmp_path, paper_config):
+def test_a_damaged_figure_entry_is_redrawn(paper_run, paper_cache, tmp_path, paper_config):
     from pipeline.publish.figures import FIGURE_CACHE
+    cache = Cache(tmp_path / "cache")
+    shutil.copytree(paper_cache, cache.root)
     run_derivation(paper_config, cache_dir=cache.root, outputs=tmp_path, log=lambda s: None)
     entry = next(p for p in (cache.root / FIGURE_CACHE).iterdir()
                  if not p.name.startswith(".") and (p / "files.txt").read_text() == "fig5_lobes_n20.png")
