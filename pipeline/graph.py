@@ -271,7 +271,12 @@ STAGES: tuple[Stage, ...] = (
         "scenes": "rendered scenes [list]",
         "display": "displayed images: scene x n x lobe x H x W x RGB [array, uint8 sRGB]",
         "luminance": "linear luminance: scene x n x lobe x H x W [array, float32]",
-        "statistics": "per scene, n, candidate lobe: image errors against the reference [list]",
+        "statistics": "per scene, n, candidate lobe: image errors against the reference (epicenter relative "
+                      "error, FLIP over the frame and the visible highlight, absolute error, PSNR) [list]",
+        "flip_maps": "FLIP error maps: scene x n x candidate x H x W [array, float16 in [0, 1]]",
+        "visible_areas": "per scene and n: pixels of each lobe's visible highlight [list, pixels]",
+        "flip_f_Q2_max": "worst mean FLIP of f_Q2 over the visible highlight [in [0, 1]]",
+        "flip_f_2_max": "worst mean FLIP of f_2 over the visible highlight [in [0, 1]]",
         "psnr_f_Q2_min": "worst PSNR of f_Q2's displayed images [dB]",
         "psnr_f_2_min": "worst PSNR of f_2's displayed images [dB]",
     }),

@@ -80,9 +80,8 @@ def geometry(scene: Scene, resolution: int):
     return hit, position, normal, -direction, albedo, on_sphere
 
 
-@functools.partial(jax.jit, static_argnames=("scene", "resolution", "shape"))
-def shade(scene: Scene, resolution: int, shape: str, p, coef):
-    """Linear RGB radiance [res, res, 3] with the Blinn-form lobe `SHAPES[shape](u, p)` normalized by coef."""
+def _surface(scene: Scene, resolution: int):
+    """Per pixel: (hit, albedo, irradiance E max(N.L, 0) with the shadow, t = N.H clamped to [0, 1])."""
     hit, position, normal, V, albedo, on_sphere = geometry(scene, resolution)
     L = _normalize(jnp.array(scene.light))
     n_dot_l = jnp.maximum(normal @ L, 0.0)
@@ -90,17 +89,25 @@ def shade(scene: Scene, resolution: int, shape: str, p, coef):
     shadowed = (~on_sphere) & jnp.isfinite(_hit_sphere(position + 1e-6 * normal, jnp.broadcast_to(L, position.shape)))
     H = _normalize(V + L)
     t = jnp.clip(jnp.sum(normal * H, axis=-1), 0.0, 1.0)
-    specular = SPECULAR * coef * SHAPES[shape](1.0 - t, p)
     lit = IRRADIANCE * n_dot_l * jnp.where(shadowed, 0.0, 1.0)
+    return hit, albedo, lit, t
+
+
+@functools.partial(jax.jit, static_argnames=("scene", "resolution", "shape"))
+def shade(scene: Scene, resolution: int, shape: str, p, coef):
+    """Linear RGB radiance [res, res, 3] with the Blinn-form lobe `SHAPES[shape](u, p)` normalized by coef."""
+    hit, albedo, lit, t = _surface(scene, resolution)
+    specular = SPECULAR * coef * SHAPES[shape](1.0 - t, p)
     radiance = lit[..., None] * (albedo / np.pi + specular[..., None])
     return jnp.where(hit[..., None], radiance, jnp.array(BACKGROUND))
 
 
-@jax.jit
-def highlight_mask(reference, base, level):
-    """The highlight's epicenter: where the reference's specular luminance is at least `level` of its peak."""
-    spec = luminance(reference - base)
-    return spec >= level * jnp.max(spec)
+@functools.partial(jax.jit, static_argnames=("scene", "resolution"))
+def epicenter_mask(scene: Scene, resolution: int, n, level):
+    """The epicenter zone on the image: lit pixels where the reference lobe cos^n(N.H) >= level, as d
+    is defined (so the relative error there is bounded by the lobe's d at this n)."""
+    hit, albedo, lit, t = _surface(scene, resolution)
+    return hit & (lit > 0.0) & (t ** n >= level)
 
 
 @jax.jit

@@ -67,7 +67,7 @@ FIGURES = (
            ("lobe_comparison",), RANGE),
     Figure("render_n{n}.png", "Renders at n = {n}: reference, f_2, f_Q2", "render", "renders", ("render",),
            ("render.*",)),
-    Figure("render_errors_n{n}.png", "Render errors at n = {n}", "render", "render_errors", ("render",),
+    Figure("render_errors_n{n}.png", "Render errors at n = {n}: FLIP maps and absolute error", "render", "render_errors", ("render",),
            ("render.exponents",)),
 )
 

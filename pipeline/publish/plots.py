@@ -398,29 +398,37 @@ def renders(out, config, r):
 
 
 def render_errors(out, config, r):
-    """Per exponent: relative and absolute luminance error of each candidate, with colour bars."""
+    """Per exponent: FLIP error maps and absolute luminance errors of each candidate, each kind on one
+    colour scale shared by the lobes and scenes of the figure."""
     s = r["render"]
     names = []
     candidates = [l for l, lobe in enumerate(s["lobes"]) if lobe != "cos^n"]
     for j, n in enumerate(config["render.exponents"]):
+        absolute = {(i, l): np.abs(s["luminance"][i, j, l].astype(np.float64) - s["luminance"][i, j, 0])
+                    for i in range(len(s["scenes"])) for l in candidates}
+        vmax = max(float(v.max()) for v in absolute.values()) or 1.0
         fig, axes = plt.subplots(len(candidates), 2 * len(s["scenes"]),
                                  figsize=(4.2 * 2 * len(s["scenes"]), 3.8 * len(candidates)), squeeze=False)
         for row, l in enumerate(candidates):
             for i, scene in enumerate(s["scenes"]):
-                ref = s["luminance"][i, j, 0].astype(np.float64)
-                cand = s["luminance"][i, j, l].astype(np.float64)
-                rel = np.where(ref > 1e-3, np.abs(cand - ref) / np.maximum(ref, 1e-3), 0.0)
-                for col, (data, label, cmap) in enumerate(((100 * np.minimum(rel, 1.0), "relative error (%), capped at 100", "magma"),
-                                                           (np.abs(cand - ref), "absolute error (linear luminance)", "viridis"))):
+                flip = s["flip_maps"][i, j, l - 1].astype(np.float32)
+                stats = next(x for x in s["statistics"] if x["scene"] == scene and x["n"] == n
+                             and x["lobe"] == s["lobes"][l])
+                panels = ((flip, f"FLIP (mean {stats['flip_frame']:.3f} frame, {stats['flip_highlight']:.3f} highlight)",
+                           "magma", 1.0),
+                          (absolute[i, l], "absolute luminance error (linear)", "viridis", vmax))
+                for col, (data, label, cmap, top) in enumerate(panels):
                     ax = axes[row, 2 * i + col]
-                    im = ax.imshow(data, cmap=cmap, interpolation="nearest")
+                    im = ax.imshow(data, cmap=cmap, vmin=0.0, vmax=top, interpolation="nearest")
                     ax.set_axis_off()
-                    ax.set_title(f"{s['lobes'][l]}, {scene}: {label}", fontsize=8)
+                    ax.set_title(f"{s['lobes'][l]}, {scene}:\n{label}", fontsize=8)
                     fig.colorbar(im, ax=ax, fraction=0.046, pad=0.02)
-        fig.suptitle(f"n = {n:g}: error against the reference cos^n", fontsize=10)
-        fig.subplots_adjust(left=0.01, right=0.97, bottom=0.02, top=0.9, wspace=0.15, hspace=0.15)
+        fig.suptitle(f"n = {n:g}: error against the reference cos^n (each kind on one shared scale)", fontsize=10)
+        fig.subplots_adjust(left=0.01, right=0.97, bottom=0.02, top=0.88, wspace=0.15, hspace=0.25)
         name = f"render_errors_n{n:g}.png"
         fig.savefig(out / name, dpi=90, pil_kwargs=FAST_PNG)
         plt.close(fig)
         names.append(name)
     return names
+
+

@@ -40,6 +40,8 @@ HEADLINE = {
     "schlick_D": "lobe_comparison.D_schlick",
     "sg_d": "lobe_comparison.d_sg",
     "sg_D": "lobe_comparison.D_sg",
+    "render_flip_f_Q2_max": "render.flip_f_Q2_max",
+    "render_flip_f_2_max": "render.flip_f_2_max",
     "render_psnr_f_Q2_min": "render.psnr_f_Q2_min",
     "render_psnr_f_2_min": "render.psnr_f_2_min",
 }

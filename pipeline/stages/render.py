@@ -4,18 +4,40 @@ exponents of `render.exponents`. render.normalization = "reference" gives every 
 factor (equal peaks: the images differ by shape alone); "exact" gives each its own exact
 Blinn-form normalization (`pipeline.exact`; equal energy at normal view).
 
-Stored: the displayed images (sRGB, 8 bit), the linear luminance of each (for the heatmaps), and
-the image-space error statistics of each candidate against the reference.
+Per scene, exponent and candidate lobe, against the reference:
+- the relative error of luminance in the epicenter zone, where the reference lobe cos^n(N.H) >= L
+  (as d is defined: with equal normalizations it cannot exceed the lobe's d at that n);
+- NVIDIA's FLIP (flip-evaluator, LDR, on the displayed 8-bit images as floats in [0, 1]) over the
+  frame and over the visible highlight, and its error map;
+- the area of each lobe's visible highlight: pixels its specular term brightens by at least one
+  8-bit display level, and how the FLIP error splits between the epicenter, the rest of the
+  visible highlight (the blooming zone) and elsewhere;
+- absolute error of linear radiance and the PSNR of the displayed images, as before.
 """
 
 from ..numerics import jax  # noqa: F401  (float64 before any array)
+import flip_evaluator
 import numpy as np
 
 from .. import exact
 from ..cheap_lobes import giesen
-from ..render import SCENES, display_and_luminance, highlight_mask, image_statistics, shade
+from ..render import SCENES, display_and_luminance, epicenter_mask, image_statistics, shade
 
 LOBES = ("cos^n", "f_2", "f_Q2")
+LUMINANCE = np.array([0.2126, 0.7152, 0.0722])
+
+
+def flip_map(reference8, test8) -> np.ndarray:
+    """FLIP error map (values in [0, 1]) of two 8-bit sRGB images, passed as floats (uint8 input would
+    be silently misread)."""
+    err, _, _ = flip_evaluator.evaluate(reference8.astype(np.float32) / 255.0, test8.astype(np.float32) / 255.0,
+                                        "LDR", applyMagma=False)
+    return np.asarray(err)[..., 0]
+
+
+def visible(image8, base8) -> np.ndarray:
+    """Pixels where an image is at least one 8-bit level brighter than the image without specular."""
+    return (image8.astype(np.float64) - base8.astype(np.float64)) @ LUMINANCE >= 1.0
 
 
 def run(config, inputs, memo):
@@ -32,21 +54,39 @@ def run(config, inputs, memo):
                 "f_2": ("quadratic", n / 2.0, float(blinn_coef(n, 0.5, 0.0)) if own else giesen(n)),
                 "f_Q2": ("quadratic", a * n + b, float(blinn_coef(n, a, b)) if own else giesen(n))}
 
-    display = np.zeros((len(SCENES), len(exponents), len(LOBES), res, res, 3), dtype=np.uint8)
-    lum = np.zeros((len(SCENES), len(exponents), len(LOBES), res, res), dtype=np.float32)
-    stats = []
+    shape = (len(SCENES), len(exponents))
+    display = np.zeros(shape + (len(LOBES), res, res, 3), dtype=np.uint8)
+    lum = np.zeros(shape + (len(LOBES), res, res), dtype=np.float32)
+    flip_maps = np.zeros(shape + (len(LOBES) - 1, res, res), dtype=np.float16)
+    stats, areas = [], []
     for i, scene in enumerate(SCENES):
-        base = shade(scene, res, "power", 1.0, 0.0)
+        base8 = np.asarray(display_and_luminance(shade(scene, res, "power", 1.0, 0.0))[0])
         for j, n in enumerate(exponents):
-            images = {name: shade(scene, res, shape, p, coef) for name, (shape, p, coef) in lobes(n).items()}
+            images = {name: shade(scene, res, shape_, p, coef) for name, (shape_, p, coef) in lobes(n).items()}
             ref = images["cos^n"]
-            highlight = highlight_mask(ref, base, level)
+            epicenter = epicenter_mask(scene, res, n, level)
             for l, name in enumerate(LOBES):
                 display[i, j, l], lum[i, j, l] = (np.asarray(v) for v in display_and_luminance(images[name]))
-                if name != "cos^n":
-                    stats.append(dict(scene=scene.name, n=n, lobe=name, coef=float(lobes(n)[name][2]),
-                                      highlight_pixels=int(np.sum(np.asarray(highlight))),
-                                      **image_statistics(images[name], ref, highlight)))
+            seen = {name: visible(display[i, j, l], base8) for l, name in enumerate(LOBES)}
+            areas.append(dict(scene=scene.name, n=n, **{name: int(v.sum()) for name, v in seen.items()}))
+            for l, name in enumerate(LOBES[1:], 1):
+                fmap = flip_map(display[i, j, 0], display[i, j, l])
+                flip_maps[i, j, l - 1] = fmap
+                region = seen["cos^n"] | seen[name]
+                core = np.asarray(epicenter)
+                total = float(fmap.sum())
+                stats.append(dict(scene=scene.name, n=n, lobe=name, coef=float(lobes(n)[name][2]),
+                                  epicenter_pixels=int(np.sum(np.asarray(epicenter))),
+                                  flip_frame=float(fmap.mean()), flip_highlight=float(fmap[region].mean()),
+                                  # Where the FLIP error lies: epicenter, rest of the visible highlight, elsewhere.
+                                  flip_share_epicenter=float(fmap[core].sum()) / total,
+                                  flip_share_blooming=float(fmap[region & ~core].sum()) / total,
+                                  flip_share_elsewhere=float(fmap[~region & ~core].sum()) / total,
+                                  highlight_pixels=int(region.sum()),
+                                  **image_statistics(images[name], ref, epicenter)))
     return dict(lobes=list(LOBES), scenes=[s.name for s in SCENES], display=display, luminance=lum,
-                statistics=stats, psnr_f_Q2_min=min(s["psnr"] for s in stats if s["lobe"] == "f_Q2"),
+                flip_maps=flip_maps, statistics=stats, visible_areas=areas,
+                flip_f_Q2_max=max(s["flip_highlight"] for s in stats if s["lobe"] == "f_Q2"),
+                flip_f_2_max=max(s["flip_highlight"] for s in stats if s["lobe"] == "f_2"),
+                psnr_f_Q2_min=min(s["psnr"] for s in stats if s["lobe"] == "f_Q2"),
                 psnr_f_2_min=min(s["psnr"] for s in stats if s["lobe"] == "f_2"))
