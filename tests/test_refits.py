@@ -146,20 +146,41 @@ def test_rms_metric_optimum_is_a_minimum(cache):
     assert rms_1000(Q - 0.002) > rms_1000(Q) < rms_1000(Q + 0.002)
 
 
+@pytest.fixture(scope="module")
+def paper_outputs(cache, paper_config, tmp_path_factory):
+    """The paper's run with its outputs (figures drawn into the module's cache), once per module."""
+    out = tmp_path_factory.mktemp("paper_outputs")
+    base = run_derivation(paper_config, cache_dir=cache.root, outputs=out, log=lambda s: None)
+    return out, base
+
+
 @pytest.mark.slow
-def test_a_figure_is_redrawn_only_when_what_it_shows_changes(cache, tmp_path, paper_config):
+def test_a_figure_is_redrawn_only_when_what_it_shows_changes(cache, paper_outputs):
     from pipeline.publish.figures import FIGURE_CACHE
-    run_derivation(paper_config, cache_dir=cache.root, outputs=tmp_path, log=lambda s: None)
+    out, _ = paper_outputs
     folder = cache.root / FIGURE_CACHE
     before = {p.name for p in folder.iterdir() if not p.name.startswith(".")}
     config = pipeline.load_config(paths.PAPER_CONFIG, ("scan.curve_points=101",), name="curves")
-    run_derivation(config, cache_dir=cache.root, outputs=tmp_path, log=lambda s: None)
+    run_derivation(config, cache_dir=cache.root, outputs=out, log=lambda s: None)
     new = {p.name for p in folder.iterdir() if not p.name.startswith(".")} - before
     drawn = {(folder / key / "files.txt").read_text() for key in new}
     assert drawn == {"fig2_d_vs_Q.png", "fig3_D_vs_Q.png"}      # the two figures of the scan's curves
     # The copied figures are the paper run's files, byte for byte.
     for name in ("fig6_fQ2_errors.png", "render_n100.png"):
-        assert (tmp_path / "curves" / name).read_bytes() == (tmp_path / "paper" / name).read_bytes()
+        assert (out / "curves" / name).read_bytes() == (out / "paper" / name).read_bytes()
+
+
+@pytest.mark.slow
+def test_a_damaged_figure_entry_is_redrawn(cache, paper_outputs, paper_config):
+    from pipeline.publish.figures import FIGURE_CACHE, FIGURES, figure_key
+    out, base = paper_outputs
+    fig5 = next(f for f in FIGURES if f.file == "fig5_lobes_n20.png")
+    entry = cache.root / FIGURE_CACHE / figure_key(fig5, paper_config, base.keys)
+    (entry / "fig5_lobes_n20.png").unlink()
+    (out / "paper" / ".stamp").unlink()          # force the outputs to be written again
+    run_derivation(paper_config, cache_dir=cache.root, outputs=out, log=lambda s: None)
+    assert (out / "paper" / "fig5_lobes_n20.png").stat().st_size > 10_000
+    assert (entry / "fig5_lobes_n20.png").is_file()
 
 
 def test_a_figure_reading_an_undeclared_config_key_is_an_error(paper_config):
@@ -168,18 +189,3 @@ def test_a_figure_reading_an_undeclared_config_key_is_an_error(paper_config):
     assert view["render.resolution"] == 512
     with pytest.raises(KeyError, match="figure read config key 'derivation.Q', which it does not declare"):
         view["derivation.Q"]
-
-
-@pytest.mark.slow
-def test_a_damaged_figure_entry_is_redrawn(paper_run, paper_cache, tmp_path, paper_config):
-    from pipeline.publish.figures import FIGURE_CACHE
-    cache = Cache(tmp_path / "cache")
-    shutil.copytree(paper_cache, cache.root)
-    run_derivation(paper_config, cache_dir=cache.root, outputs=tmp_path, log=lambda s: None)
-    entry = next(p for p in (cache.root / FIGURE_CACHE).iterdir()
-                 if not p.name.startswith(".") and (p / "files.txt").read_text() == "fig5_lobes_n20.png")
-    (entry / "fig5_lobes_n20.png").unlink()
-    (tmp_path / "paper" / ".stamp").unlink()          # force the outputs to be written again
-    run_derivation(paper_config, cache_dir=cache.root, outputs=tmp_path, log=lambda s: None)
-    assert (tmp_path / "paper" / "fig5_lobes_n20.png").stat().st_size > 10_000
-    assert (entry / "fig5_lobes_n20.png").is_file()
