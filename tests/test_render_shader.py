@@ -116,7 +116,8 @@ layout(location = 0) out vec4 color;
 void main() {
     float n = 100.0;
     color = vec4(cosquad_coef_blinn(n) * cosquad_lobe(0.99, n), cosquad_coef(n), cosquad_coef_exact(n),
-                 cosquad_k(n));
+                 cosquad_k(n) + cosquad_lobe_u(0.01, n) + cosquad_pdf(0.99, n)
+                 + cosquad_sample(vec2(0.3, 0.7), vec3(0.0, 0.0, 1.0), n).x);
 }
 """)
     done = subprocess.run([validator, str(frag)], capture_output=True, text=True)
@@ -214,3 +215,21 @@ def test_flip_statistics_against_flip_on_the_stored_images(paper_run):
     # Identical images have FLIP 0; the candidates differ from the reference in the highlight.
     assert flip_evaluator.evaluate(ref, ref, "LDR", applyMagma=False)[1] == 0.0
     assert s["flip_highlight"] > s["flip_frame"] > 0.0
+
+
+def test_exported_sampler_matches_the_pipelines(exported):
+    from pipeline import sampling
+    spec = importlib.util.spec_from_file_location("cosquad_twin_s", exported / "cosquad_twin.py")
+    twin = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(twin)
+    rng = np.random.default_rng(1)
+    for n in (2.0, 10.0, 1000.0):
+        k = 0.448 * n + 0.099
+        for _ in range(50):
+            xi = rng.uniform(0, 1, 2)
+            axis = rng.normal(size=3)
+            axis /= np.linalg.norm(axis)
+            c = float(sampling.lobe_cosine(xi[0], k))
+            ours = np.asarray(sampling.around(axis, np.array(c), np.array(2 * np.pi * xi[1])))
+            np.testing.assert_allclose(twin.cosquad_sample(tuple(xi), tuple(axis), n), ours, atol=1e-12)
+            assert twin.cosquad_pdf(c, n) == pytest.approx(float(sampling.lobe_pdf(c, k)), rel=1e-12)

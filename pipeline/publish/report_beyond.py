@@ -322,8 +322,10 @@ def render_section(config, r, figures) -> list[str]:
                      f"{row['flip_highlight']:.4f} | {area[row['lobe']]} ({area['cos^n']}) | {row['psnr']:.1f} |")
     lines += ["", render_verdict(s), ""]
     lines += embed(figures, "render")
-    lines += ["Shader: `shader/cosquad.glsl` and `shader/cosquad.hlsl` hold the run's k(n), lobe, coef(n) "
-              "and the exact Phong- and Blinn-form normalizations with the constants filled in; "
+    lines += ["Shader: `shader/cosquad.glsl` and `shader/cosquad.hlsl` hold the run's k(n), lobe (of t and of u), "
+              "coef(n), the exact Phong- and Blinn-form normalizations with the constants filled in, and the "
+              "lobe's importance sampler in closed form (`cosquad_sample`, `cosquad_pdf`: the cube root of a "
+              "uniform number gives k (c - 1) + 1; tested against the quadrature albedo in `tests/test_sampling.py`); "
               "`shader/cosquad_twin.py` is the same code printed as Python, which the tests evaluate "
               "against the pipeline's lobe.", ""]
     return lines

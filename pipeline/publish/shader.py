@@ -80,6 +80,67 @@ def header(comment: str, config, version_tag: str) -> list[str]:
             f"{comment}    or spec = {PREFIX}coef(n) * {PREFIX}lobe(max(dot(R, V), 0.0), n) (Phong form).", ""]
 
 
+# Importance sampling, as `pipeline.sampling` does it: the lobe's cosine to its axis from one uniform
+# number, the direction around the axis, and the solid-angle pdf. {v2}, {v3}: the vector types.
+SAMPLER = """// Importance sampling of the lobe around `axis` (R for the Phong form; N for the half vector of the
+// Blinn form, then reflect the view about it), from xi uniform in [0, 1)^2. The solid-angle pdf of
+// the direction is {p}pdf(dot(axis, dir), n) (Blinn form: divided by 4 dot(wo, h) for wo).
+{v3} {p}sample({v2} xi, {v3} axis, float n)
+{{
+    float k = {p}k(n);
+    float w0 = max(1.0 - 2.0 * k, 0.0);
+    w0 = w0 * w0 * w0;
+    float w = pow(w0 + xi.x * (1.0 - w0), 1.0 / 3.0);   // k (c - 1) + 1, with density proportional to w^2
+    float c = 1.0 + (w - 1.0) / k;
+    float s = sqrt(max(1.0 - c * c, 0.0));
+    float phi = 6.283185307179586 * xi.y;
+    float sgn = axis.z >= 0.0 ? 1.0 : -1.0;              // an orthonormal frame (Duff et al. 2017)
+    float a = -1.0 / (sgn + axis.z);
+    float b = axis.x * axis.y * a;
+    {v3} t = {v3}(1.0 + sgn * axis.x * axis.x * a, sgn * b, -sgn * axis.x);
+    {v3} u = {v3}(b, sgn + axis.y * axis.y * a, -axis.y);
+    return c * axis + s * cos(phi) * t + s * sin(phi) * u;
+}}
+
+// Solid-angle pdf of {p}sample at cosine c to its axis.
+float {p}pdf(float c, float n)
+{{
+    float k = {p}k(n);
+    float w = k * (c - 1.0) + 1.0;
+    float w0 = max(1.0 - 2.0 * k, 0.0);
+    float z = 6.283185307179586 * (1.0 - w0 * w0 * w0) / (3.0 * k);
+    return w > 0.0 ? w * w / z : 0.0;
+}}
+"""
+
+SAMPLER_PY = """
+def {p}sample(xi, axis, n):
+    \"\"\"Importance sampling of the lobe around axis (a unit 3-tuple) from xi in [0, 1)^2.\"\"\"
+    k = {p}k(n)
+    w0 = max(1.0 - 2.0 * k, 0.0) ** 3
+    w = (w0 + xi[0] * (1.0 - w0)) ** (1.0 / 3.0)
+    c = 1.0 + (w - 1.0) / k
+    s = math.sqrt(max(1.0 - c * c, 0.0))
+    phi = 6.283185307179586 * xi[1]
+    x, y, z = axis
+    sgn = 1.0 if z >= 0.0 else -1.0
+    a = -1.0 / (sgn + z)
+    b = x * y * a
+    t = (1.0 + sgn * x * x * a, sgn * b, -sgn * x)
+    u = (b, sgn + y * y * a, -y)
+    return tuple(c * axis[i] + s * math.cos(phi) * t[i] + s * math.sin(phi) * u[i] for i in range(3))
+
+
+def {p}pdf(c, n):
+    \"\"\"Solid-angle pdf of {p}sample at cosine c to its axis.\"\"\"
+    k = {p}k(n)
+    w = k * (c - 1.0) + 1.0
+    w0 = max(1.0 - 2.0 * k, 0.0)
+    z = 6.283185307179586 * (1.0 - w0 ** 3) / (3.0 * k)
+    return w * w / z if w > 0.0 else 0.0
+"""
+
+
 def render_sources(config, slope, intercept, coef_scale, coef_offset, version_tag: str) -> dict[str, str]:
     """The three files: GLSL, HLSL and the Python twin, as text."""
     fns = functions(slope, intercept, coef_scale, coef_offset)
@@ -104,6 +165,9 @@ def render_sources(config, slope, intercept, coef_scale, coef_offset, version_ta
                 lines += [f"// {DOCS['lobe_u']}", f"float {PREFIX}lobe_u(float u, float n)"] + body_u
             py += [f"def {PREFIX}lobe_u(u, n):", f'    """{DOCS["lobe_u"]}"""', f"    k = {PREFIX}k(n)",
                    "    b = max(1.0 - k * u, 0.0)", "    return b * b", "", ""]
+    glsl.append(SAMPLER.format(p=PREFIX, v2="vec2", v3="vec3"))
+    hlsl.append(SAMPLER.format(p=PREFIX, v2="float2", v3="float3"))
+    py.append(SAMPLER_PY.format(p=PREFIX))
     return {"cosquad.glsl": "\n".join(glsl), "cosquad.hlsl": "\n".join(hlsl),
             "cosquad_twin.py": "\n".join(py).rstrip() + "\n"}
 

@@ -1,0 +1,101 @@
+"""Importance sampling of the quadratic lobe, in closed form.
+
+Phong form: with c the cosine to the mirror direction R of the incident direction, the lobe
+(k (c - 1) + 1)^2 lives on c in [1 - 1/k, 1] (k >= 1/2; for k < 1/2 it reaches c = -1). With
+w = k (c - 1) + 1, the density proportional to w^2 over solid angle has the CDF
+(w^3 - w0^3) / (1 - w0^3) in w, w0 = max(1 - 2k, 0) its value at c = -1, so
+
+    w = (w0^3 + xi (1 - w0^3))^(1/3),   c = 1 + (w - 1) / k,   phi = 2 pi xi_2,
+
+and for w0 = 0 the cube root of one uniform number is the largest of three. Its pdf over solid
+angle is pdf(c) = w^2 / Z with Z = 2 pi (1 - w0^3) / (3 k), on the whole sphere: a direction below
+the surface is returned with its pdf and the caller gives it zero weight, so the pdf of what is
+returned always equals `pdf_phong`.
+
+Blinn form: the half vector h is drawn the same way around the normal (c = N.h), the outgoing
+direction is the reflection of the incident one about h, and its pdf is pdf_h / (4 |wo.h|).
+
+All functions take unit vectors as arrays with a last axis of 3, the surface normal N = (0, 0, 1).
+"""
+
+from __future__ import annotations
+
+from .numerics import jax
+import jax.numpy as jnp
+import numpy as np
+
+TWO_PI = 2.0 * np.pi
+
+
+def _w0(k):
+    return jnp.maximum(1.0 - 2.0 * k, 0.0)
+
+
+def lobe_cosine(xi, k):
+    """The cosine c to the lobe's axis, from one uniform number xi in [0, 1)."""
+    w0 = _w0(k) ** 3
+    w = jnp.cbrt(w0 + xi * (1.0 - w0))
+    return 1.0 + (w - 1.0) / k
+
+
+def lobe_pdf(c, k):
+    """Solid-angle pdf of the axis cosine c: (k (c - 1) + 1)^2 / Z on the lobe's support, else 0."""
+    w = k * (c - 1.0) + 1.0
+    z = TWO_PI * (1.0 - _w0(k) ** 3) / (3.0 * k)
+    return jnp.where(w > 0.0, w * w / z, 0.0)
+
+
+def _frame(axis):
+    """Two unit vectors completing `axis` to an orthonormal frame (Duff et al. 2017)."""
+    x, y, z = axis[..., 0], axis[..., 1], axis[..., 2]
+    sign = jnp.where(z >= 0.0, 1.0, -1.0)
+    a = -1.0 / (sign + z)
+    b = x * y * a
+    t = jnp.stack([1.0 + sign * x * x * a, sign * b, -sign * x], axis=-1)
+    s = jnp.stack([b, sign + y * y * a, -y], axis=-1)
+    return t, s
+
+
+def around(axis, c, phi):
+    """The direction at cosine c and azimuth phi around the unit vector `axis`."""
+    t, s = _frame(axis)
+    sin = jnp.sqrt(jnp.clip(1.0 - c * c, 0.0, None))
+    return (c[..., None] * axis + (sin * jnp.cos(phi))[..., None] * t + (sin * jnp.sin(phi))[..., None] * s)
+
+
+def reflect(wi, h):
+    """wi reflected about the unit vector h."""
+    return 2.0 * jnp.sum(wi * h, axis=-1, keepdims=True) * h - wi
+
+
+NORMAL = jnp.array([0.0, 0.0, 1.0])
+
+
+def sample_phong(xi, wi, k):
+    """(wo, pdf) for uniform numbers xi[..., 2], incident directions wi and coefficients k."""
+    R = reflect(wi, NORMAL)
+    c = lobe_cosine(xi[..., 0], k)
+    wo = around(R, c, TWO_PI * xi[..., 1])
+    return wo, lobe_pdf(c, k)
+
+
+def pdf_phong(wi, wo, k):
+    """Solid-angle pdf with which `sample_phong` returns wo."""
+    return lobe_pdf(jnp.sum(reflect(wi, NORMAL) * wo, axis=-1), k)
+
+
+def sample_blinn(xi, wi, k):
+    """(wo, pdf): the half vector drawn around the normal, wi reflected about it."""
+    c = lobe_cosine(xi[..., 0], k)
+    h = around(jnp.broadcast_to(NORMAL, wi.shape), c, TWO_PI * xi[..., 1])
+    wo = reflect(wi, h)
+    return wo, pdf_blinn(wi, wo, k)
+
+
+def pdf_blinn(wi, wo, k):
+    """Solid-angle pdf with which `sample_blinn` returns wo. Both h and -h reflect wi to wo; where the
+    lobe reaches below the horizon (k < 1) both can be drawn, so both densities count."""
+    h = wi + wo
+    h = h / jnp.linalg.norm(h, axis=-1, keepdims=True)
+    c = h[..., 2]
+    return (lobe_pdf(c, k) + lobe_pdf(-c, k)) / (4.0 * jnp.abs(jnp.sum(wo * h, axis=-1)))
