@@ -40,6 +40,40 @@ def visible(image8, base8) -> np.ndarray:
     return (image8.astype(np.float64) - base8.astype(np.float64)) @ LUMINANCE >= 1.0
 
 
+def candidate(scene_index: int, resolution: int, n: float, shape: str, p: float, coef: float, reference_coef: float,
+              level: float) -> dict:
+    """One candidate lobe's image at exponent n against the reference cos^n (both with their coef):
+    its display and luminance, FLIP map, visible-highlight mask of both, and its statistics. A
+    memoized call: a candidate that does not depend on a setting (f_2 under a Q refit) is reused."""
+    scene = SCENES[scene_index]
+    base8 = np.asarray(display_and_luminance(shade(scene, resolution, "power", 1.0, 0.0))[0])
+    ref = shade(scene, resolution, "power", n, reference_coef)
+    image = shade(scene, resolution, shape, p, coef)
+    ref8, _ = (np.asarray(v) for v in display_and_luminance(ref))
+    image8, lum = (np.asarray(v) for v in display_and_luminance(image))
+    epicenter = np.asarray(epicenter_mask(scene, resolution, n, level))
+    fmap = flip_map(ref8, image8)
+    seen_ref, seen = visible(ref8, base8), visible(image8, base8)
+    region = seen_ref | seen
+    total = float(fmap.sum())
+    stats = dict(epicenter_pixels=int(epicenter.sum()), flip_frame=float(fmap.mean()),
+                 flip_highlight=float(fmap[region].mean()),
+                 # Where the FLIP error lies: epicenter, rest of the visible highlight, elsewhere.
+                 flip_share_epicenter=float(fmap[epicenter].sum()) / total,
+                 flip_share_blooming=float(fmap[region & ~epicenter].sum()) / total,
+                 flip_share_elsewhere=float(fmap[~region & ~epicenter].sum()) / total,
+                 highlight_pixels=int(region.sum()), visible_pixels=int(seen.sum()),
+                 reference_visible_pixels=int(seen_ref.sum()),
+                 **image_statistics(image, ref, epicenter))
+    return dict(display=image8, luminance=lum.astype(np.float32), flip=fmap.astype(np.float16), stats=stats)
+
+
+def reference(scene_index: int, resolution: int, n: float, coef: float) -> dict:
+    """The reference cos^n image: display and luminance."""
+    image8, lum = (np.asarray(v) for v in display_and_luminance(shade(SCENES[scene_index], resolution, "power", n, coef)))
+    return dict(display=image8, luminance=lum.astype(np.float32))
+
+
 def run(config, inputs, memo):
     a, b = inputs["linear_coefficient.slope_used"], inputs["linear_coefficient.intercept_used"]
     level = inputs["zone.level"]
@@ -60,30 +94,21 @@ def run(config, inputs, memo):
     flip_maps = np.zeros(shape + (len(LOBES) - 1, res, res), dtype=np.float16)
     stats, areas = [], []
     for i, scene in enumerate(SCENES):
-        base8 = np.asarray(display_and_luminance(shade(scene, res, "power", 1.0, 0.0))[0])
         for j, n in enumerate(exponents):
-            images = {name: shade(scene, res, shape_, p, coef) for name, (shape_, p, coef) in lobes(n).items()}
-            ref = images["cos^n"]
-            epicenter = epicenter_mask(scene, res, n, level)
-            for l, name in enumerate(LOBES):
-                display[i, j, l], lum[i, j, l] = (np.asarray(v) for v in display_and_luminance(images[name]))
-            seen = {name: visible(display[i, j, l], base8) for l, name in enumerate(LOBES)}
-            areas.append(dict(scene=scene.name, n=n, **{name: int(v.sum()) for name, v in seen.items()}))
+            spec = lobes(n)
+            ref_coef = float(spec["cos^n"][2])
+            r = memo("render_reference", reference, scene_index=i, resolution=res, n=n, coef=ref_coef)
+            display[i, j, 0], lum[i, j, 0] = r["display"], r["luminance"]
+            area = dict(scene=scene.name, n=n)
             for l, name in enumerate(LOBES[1:], 1):
-                fmap = flip_map(display[i, j, 0], display[i, j, l])
-                flip_maps[i, j, l - 1] = fmap
-                region = seen["cos^n"] | seen[name]
-                core = np.asarray(epicenter)
-                total = float(fmap.sum())
-                stats.append(dict(scene=scene.name, n=n, lobe=name, coef=float(lobes(n)[name][2]),
-                                  epicenter_pixels=int(np.sum(np.asarray(epicenter))),
-                                  flip_frame=float(fmap.mean()), flip_highlight=float(fmap[region].mean()),
-                                  # Where the FLIP error lies: epicenter, rest of the visible highlight, elsewhere.
-                                  flip_share_epicenter=float(fmap[core].sum()) / total,
-                                  flip_share_blooming=float(fmap[region & ~core].sum()) / total,
-                                  flip_share_elsewhere=float(fmap[~region & ~core].sum()) / total,
-                                  highlight_pixels=int(region.sum()),
-                                  **image_statistics(images[name], ref, epicenter)))
+                shape_, p, coef = spec[name]
+                c = memo("render_candidate", candidate, scene_index=i, resolution=res, n=n, shape=shape_,
+                         p=float(p), coef=float(coef), reference_coef=ref_coef, level=level)
+                display[i, j, l], lum[i, j, l], flip_maps[i, j, l - 1] = c["display"], c["luminance"], c["flip"]
+                st = dict(c["stats"])
+                area["cos^n"], area[name] = st.pop("reference_visible_pixels"), st.pop("visible_pixels")
+                stats.append(dict(scene=scene.name, n=n, lobe=name, coef=float(coef), **st))
+            areas.append(area)
     return dict(lobes=list(LOBES), scenes=[s.name for s in SCENES], display=display, luminance=lum,
                 flip_maps=flip_maps, statistics=stats, visible_areas=areas,
                 flip_f_Q2_max=max(s["flip_highlight"] for s in stats if s["lobe"] == "f_Q2"),
