@@ -67,6 +67,8 @@ FIGURES = (
            ("lobe_comparison",), RANGE),
     Figure("render_n{n}.png", "Renders at n = {n}: reference, f_2, f_Q2", "render", "renders", ("render",),
            ("render.*",)),
+    Figure("render_crops_n{n}.png", "Highlight crops at n = {n}: linear luminance, one scale, and a profile",
+           "render", "render_crops", ("render",), ("render.exponents",)),
     Figure("render_errors_n{n}.png", "Render errors at n = {n}: FLIP maps and absolute error", "render", "render_errors", ("render",),
            ("render.exponents",)),
 )

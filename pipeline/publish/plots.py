@@ -432,3 +432,39 @@ def render_errors(out, config, r):
     return names
 
 
+def render_crops(out, config, r):
+    """Per exponent: the highlight of each lobe, cropped around the reference's peak, in linear luminance
+    on one shared scale (no tone map, so the core does not saturate), and a profile through the peak."""
+    s = r["render"]
+    names = []
+    half = 48
+    for j, n in enumerate(config["render.exponents"]):
+        rows = len(s["scenes"])
+        fig, axes = plt.subplots(rows, len(s["lobes"]) + 1, figsize=(3.4 * (len(s["lobes"]) + 1), 3.2 * rows),
+                                 squeeze=False, gridspec_kw=dict(width_ratios=[1] * len(s["lobes"]) + [1.4]))
+        fig.subplots_adjust(left=0.02, right=0.98, bottom=0.1, top=0.86, wspace=0.15, hspace=0.4)
+        for i, scene in enumerate(s["scenes"]):
+            lum = s["luminance"][i, j].astype(np.float64)          # lobe x H x W
+            y, x = np.unravel_index(np.argmax(lum[0]), lum[0].shape)      # the reference's peak
+            y0, x0 = max(y - half, 0), max(x - half, 0)
+            crops = lum[:, y0:y + half, x0:x + half]
+            top = float(crops.max())
+            for l, lobe in enumerate(s["lobes"]):
+                ax = axes[i, l]
+                ax.imshow(crops[l], cmap="inferno", vmin=0.0, vmax=top, interpolation="nearest")
+                ax.set_axis_off()
+                ax.set_title(f"{lobe}, {scene}\n(black 0, white {top:.2f}, as in the profile)", fontsize=8)
+            ax = axes[i, -1]
+            for l, lobe in enumerate(s["lobes"]):
+                ax.plot(np.arange(x0, x0 + crops.shape[2]) - x, crops[l, y - y0], label=lobe,
+                        lw=2.2 if lobe == "cos^n" else 1.2, ls="-" if lobe != "f_2" else "--")
+            ax.set(xlabel="pixels from the peak", ylabel="linear luminance", title="profile through the peak")
+            ax.title.set_fontsize(8)
+            ax.legend(fontsize=7)
+            ax.grid(alpha=0.3)
+        fig.suptitle(f"n = {n:g}: the highlight in linear luminance, one scale per row (no tone map)", fontsize=10)
+        name = f"render_crops_n{n:g}.png"
+        fig.savefig(out / name, dpi=90, pil_kwargs=FAST_PNG)
+        plt.close(fig)
+        names.append(name)
+    return names
