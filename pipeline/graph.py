@@ -176,6 +176,7 @@ STAGES: tuple[Stage, ...] = (
         "hemi_max_abs_dev": "max over n of |coef(n) 2 pi Int(n) - 1| [fraction]",
         "hemi_n_at_max": "n where it is attained [n]",
         "hemi_max_excess": "max over n of coef(n) 2 pi Int(n) - 1 (> 0: energy created) [fraction]",
+        "hemi_excess_ranges": "contiguous [first, last] n where it is > 0 [list]",
     }),
     _stage("exact_normalization", "beyond", RANGE + ("albedo.quadrature_nodes",),
            ("linear_coefficient.slope_used", "linear_coefficient.intercept_used", "energy_dataset.Int",

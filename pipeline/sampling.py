@@ -20,7 +20,6 @@ All functions take unit vectors as arrays with a last axis of 3, the surface nor
 
 from __future__ import annotations
 
-from .numerics import jax
 import jax.numpy as jnp
 import numpy as np
 

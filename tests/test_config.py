@@ -1,4 +1,3 @@
-import os
 import subprocess
 import sys
 
@@ -6,6 +5,8 @@ import pytest
 
 from pipeline import paths
 from pipeline.config import ConfigError, load_config, parse_override
+
+from .conftest import cli_env
 
 BAD = [
     ("derivation.Q=1.5", r"'derivation.Q' = 1.5 is not allowed: expected a number in \(0, 1\), \"scan\" or \"optimize\""),
@@ -60,9 +61,8 @@ def test_unknown_section_and_broken_toml(tmp_path):
 
 
 def run_cli(args, tmp_path):
-    env = dict(os.environ, PIPELINE_CACHE_DIR=str(tmp_path / "cache"), PIPELINE_OUTPUTS_DIR=str(tmp_path / "out"))
-    return subprocess.run([sys.executable, "-m", "pipeline", *args], capture_output=True, text=True, env=env,
-                          cwd=paths.ROOT)
+    return subprocess.run([sys.executable, "-m", "pipeline", *args], capture_output=True, text=True,
+                          env=cli_env(tmp_path), cwd=paths.ROOT)
 
 
 @pytest.mark.parametrize("args,message", [

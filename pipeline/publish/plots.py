@@ -32,9 +32,12 @@ def paper_value(config, result_path):
     return None
 
 
-def _save(fig, out: Path, name: str) -> str:
-    fig.tight_layout()
-    fig.savefig(out / name, dpi=110, pil_kwargs=FAST_PNG)
+def _save(fig, out: Path, name: str, dpi: int = 110, tight: bool = True) -> str:
+    """Writes the figure to out/name and closes it. tight=False keeps a layout set by hand (for large
+    images, where tight_layout would draw everything once more just to measure it)."""
+    if tight:
+        fig.tight_layout()
+    fig.savefig(out / name, dpi=dpi, pil_kwargs=FAST_PNG)
     plt.close(fig)
     return name
 
@@ -216,15 +219,9 @@ def fig10(out, config, r):
     return _save(fig, out, "fig10_coef_fit.png")
 
 
-def _runs(mask, n) -> list[tuple[float, float]]:
-    """(first, last) n of each run where mask holds."""
-    edges = np.flatnonzero(np.diff(np.concatenate([[0], mask.astype(int), [0]])))
-    return [(float(n[i]), float(n[j - 1])) for i, j in zip(edges[::2], edges[1::2])]
-
-
-def _excess_axis(ax, n, deviation):
-    """Reflected / received - 1 in % on a symlog axis, so that a 0.1 % excess shows beside a 5 % deficit."""
-    excess_ranges = _runs(np.asarray(deviation) > 0, n)
+def _excess_axis(ax, excess_ranges):
+    """Reflected / received - 1 in % on a symlog axis, so that a 0.1 % excess shows beside a 5 % deficit;
+    the ranges of n where energy is created shaded."""
     ax.axhline(0, color="black", lw=1.2, ls=":", label="exact normalization (0 for every n)")
     for lo, hi in excess_ranges:
         ax.axvspan(lo, hi, color="C3", alpha=0.1, lw=0)
@@ -233,15 +230,13 @@ def _excess_axis(ax, n, deviation):
                 + ", ".join(f"{lo:g} to {hi:g}" for lo, hi in excess_ranges))
     ax.set_yscale("symlog", linthresh=0.1)
     ax.set(xscale="log", xlabel="n", ylabel="reflected / received - 1 (%)\n(linear within +-0.1 %, log beyond)")
-    return excess_ranges
-    ax.set(xscale="log", xlabel="n", ylabel="reflected / received - 1 (%)\n(linear within +-0.1 %, log beyond)")
 
 
 def fig11(out, config, r):
     h = r["hemispherical"]
     fig, ax = plt.subplots(figsize=(7.5, 4.4))
     ax.plot(n_of(config), 100 * h["deviation"], color="C0", label="coef(n) 2 pi Int(n) - 1 (the paper's Int)")
-    _excess_axis(ax, n_of(config), h["deviation"])
+    _excess_axis(ax, h["hemi_excess_ranges"])
     p = paper_value(config, "hemispherical.hemi_max_abs_dev")
     if p is not None:
         ax.plot([2], [-100 * p], marker="*", ms=14, mfc="none", mec="black", ls="none",
@@ -285,7 +280,7 @@ def exact_normalization(out, config, r):
     e, h, n = r["exact_normalization"], r["hemispherical"], n_of(config)
     fig, (a, b) = plt.subplots(1, 2, figsize=(12.5, 4.6))
     a.plot(n, 100 * e["energy_run"], color="C0", label=f"run's coef {h['coef_scale_used']:g} ({h['coef_offset_used']:g} + n)")
-    _excess_axis(a, n, e["energy_run"])
+    _excess_axis(a, e["excess_ranges"])
     a.plot(n, 100 * e["asymptotic_phong_dev"], ls="--", color="C2", label="(3 / (2 pi)) (k + 1/4) = exact - 1/(16 k^2)")
     a.set_title(f"Phong form (R.V): largest excess {100 * e['paper_coef_max_excess']:+.3f} % at n = "
                 f"{e['paper_coef_n_at_max_excess']:g}", fontsize=10)
@@ -362,9 +357,7 @@ def lobe_comparison(out, config, r):
     b.set(ylabel="max absolute error D over [0, pi/2]", title="D per n")
     fig.suptitle("Cheap lobes against cos^n, per n: the spherical Gaussians overtake f_Q2 as n grows", fontsize=11)
     fig.subplots_adjust(left=0.06, right=0.86, wspace=0.55, top=0.86, bottom=0.12)
-    fig.savefig(out / "lobe_comparison.png", dpi=110, pil_kwargs=FAST_PNG)
-    plt.close(fig)
-    return "lobe_comparison.png"
+    return _save(fig, out, "lobe_comparison.png", tight=False)
 
 
 def renders(out, config, r):
@@ -391,9 +384,7 @@ def renders(out, config, r):
         fig.subplots_adjust(left=0.005, right=0.995, bottom=0.005, top=1 - 0.6 / height, wspace=0.02,
                             hspace=0.2 / (res / 100))
         name = f"render_n{n:g}.png"
-        fig.savefig(out / name, dpi=100, pil_kwargs=FAST_PNG)
-        plt.close(fig)
-        names.append(name)
+        names.append(_save(fig, out, name, dpi=100, tight=False))
     return names
 
 
@@ -426,9 +417,7 @@ def render_errors(out, config, r):
         fig.suptitle(f"n = {n:g}: error against the reference cos^n (each kind on one shared scale)", fontsize=10)
         fig.subplots_adjust(left=0.01, right=0.97, bottom=0.02, top=0.88, wspace=0.15, hspace=0.25)
         name = f"render_errors_n{n:g}.png"
-        fig.savefig(out / name, dpi=90, pil_kwargs=FAST_PNG)
-        plt.close(fig)
-        names.append(name)
+        names.append(_save(fig, out, name, dpi=90, tight=False))
     return names
 
 
@@ -464,7 +453,5 @@ def render_crops(out, config, r):
             ax.grid(alpha=0.3)
         fig.suptitle(f"n = {n:g}: the highlight in linear luminance, one scale per row (no tone map)", fontsize=10)
         name = f"render_crops_n{n:g}.png"
-        fig.savefig(out / name, dpi=90, pil_kwargs=FAST_PNG)
-        plt.close(fig)
-        names.append(name)
+        names.append(_save(fig, out, name, dpi=90, tight=False))
     return names

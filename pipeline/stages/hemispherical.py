@@ -5,6 +5,8 @@ that the later stages use.
 
 import numpy as np
 
+from .common import runs_of
+
 
 def run(config, inputs, memo):
     if config["derivation.constants"] == "paper":
@@ -16,4 +18,4 @@ def run(config, inputs, memo):
     i = int(np.argmax(np.abs(deviation)))
     return dict(deviation=deviation, coef_scale_used=float(scale), coef_offset_used=float(offset),
                 hemi_max_abs_dev=float(abs(deviation[i])), hemi_n_at_max=float(n[i]),
-                hemi_max_excess=float(np.max(deviation)))
+                hemi_max_excess=float(np.max(deviation)), hemi_excess_ranges=runs_of(deviation > 0.0, n))

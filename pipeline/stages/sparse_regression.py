@@ -117,14 +117,8 @@ def run(config, inputs, memo):
     return dict(front=front, coef_scale=scale, coef_offset=offset, coef_rms=rms,
                 constant_model=mean, constant_model_rms=float(np.sqrt(np.mean((y_s - mean) ** 2))),
                 sample_sensitivity=sensitivity,
-                sensitivity_offset_range=[min(r["offset"] for r in same_kind), max(r["offset"] for r in same_kind)],
-                sensitivity_rms_range=[min(r["rms"] for r in same_kind), max(r["rms"] for r in same_kind)],
-                sensitivity_three_term_rms_range=[min(r["three_term_rms"] for r in same_kind),
-                                                  max(r["three_term_rms"] for r in same_kind)],
-                sensitivity_one_term_scale_range=[min(r["one_term_scale"] for r in same_kind),
-                                                  max(r["one_term_scale"] for r in same_kind)],
-                sensitivity_one_term_rms_range=[min(r["one_term_rms"] for r in same_kind),
-                                                max(r["one_term_rms"] for r in same_kind)],
+                **{f"sensitivity_{name}_range": [min(r[name] for r in same_kind), max(r[name] for r in same_kind)]
+                   for name in ("offset", "rms", "three_term_rms", "one_term_scale", "one_term_rms")},
                 one_term_scale=_one_term(front)[0], one_term_rms=_one_term(front)[1],
                 **_three_term(front))
 
