@@ -1,4 +1,4 @@
-"""Command line: `pipeline reproduce`, `refit`, `explain`, `graph`, `keys`, `cache`.
+"""Command line: `pipeline reproduce`, `refit`, `explain`, `graph`, `keys`, `cache`, `regress`.
 
 Exit codes: 0 every check passes, differs with a documented cause or is not comparable; 1 a check
 failed or a solver did not converge; 2 bad config or arguments (nothing computed, nothing written).
@@ -15,6 +15,7 @@ from pathlib import Path
 from . import checks as checks_mod
 from . import graph, paths
 from .config import ConfigError, key_table, load_config
+from .regress import RegressError
 
 
 def _print_checks(outcome) -> None:
@@ -77,6 +78,20 @@ def _cache(args) -> int:
     return 0
 
 
+def _regress(args) -> int:
+    from .regress import parse_operations, regress
+
+    start = time.perf_counter()
+    out = Path(args.out) if args.out else paths.OUTPUTS / "regress" / Path(args.file).stem
+    front = regress(Path(args.file), args.x, args.y, out, args.max_complexity, parse_operations(args.ops),
+                    seed=args.seed)
+    print("complexity  RMS          expression")
+    for m in front:
+        print(f"{m['complexity']:>10}  {m['rms']:<11.6g}  {m['canonical']}")
+    print(f"wrote {out / 'front.csv'} and {out / 'front.png'}; {time.perf_counter() - start:.1f} s")
+    return 0
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="pipeline", description=__doc__.splitlines()[0])
     sub = parser.add_subparsers(dest="command", required=True)
@@ -92,6 +107,16 @@ def main(argv: list[str] | None = None) -> int:
     exp.add_argument("--config", default=str(paths.PAPER_CONFIG))
     sub.add_parser("keys", help="print every config key with its default and allowed values")
     sub.add_parser("graph", help="print the stage graph: what each stage reads and returns")
+    reg = sub.add_parser("regress", help="exhaustive symbolic regression of one CSV column against another")
+    reg.add_argument("file", metavar="FILE.csv")
+    reg.add_argument("--x", required=True, metavar="COLUMN", help="column of the variable")
+    reg.add_argument("--y", required=True, metavar="COLUMN", help="column to fit")
+    reg.add_argument("--max-complexity", type=int, default=12, metavar="N",
+                     help="largest complexity searched (constants, x, +, -, * count 1; / counts 2); default 12")
+    reg.add_argument("--ops", default="+,-,*,/", help='operations, default "+,-,*,/"')
+    reg.add_argument("--seed", type=int, default=0, help="seed of the random starts (default 0)")
+    reg.add_argument("--out", default=None, metavar="DIR",
+                     help="output folder (default outputs/regress/<file name without .csv>)")
     cch = sub.add_parser("cache", help="show the cache's size per stage; --prune removes unused entries")
     cch.add_argument("--prune", action="store_true")
     cch.add_argument("--older-than", type=float, default=14.0, metavar="DAYS",
@@ -106,6 +131,8 @@ def main(argv: list[str] | None = None) -> int:
             return 0
         if args.command == "cache":
             return _cache(args)
+        if args.command == "regress":
+            return _regress(args)
         if args.command == "explain":
             return _explain(load_config(args.config, tuple(args.changes), name="explain"))
         if args.command == "reproduce":
@@ -115,7 +142,7 @@ def main(argv: list[str] | None = None) -> int:
             if args.dry_run:
                 return _explain(config)
             baseline_config = load_config(paths.PAPER_CONFIG)
-    except ConfigError as e:
+    except (ConfigError, RegressError) as e:
         print(f"error: {e}", file=sys.stderr)
         return 2
 

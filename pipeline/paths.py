@@ -9,6 +9,8 @@ PAPER_CONFIG = CONFIGS / "paper.toml"
 OUTPUTS = Path(os.environ.get("PIPELINE_OUTPUTS_DIR", ROOT / "outputs"))
 # Stage results, content-addressed; `make clean` removes the folder.
 CACHE = Path(os.environ.get("PIPELINE_CACHE_DIR", ROOT / ".cache" / "stages"))
+# Compiled XLA programs: in the cache (`<cache>/_xla`) unless set apart (the tests share one).
+XLA_CACHE = os.environ.get("PIPELINE_XLA_CACHE_DIR")
 
 
 def output_dir(name: str, outputs: Path = OUTPUTS) -> Path:

@@ -73,7 +73,7 @@ def _compute(stage: graph.Stage, values, inputs, cache: Cache) -> dict[str, Any]
     with _setup_lock:
         if not _compile_cache_on:
             from .numerics import use_compilation_cache
-            use_compilation_cache(cache.root / XLA)
+            use_compilation_cache(paths.XLA_CACHE or cache.root / XLA)
             _compile_cache_on = True
     memo = Memo(cache)
     result = module.run(values, inputs, memo)

@@ -38,6 +38,7 @@ def n_all(paper_config):
 
 
 def cli_env(tmp_path, **extra):
-    """Environment for running the CLI in a subprocess with its own cache and outputs."""
+    """Environment for running the CLI in a subprocess with its own cache and outputs; compiled XLA
+    programs are shared by the session's subprocesses (the stage cache is what the tests test)."""
     return dict(os.environ, PIPELINE_CACHE_DIR=str(tmp_path / "cache"), PIPELINE_OUTPUTS_DIR=str(tmp_path / "out"),
-                **extra)
+                PIPELINE_XLA_CACHE_DIR=str(tmp_path.parent / "xla"), **extra)

@@ -52,7 +52,9 @@ FIGURES = (
            ("accuracy", "f2_errors"), RANGE),
     Figure("fig7_dataset.png", "Fig. 7: the ideal normalization dataset", "paper", "fig7",
            ("energy_dataset", "sample"), RANGE),
-    Figure("fig9_front.png", "Fig. 9: sparse-regression front", "paper", "fig9", ("sparse_regression",)),
+    Figure("fig9_front.png", "Fig. 9: complexity/error front of coef(n): the exhaustive symbolic regression, "
+           "the pysindy sweep and the paper's five TuringBot rows", "paper", "fig9",
+           ("symbolic_regression", "sparse_regression"), ("sample.y_decimals",)),
     Figure("fig10_coef_fit.png", "Fig. 10: dataset and coef(n)", "paper", "fig10",
            ("sparse_regression", "energy_dataset", "hemispherical", "sample"), RANGE),
     Figure("fig11_hemispherical.png", "Fig. 11: hemispherical reflectivity minus 1", "paper", "fig11",

@@ -169,32 +169,74 @@ def turingbot_complexity(terms) -> int | None:
 
 
 def fig9(out, config, r):
-    s = r["sparse_regression"]
-    fig, ax = plt.subplots(figsize=(10, 5))
-    models = [(1, s["constant_model_rms"], f"{s['constant_model']:.5g} (mean)")]
-    models += [(turingbot_complexity(m["terms"]), m["rms"], m["expression"]) for m in s["front"]]
-    models = [m for m in models if m[0] is not None]
-    ax.plot([m[0] for m in models], [m[1] for m in models], "o-", color="C0", ms=7, zorder=3,
-            label="this run: sample mean and pysindy STLSQ sweep")
-    for size, rms, text in models:
-        ax.annotate(text.replace("*", " "), (size, rms), textcoords="offset points", xytext=(-6, -14),
-                    fontsize=7.5, color="C0", ha="right" if size > 12 else "left")
-    paper = [(1, "sparse_regression.constant_model_rms"), (3, "sparse_regression.one_term_rms"),
-             (5, "sparse_regression.coef_rms"), (10, "sparse_regression.three_term_rms")]
-    pts = [(size, paper_value(config, key)) for size, key in paper]
-    pts = [(size, v) for size, v in pts if v is not None]
-    if pts:
-        ax.plot([p[0] for p in pts], [p[1] for p in pts], marker="*", ms=15, mfc="none", mec="black", ls="none",
-                zorder=5, label="paper (TuringBot) rows in the config")
-    ax.set(yscale="log", xlabel="size (TuringBot complexity: constants, n, +, -, x count 1; / counts 2)",
+    sr, s = r["symbolic_regression"], r["sparse_regression"]
+    fig, ax = plt.subplots(figsize=(11, 5.5))
+    best = sorted((int(k), v) for k, v in sr["best_rms_by_complexity"].items())
+    ax.plot([k for k, _ in best], [v for _, v in best], "o", color="0.75", ms=5, zorder=2,
+            label=f"best expression at each complexity ({sr['forms_searched']} searched)")
+    front = sr["front"]
+    xs = [m["complexity"] for m in front]
+    ax.step(xs + [max(xs[-1], 13)], [m["rms"] for m in front] + [front[-1]["rms"]], where="post", color="C0", lw=1.5,
+            zorder=3, label="exhaustive front (this run)")
+    ax.plot(xs, [m["rms"] for m in front], "o", color="C0", ms=7, zorder=4)
+    lines = ["front (size, RMS, sympy's canonical form):"]
+    for m in front:
+        mark = "  <- exact coef within the rounding step" if m["complexity"] == sr["sr_exact_complexity"] else ""
+        text = m["canonical"].replace("**", "^").replace("*", " ").replace("1.0 n", "n")
+        lines.append(f"{m['complexity']:>2}  {m['rms']:.3g}  {text}{mark}")
+    ax.text(0.33, 0.62, "\n".join(lines), transform=ax.transAxes, fontsize=7.5, family="monospace",
+            va="center", bbox=dict(facecolor="white", edgecolor="0.8", alpha=0.9))
+    exact = [m for m in front if m["complexity"] == sr["sr_exact_complexity"]]
+    if exact:
+        ax.plot(exact[0]["complexity"], exact[0]["rms"], "o", ms=17, mfc="none", mec="C3", mew=2, zorder=5,
+                label=f"smallest member within {sr['equivalence_tolerance']:g} of the exact coef (every n)")
+    sparse = [(turingbot_complexity(m["terms"]), m["rms"]) for m in s["front"]]
+    sparse = [p for p in sparse if p[0] is not None]
+    ax.plot([p[0] for p in sparse], [p[1] for p in sparse], "s", ms=12, mfc="none", mec="C2", mew=1.5, zorder=7,
+            label="pysindy STLSQ sweep (library 1, n, 1/n, 1/n^2)")
+    rows = [(1, "size1_rms"), (3, "size3_rms"), (5, "size5_rms"), (10, "size10_rms"), (12, "size12_rms")]
+    paper = [(size, paper_value(config, f"symbolic_regression.{field}")) for size, field in rows]
+    paper = [p for p in paper if p[1] is not None]
+    ax.plot([p[0] for p in paper], [p[1] for p in paper], marker="*", ms=16, mfc="none", mec="black", ls="none",
+            zorder=6, label="paper: TuringBot's five rows")
+    decimals = config["sample.y_decimals"]
+    if decimals >= 0:
+        floor = 10.0 ** -decimals / np.sqrt(12.0)
+        ax.axhline(floor, color="C3", ls=":", lw=1)
+        ax.text(14.3, floor * 0.7, f"RMS of rounding y to {decimals} decimals alone: {floor:.2g}", color="C3",
+                fontsize=8, ha="right", va="top")
+    ax.set(yscale="log", xlabel="complexity (TuringBot's: constants, n, +, -, x count 1; / counts 2)",
            ylabel="RMS error on the sample (1/sr)", title="Fig. 9: complexity / error front of coef(n)",
-           xlim=(0, 20))
-    ax.set_xticks(range(0, 21, 2))
+           xlim=(0, 14.5))
+    ax.set_xticks(range(0, 15))
     ax.legend(fontsize=8, loc="upper right")
     ax.grid(alpha=0.3, which="both")
-    ax.text(0.99, 0.02, "TuringBot's size-12 row, 0.213904 (0.779213 + 0.308609/(n - 0.326302) + n), is not a sum of "
-            "the library's terms", transform=ax.transAxes, ha="right", fontsize=7.5, color="0.3")
     return _save(fig, out, "fig9_front.png")
+
+
+def symbolic_front_figure(path, front, found, title) -> None:
+    """The front of `pipeline regress`: RMS against complexity, every complexity's best in grey."""
+    fig, ax = plt.subplots(figsize=(10, 5))
+    sizes = sorted(set(int(k) for k in found["complexity"]))
+    floor = 1e-16 * max(float(np.max(found["rms"][np.isfinite(found["rms"])])), 1e-300)
+    best = [max(float(np.min(found["rms"][found["complexity"] == k])), floor) for k in sizes]
+    ax.plot(sizes, best, "o", color="0.75", ms=5, label=f"best expression at each complexity ({len(found['forms'])} searched)")
+    xs, ys = [m["complexity"] for m in front], [max(m["rms"], floor) for m in front]
+    ax.step(xs + [sizes[-1] + 1], ys + [ys[-1]], where="post", color="C0", label="front")
+    ax.plot(xs, ys, "o", color="C0", ms=7)
+    lines = ["front (complexity, RMS, sympy's canonical form):"]
+    lines += [f"{m['complexity']:>2}  {m['rms']:.3g}  {m['canonical'].replace('**', '^').replace('*', ' ')}" for m in front]
+    ax.text(0.98, 0.97, "\n".join(lines), transform=ax.transAxes, fontsize=7.5, family="monospace", va="top",
+            ha="right", multialignment="left", bbox=dict(facecolor="white", edgecolor="0.8", alpha=0.9))
+    positive = [v for v in best if v > 0]
+    ax.set(yscale="log" if positive and max(positive) / min(positive) > 20 else "linear",
+           xlabel="complexity (constants, variable, +, -, x count 1; / counts 2)", ylabel="RMS error", title=title,
+           xlim=(0, sizes[-1] + 1.5))
+    ax.legend(fontsize=8, loc="lower left")
+    ax.grid(alpha=0.3, which="both")
+    fig.tight_layout()
+    fig.savefig(path, dpi=110, pil_kwargs=FAST_PNG)
+    plt.close(fig)
 
 
 def fig10(out, config, r):

@@ -2,11 +2,12 @@
 
 from __future__ import annotations
 
+import csv
 from pathlib import Path
 
 
 def write(out: Path, config, results) -> None:
-    """newenergy.csv, energy_all_n.csv and regression_front.csv."""
+    """newenergy.csv, energy_all_n.csv, symbolic_front.csv and regression_front.csv."""
     data, reg = results["energy_dataset"], results["sparse_regression"]
     n_all = range(config["derivation.n_min"], config["derivation.n_max"] + 1)
     with open(out / "newenergy.csv", "w") as f:
@@ -17,12 +18,27 @@ def write(out: Path, config, results) -> None:
         f.write("n,Int,y,gran\n")
         for n, i, y, g in zip(n_all, data["Int"], data["y"], data["gran"]):
             f.write(f"{int(n)},{i:.17g},{y:.17g},{g:.17g}\n")
+    write_front_csv(out / "symbolic_front.csv", results["symbolic_regression"]["front"])
     with open(out / "regression_front.csv", "w") as f:
         f.write("terms,expression,rms_sample,rms_all_n,threshold\n")
         f.write(f"1,{reg['constant_model']:.6g},{reg['constant_model_rms']:.6g},,\n")
         for m in reg["front"]:
             f.write(f"{len(m['terms'])},{m['expression']},{m['rms']:.6g},{m['rms_all_n']:.6g},"
                     f"{m['threshold']:.3g}\n")
+
+
+FRONT_COLUMNS = ("complexity", "rms", "form", "expression", "canonical", "max_rel_to_exact",
+                 "max_energy_excess", "equivalent_to_exact")
+
+
+def write_front_csv(path, front) -> None:
+    """A symbolic-regression front as CSV, one member per row; columns a member lacks are left out."""
+    columns = [c for c in FRONT_COLUMNS if all(c in m for m in front)]
+    with open(path, "w", newline="") as f:
+        writer = csv.writer(f)
+        writer.writerow(columns)
+        for m in front:
+            writer.writerow([f"{m[c]:.10g}" if isinstance(m[c], float) else m[c] for c in columns])
 
 
 def front_markdown(reg) -> str:

@@ -14,7 +14,7 @@ import numpy as np
 import pysindy as ps
 
 from ..roots import SolverError
-from .sample import sample_exponents
+from .sample import alternative_samples, same_kind
 
 TERMS = {
     "1": lambda n: np.ones_like(n), "n": lambda n: n, "1/n": lambda n: 1.0 / n,
@@ -82,26 +82,9 @@ def run(config, inputs, memo):
         m["rms_all_n"] = float(np.sqrt(np.mean(
             (np.column_stack([TERMS[t](n_all) for t in m["terms"]]) @ m["coefficients"] - y_all) ** 2)))
 
-    # How the two-term constants move with the sample (every sample of the same kind as the
-    # paper's unless named otherwise; y rounded as configured).
-    decimals = config["sample.y_decimals"]
-
-    def at(ns, rounded=True):
-        y = y_all[np.asarray(ns, dtype=np.int64) - n_min]
-        return (np.round(y, decimals) if rounded and decimals >= 0 else y)
-
-    alternatives = {"configured sample": (n_s, y_s),
-                    "configured sample, y unrounded": (n_s, at(n_s, rounded=False)),
-                    "every n in range": (n_all, y_all)}
+    # How the two-term constants move with the sample.
     size = len(n_s)
-    for head_to in (11, 21, 41):
-        if n_min <= head_to < n_max and size - (head_to - n_min + 1) >= 2:
-            cfg = dict(config) | {"sample.consecutive_to": head_to, "sample.spread_from": head_to + 1,
-                                  "sample.spread_count": size - (head_to - n_min + 1)}
-            ns = sample_exponents(cfg).astype(np.float64)
-            alternatives[f"n_min..{head_to}, then {size - (head_to - n_min + 1)} evenly spaced"] = (ns, at(ns))
-    geo = np.unique(np.round(np.geomspace(n_min, n_max, size)))
-    alternatives[f"{len(geo)} log-spaced n"] = (geo, at(geo))
+    alternatives = alternative_samples(config, n_s, y_s, y_all)
     sensitivity = []
     for label, (ns, ys) in alternatives.items():
         alt_front = sweep(ns, ys, terms, thresholds)
@@ -112,12 +95,12 @@ def run(config, inputs, memo):
                                 rms=alt[2] if alt else float("nan"),
                                 three_term_rms=_three_term(alt_front)["three_term_rms"],
                                 one_term_scale=_one_term(alt_front)[0], one_term_rms=_one_term(alt_front)[1]))
-    same_kind = [row for row in sensitivity if row["size"] == size and "unrounded" not in row["sample"]]
+    same = [row for row in sensitivity if same_kind(row["sample"], row["size"], size)]
     mean = float(np.mean(y_s))
     return dict(front=front, coef_scale=scale, coef_offset=offset, coef_rms=rms,
                 constant_model=mean, constant_model_rms=float(np.sqrt(np.mean((y_s - mean) ** 2))),
                 sample_sensitivity=sensitivity,
-                **{f"sensitivity_{name}_range": [min(r[name] for r in same_kind), max(r[name] for r in same_kind)]
+                **{f"sensitivity_{name}_range": [min(r[name] for r in same), max(r[name] for r in same)]
                    for name in ("offset", "rms", "three_term_rms", "one_term_scale", "one_term_rms")},
                 one_term_scale=_one_term(front)[0], one_term_rms=_one_term(front)[1],
                 **_three_term(front))
