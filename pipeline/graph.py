@@ -227,6 +227,7 @@ STAGES: tuple[Stage, ...] = (
         "front_complexities": "complexities of the front's members [list]",
         "best_rms_by_complexity": "lowest RMS at each complexity, on the front or not [dict, 1/sr]",
         "equivalence_tolerance": "max |member - exact coef| over n below which a member counts as the exact form: the rounding step of y [1/sr]",
+        "rounding_rms_floor": "RMS that rounding y alone leaves, step / sqrt(12) (0 if y is not rounded) [1/sr]",
         "sr_exact_complexity": "smallest complexity whose front member is the exact coef within that tolerance (-1: none) [count]",
         "sr_exact_expression": "that member [text]",
         "sr_exact_scale": "its scale in the form scale (offset + n + residue/(n - pole)) [1/sr]",

@@ -199,12 +199,11 @@ def fig9(out, config, r):
     paper = [p for p in paper if p[1] is not None]
     ax.plot([p[0] for p in paper], [p[1] for p in paper], marker="*", ms=16, mfc="none", mec="black", ls="none",
             zorder=6, label="paper: TuringBot's five rows")
-    decimals = config["sample.y_decimals"]
-    if decimals >= 0:
-        floor = 10.0 ** -decimals / np.sqrt(12.0)
+    floor = sr["rounding_rms_floor"]
+    if floor > 0:
         ax.axhline(floor, color="C3", ls=":", lw=1)
-        ax.text(14.3, floor * 0.7, f"RMS of rounding y to {decimals} decimals alone: {floor:.2g}", color="C3",
-                fontsize=8, ha="right", va="top")
+        ax.text(14.3, floor * 0.7, f"RMS of rounding y to {config['sample.y_decimals']} decimals alone: {floor:.2g}",
+                color="C3", fontsize=8, ha="right", va="top")
     ax.set(yscale="log", xlabel="complexity (TuringBot's: constants, n, +, -, x count 1; / counts 2)",
            ylabel="RMS error on the sample (1/sr)", title="Fig. 9: complexity / error front of coef(n)",
            xlim=(0, 14.5))

@@ -98,7 +98,7 @@ def _symbolic(config, r) -> list[str]:
               f"creates at most {100 * max(sr['paper12_max_energy_excess'], 0.0):.2g} % energy. This run's size-12 member "
               f"has scale {sr['size12_scale']:.6f}, offset {sr['size12_offset']:.6f}, residue "
               f"{sr['size12_residue']:.6f}, pole {sr['size12_pole']:.6f} (RMS {sr['size12_rms']:.3g}; the rounding "
-              "alone gives 0.001/sqrt(12) = 0.00029); the pole is the least determined constant, because it "
+              f"alone gives {sr['rounding_rms_floor']:.2g}); the pole is the least determined constant, because it "
               "only shows at the few smallest n."]
     if exact:
         m = exact[0]

@@ -130,6 +130,7 @@ def run(config, inputs, memo):
         front=front, forms_searched=len(forms),
         forms_by_complexity={int(k): int(np.sum(found["complexity"] == k)) for k in np.unique(found["complexity"])},
         front_complexities=[m["complexity"] for m in front], equivalence_tolerance=tolerance,
+        rounding_rms_floor=tolerance / np.sqrt(12.0) if decimals >= 0 else 0.0,
         best_rms_by_complexity={int(k): float(np.min(rms[found["complexity"] == k])) for k in np.unique(found["complexity"])},
         sr_exact_complexity=equivalent[0]["complexity"] if equivalent else -1,
         sr_exact_expression=equivalent[0]["expression"] if equivalent else "",
