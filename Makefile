@@ -1,12 +1,18 @@
 # The two commands a user needs: `make reproduce` and `make test`. The first run of either creates
 # .venv and installs the project with the pinned versions of constraints.txt; `make test` adds the
-# test dependencies (pytest, the GLSL compiler).
+# test dependencies (pytest). Mitsuba's fast variant (llvm_ad_rgb) needs a shared LLVM >= 15, and
+# the LLVM 15 of Debian 12 aborts every render: as root on Debian, Debian's libllvm19 is installed
+# and selected (DRJIT_LIBLLVM_PATH); elsewhere, or if that fails, the pipeline uses scalar_rgb.
 PYTHON ?= python3
 VENV := .venv
 BIN := $(VENV)/bin
 INSTALLED := $(VENV)/.installed
 TEST_INSTALLED := $(VENV)/.installed-test
 PIP := $(BIN)/pip install --quiet --disable-pip-version-check -c constraints.txt
+LLVM_READY := $(VENV)/.llvm
+# Runs a command with DRJIT_LIBLLVM_PATH set to LLVM 19 where one is installed.
+WITH_LLVM = lib=$$(ls /usr/lib/*/libLLVM.so.19* /usr/lib/llvm-19/lib/libLLVM.so* 2>/dev/null | head -n 1); \
+	if [ -n "$$lib" ]; then export DRJIT_LIBLLVM_PATH=$$lib; fi;
 CONFIG ?= configs/paper.toml
 SET ?=
 
@@ -24,17 +30,31 @@ $(TEST_INSTALLED): $(INSTALLED)
 	$(PIP) -e ".[test]"
 	touch $(TEST_INSTALLED)
 
-reproduce: $(INSTALLED)
-	$(BIN)/pipeline reproduce
+# Best effort: a missing libllvm19 only means the slower scalar_rgb variant.
+$(LLVM_READY): $(INSTALLED)
+	@if ls /usr/lib/*/libLLVM.so.19* /usr/lib/llvm-19/lib/libLLVM.so* >/dev/null 2>&1; then \
+		echo "LLVM 19 found: Mitsuba runs llvm_ad_rgb"; \
+	elif [ "$$(id -u)" = 0 ] && command -v apt-get >/dev/null; then \
+		echo "installing Debian's libllvm19 for Mitsuba's llvm_ad_rgb variant ..."; \
+		DEBIAN_FRONTEND=noninteractive apt-get install -y -q libllvm19 >/dev/null 2>&1 \
+		|| (apt-get update -q >/dev/null 2>&1 && DEBIAN_FRONTEND=noninteractive apt-get install -y -q libllvm19 >/dev/null 2>&1) \
+		|| echo "libllvm19 could not be installed: Mitsuba falls back to scalar_rgb"; \
+	else \
+		echo "no LLVM 19 and no apt-get as root: Mitsuba falls back to scalar_rgb"; \
+	fi
+	touch $(LLVM_READY)
 
-refit: $(INSTALLED)
-	$(BIN)/pipeline refit --config $(CONFIG) $(foreach s,$(SET),--set $(s))
+reproduce: $(INSTALLED) $(LLVM_READY)
+	$(WITH_LLVM) $(BIN)/pipeline reproduce
 
-test: $(TEST_INSTALLED)
-	$(BIN)/python -m pytest -q
+refit: $(INSTALLED) $(LLVM_READY)
+	$(WITH_LLVM) $(BIN)/pipeline refit --config $(CONFIG) $(foreach s,$(SET),--set $(s))
 
-bench: $(TEST_INSTALLED)
-	$(BIN)/python bench/bench.py
+test: $(TEST_INSTALLED) $(LLVM_READY)
+	$(WITH_LLVM) $(BIN)/python -m pytest -q
+
+bench: $(TEST_INSTALLED) $(LLVM_READY)
+	$(WITH_LLVM) $(BIN)/python bench/bench.py
 
 keys: $(INSTALLED)
 	$(BIN)/pipeline keys
