@@ -331,6 +331,24 @@ STAGES: tuple[Stage, ...] = (
         "psnr_f_Q2_min": "worst PSNR of f_Q2's displayed images [dB]",
         "psnr_f_2_min": "worst PSNR of f_2's displayed images [dB]",
     }),
+    _stage("mitsuba_render", "beyond", ("mitsuba.*", "albedo.quadrature_nodes"),
+           ("linear_coefficient.slope_used", "linear_coefficient.intercept_used", "zone.level"), {
+        "variant": "Mitsuba variant that ran (llvm_ad_rgb, or the scalar_rgb fallback) [text]",
+        "spp": "samples per pixel of each render [count]",
+        "render_seconds": "time of the path-traced renders [s]",
+        "exponents": "n of the three spheres, left to right [list]",
+        "display": "8-bit display images: cos^n, f_2, f_Q2, f_Q2 with cosine-weighted sampling [array]",
+        "flip_maps": "FLIP error maps of f_2 and f_Q2 against cos^n [array]",
+        "highlight": "per pixel, the sphere whose visible sun highlight (the sun's direct specular term of some lobe adds >= 1 display level) it is in, or -1 [array]",
+        "epicenter": "pixels of the highlights where cos^n(N.H) >= L [array]",
+        "statistics": "per lobe and n: mean FLIP over the highlight, its epicenter share, RMS difference and noise [list]",
+        "flip_frame": "mean FLIP over the frame, per lobe [dict]",
+        "sampling": "per n: variance over the sphere of f_Q2 with its sampler and with cosine-weighted sampling [list]",
+        "flip_f_Q2_max": "largest mean FLIP of f_Q2 over a sphere's highlight [in [0, 1]]",
+        "flip_f_2_max": "largest mean FLIP of f_2 over a sphere's highlight [in [0, 1]]",
+        "f_Q2_closer_count": "spheres whose highlight f_Q2 renders closer to cos^n than f_2, by FLIP [count]",
+        "noise_to_difference_max": "largest ratio of Monte Carlo noise to the lobe difference over a highlight [ratio]",
+    }),
 )
 
 BY_NAME: Mapping[str, Stage] = MappingProxyType({s.name: s for s in STAGES})

@@ -34,6 +34,7 @@ _PROBE = ("import mitsuba as mi\n"
           "mi.render(scene, spp=1)\n")
 
 
+@functools.cache
 def choose_variant() -> str:
     """`llvm_ad_rgb` where Dr.Jit's LLVM back end renders (probed in a child process, since a
     broken LLVM aborts the process), else `scalar_rgb`. `PIPELINE_MITSUBA_VARIANT` overrides."""
@@ -55,9 +56,19 @@ def register(variant: str | None = None) -> str:
     return variant
 
 
-@functools.cache
+_CLASSES: dict = {}
+
+
 def plugin_class():
-    """The plugin's class (made once per process, after the variant is set)."""
+    """The plugin's class for the current variant (made once per variant)."""
+    import mitsuba as mi
+
+    if mi.variant() not in _CLASSES:
+        _CLASSES[mi.variant()] = _make_class()
+    return _CLASSES[mi.variant()]
+
+
+def _make_class():
     import drjit as dr
     import mitsuba as mi
 

@@ -73,6 +73,10 @@ FIGURES = (
            "render", "render_crops", ("render",), ("render.exponents",)),
     Figure("render_errors_n{n}.png", "Render errors at n = {n}: FLIP maps and absolute error", "render", "render_errors", ("render",),
            ("render.exponents",)),
+    Figure("mitsuba_renders.png", "Mitsuba path-traced renders (n = 10, 100, 1000 left to right) and FLIP maps",
+           "mitsuba", "mitsuba_renders", ("mitsuba_render",)),
+    Figure("mitsuba_crops.png", "Mitsuba renders: each sphere's sun highlight, zoomed, with FLIP maps", "mitsuba",
+           "mitsuba_crops", ("mitsuba_render",)),
 )
 
 

@@ -496,3 +496,54 @@ def render_crops(out, config, r):
         name = f"render_crops_n{n:g}.png"
         names.append(_save(fig, out, name, dpi=90, tight=False))
     return names
+
+
+MITSUBA_PANELS = ("cos^n (reference)", "f_2", "f_Q2", "f_Q2, cosine-weighted sampling")
+
+
+def mitsuba_renders(out, config, r):
+    """The four Mitsuba renders, and the FLIP maps of f_2 and f_Q2 on one scale with the highlights outlined."""
+    s = r["mitsuba_render"]
+    fig, axes = plt.subplots(3, 2, figsize=(12, 9.2))
+    for ax, image, title in zip(axes.flat[:4], s["display"], MITSUBA_PANELS):
+        ax.imshow(image, interpolation="nearest")
+        ax.set_title(f"{title}: {s['spp']} spp x 2 seeds ({s['variant']})", fontsize=9)
+    for ax, fmap, name in zip(axes.flat[4:], s["flip_maps"], ("f_2", "f_Q2")):
+        im = ax.imshow(fmap.astype(np.float32), cmap="magma", vmin=0.0, vmax=1.0, interpolation="nearest")
+        ax.contour(s["highlight"] >= 0, levels=[0.5], colors="cyan", linewidths=0.6)
+        ax.set_title(f"FLIP of {name} against cos^n (mean over the frame {s['flip_frame'][name]:.4f}); "
+                     "cyan: sun highlights", fontsize=9)
+        fig.colorbar(im, ax=ax, fraction=0.03, pad=0.02)
+    for ax in axes.flat:
+        ax.set_axis_off()
+    fig.suptitle("Mitsuba 3 path tracer, lobes as BSDF plugins (Blinn form, exact normalization); spheres "
+                 + ", ".join(f"n = {n:g}" for n in s["exponents"]), fontsize=10)
+    return _save(fig, out, "mitsuba_renders.png", dpi=90)
+
+
+def mitsuba_crops(out, config, r):
+    """Per sphere: its sun highlight in the three lobes' displays, zoomed, and the FLIP maps there."""
+    s = r["mitsuba_render"]
+    stats = {(x["lobe"], x["n"]): x for x in s["statistics"]}
+    fig, axes = plt.subplots(len(s["exponents"]), 5, figsize=(14, 3.1 * len(s["exponents"])), squeeze=False)
+    for i, n in enumerate(s["exponents"]):
+        ys, xs = np.nonzero(s["highlight"] == i)
+        cy, cx = int(ys.mean()), int(xs.mean())
+        half = max(8, int(1.5 * max(ys.max() - ys.min(), xs.max() - xs.min()) / 2) + 4)
+        window = (slice(max(cy - half, 0), cy + half), slice(max(cx - half, 0), cx + half))
+        panels = [(s["display"][l][window], f"{name}", None) for l, name in enumerate(("cos^n", "f_2", "f_Q2"))]
+        panels += [(s["flip_maps"][l][window].astype(np.float32),
+                    f"FLIP {name}: {stats[(name, n)]['flip_highlight']:.3f} over the highlight", "magma")
+                   for l, name in enumerate(("f_2", "f_Q2"))]
+        for ax, (image, title, cmap) in zip(axes[i], panels):
+            if cmap:
+                ax.imshow(image, cmap=cmap, vmin=0.0, vmax=1.0, interpolation="nearest")
+            else:
+                ax.imshow(image, interpolation="nearest")
+            ax.contour((s["highlight"] == i)[window], levels=[0.5], colors="cyan", linewidths=0.6)
+            ax.set_title(f"n = {n:g}: {title}", fontsize=8.5)
+            ax.set_axis_off()
+    fig.suptitle("Sun highlight of each sphere (cyan: pixels where some lobe's direct sun highlight adds >= 1 "
+                 "display level); FLIP on one scale, 0 to 1",
+                 fontsize=10)
+    return _save(fig, out, "mitsuba_crops.png", dpi=90)

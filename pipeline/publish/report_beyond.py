@@ -354,4 +354,45 @@ def sections(config, r, figures) -> list[str]:
     return (exact_section(config, r, figures) + albedo_section(config, r, figures)
             + comparison_section(config, r, figures) + cost_section(config, r) + half_section(config, r)
             + verdict_section(config, r)
-            + render_section(config, r, figures))
+            + render_section(config, r, figures) + mitsuba_section(config, r, figures))
+
+
+def mitsuba_section(config, r, figures) -> list[str]:
+    s = r["mitsuba_render"]
+    lines = ["## Renders in Mitsuba 3", "",
+             f"The lobes as Mitsuba BSDF plugins (`pipeline/mitsuba_bsdf.py`; Blinn form, each with its exact "
+             f"normalization at normal view; closed-form importance sampling) on three spheres of n = "
+             + ", ".join(f"{n:g}" for n in s["exponents"]) + " on a grey floor, under a constant sky and a sun, "
+             f"path traced with indirect light (max depth 4). Variant **{s['variant']}**, {s['spp']} samples per "
+             f"pixel (multi-jittered), each lobe rendered with two seeds: the image is their mean, and their "
+             f"difference measures the noise. The renders took {s['render_seconds']:.1f} s. Mitsuba's own chi-square "
+             "test accepts every sampler (cos^n's, and the quadratic lobe's for f_2 and f_Q2, Phong and Blinn forms) "
+             "at n = 2, 10, 100, 1000 and incidence 0, 45 and 80 degrees, and rejects a sampler with a square root "
+             "for the cube root and a pdf 10 % too large; the white furnace and reciprocity hold "
+             "(`tests/test_mitsuba.py`).", "",
+             "| n | lobe | FLIP over the sun highlight | share in the epicenter | highlight pixels | "
+             "RMS difference (luminance) | RMS noise | noise / difference |", "|---|---|---|---|---|---|---|---|"]
+    for x in s["statistics"]:
+        lines.append(f"| {x['n']:g} | {x['lobe']} | {x['flip_highlight']:.4f} | {pct(x['flip_share_epicenter'])} | "
+                     f"{x['highlight_pixels']} | {x['difference_rms']:.4g} | {x['noise_rms']:.3g} | "
+                     f"{x['noise_to_difference']:.3f} |")
+    by = {(x["lobe"], x["n"]): x for x in s["statistics"]}
+    closer = [n for n in s["exponents"] if by[("f_Q2", n)]["flip_highlight"] < by[("f_2", n)]["flip_highlight"]]
+    lines += ["", f"Over the whole frame the mean FLIP is {s['flip_frame']['f_2']:.4f} for f_2 and "
+              f"{s['flip_frame']['f_Q2']:.4f} for f_Q2. Over the sun highlights f_Q2 is closer to cos^n than f_2 on "
+              f"{s['f_Q2_closer_count']} of {len(s['exponents'])} spheres"
+              + (f" (n = {', '.join(f'{n:g}' for n in closer)})" if closer else "")
+              + f", but both stay far from it: the largest mean FLIP over a highlight is {s['flip_f_Q2_max']:.3f} "
+              f"for f_Q2 and {s['flip_f_2_max']:.3f} for f_2, and at most "
+              f"{pct(max(x['flip_share_epicenter'] for x in s['statistics']))} of it lies in the epicenter: the "
+              "difference is the blooming zone, where the quadratic lobes end and cos^n still glows. The noise is at "
+              f"most {s['noise_to_difference_max']:.2f} of the difference it is set beside.", "",
+              "**What importance sampling buys** (f_Q2 at the same samples per pixel, per-pixel variance over each "
+              "sphere, where the reflected sky is found by sampling the BSDF; the sun, a delta light, is sampled "
+              "as a light):", "", "| n | variance, lobe sampler | variance, cosine-weighted | ratio |",
+              "|---|---|---|---|"]
+    for x in s["sampling"]:
+        lines.append(f"| {x['n']:g} | {x['lobe_sampler_variance']:.3g} | {x['cosine_sampler_variance']:.3g} | "
+                     f"{x['variance_ratio']:.1f}x |")
+    lines.append("")
+    return lines + embed(figures, "mitsuba")

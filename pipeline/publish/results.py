@@ -44,6 +44,9 @@ HEADLINE = {
     "render_flip_f_2_max": "render.flip_f_2_max",
     "render_psnr_f_Q2_min": "render.psnr_f_Q2_min",
     "render_psnr_f_2_min": "render.psnr_f_2_min",
+    "sr_exact_complexity": "symbolic_regression.sr_exact_complexity",
+    "mitsuba_flip_f_Q2_max": "mitsuba_render.flip_f_Q2_max",
+    "mitsuba_flip_f_2_max": "mitsuba_render.flip_f_2_max",
 }
 
 

@@ -1,0 +1,79 @@
+"""The Mitsuba scene of the rendered comparison: three spheres of exponents n (left to right) with
+the lobe alone as their BSDF (Blinn form), on a grey Lambertian floor, under a constant sky and a
+sun (a directional light), rendered by Mitsuba's path tracer (indirect light included).
+
+Also an AOV pass (position and shading normal at each pixel centre), from which the sphere seen at
+each pixel, N.H for the sun there (H the half vector of the sun and the view direction) and N.L
+(L towards the sun) are computed: the sun's direct specular radiance of any lobe follows in closed
+form, E coef lobe(N.H) N.L.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from . import mitsuba_bsdf
+
+CAMERA, TARGET = (0.0, 2.2, 6.5), (0.0, 0.55, 0.0)
+SUN = np.array([0.4, -1.0, -0.6]) / np.linalg.norm([0.4, -1.0, -0.6])     # direction light travels
+SUN_IRRADIANCE = np.array([4.0, 3.8, 3.5])
+SPHERE_X, RADIUS = (-1.25, 0.0, 1.25), 0.55
+SAMPLER = "multijitter"     # stratified pixel positions: far less noise across a narrow highlight than independent
+
+
+def scene_dict(lobes, width: int, height: int, spp: int, integrator: dict | None = None, sun: bool = True) -> dict:
+    """The scene with one BSDF dict per sphere (`lobes`, three); without the sun if `sun` is False."""
+    import mitsuba as mi
+
+    scene = {
+        "type": "scene",
+        "integrator": integrator or {"type": "path", "max_depth": 4},
+        "sensor": {"type": "perspective", "fov": 35,
+                   "to_world": mi.ScalarTransform4f().look_at(origin=list(CAMERA), target=list(TARGET), up=[0, 1, 0]),
+                   "film": {"type": "hdrfilm", "width": width, "height": height, "rfilter": {"type": "box"}},
+                   "sampler": {"type": SAMPLER, "sample_count": spp}},
+        "sky": {"type": "constant", "radiance": {"type": "rgb", "value": [0.25, 0.3, 0.4]}},
+        "sun": {"type": "directional", "direction": SUN.tolist(), "irradiance": {"type": "rgb", "value": SUN_IRRADIANCE.tolist()}},
+        "floor": {"type": "rectangle", "to_world": mi.ScalarTransform4f().rotate([1, 0, 0], -90).scale(6),
+                  "bsdf": {"type": "diffuse", "reflectance": {"type": "rgb", "value": [0.4, 0.4, 0.4]}}},
+    }
+    if not sun:
+        del scene["sun"]
+    for i, (x, bsdf) in enumerate(zip(SPHERE_X, lobes)):
+        scene[f"sphere{i}"] = {"type": "sphere", "center": [x, RADIUS, 0.0], "radius": RADIUS, "bsdf": bsdf}
+    return scene
+
+
+def lobe_dict(shape: str, n: float, k: float, coef: float, sampler: str = "lobe") -> dict:
+    return {"type": mitsuba_bsdf.NAME, "shape": shape, "form": "blinn", "exponent": float(n), "k": float(k),
+            "coef": float(coef), "sampler": sampler}
+
+
+def render(lobes, width: int, height: int, spp: int, seed: int, sun: bool = True) -> np.ndarray:
+    """Linear RGB radiance (height, width, 3), float64."""
+    import mitsuba as mi
+
+    scene = mi.load_dict(scene_dict(lobes, width, height, spp, sun=sun))
+    return np.asarray(mi.render(scene, spp=spp, seed=seed), dtype=np.float64)
+
+
+def sun_geometry(width: int, height: int, lobes) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(N.H and N.L of the sun at each pixel centre, index of the sphere seen there or -1)."""
+    import mitsuba as mi
+
+    aov = {"type": "aov", "aovs": "pp:position,nn:sh_normal"}
+    scene = mi.load_dict(scene_dict(lobes, width, height, 1, integrator=aov))
+    image = np.asarray(mi.render(scene, spp=1, seed=0), dtype=np.float64)
+    position, normal = image[..., -6:-3], image[..., -3:]
+    sphere = np.full((height, width), -1)
+    hit = np.linalg.norm(normal, axis=-1) > 0.5          # the sky leaves position and normal 0
+    for i, x in enumerate(SPHERE_X):
+        distance = np.linalg.norm(position - np.array([x, RADIUS, 0.0]), axis=-1)
+        sphere[hit & (np.abs(distance - RADIUS) < 1e-3 * RADIUS)] = i
+    view = np.array(CAMERA) - position
+    view /= np.maximum(np.linalg.norm(view, axis=-1, keepdims=True), 1e-12)
+    half = view - SUN
+    half /= np.maximum(np.linalg.norm(half, axis=-1, keepdims=True), 1e-12)
+    t = np.sum(half * normal, axis=-1)
+    cos_light = np.sum(-SUN * normal, axis=-1)
+    return np.where(sphere >= 0, t, 0.0), np.where(sphere >= 0, cos_light, 0.0), sphere

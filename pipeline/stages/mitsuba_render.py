@@ -1,0 +1,152 @@
+"""Renders in Mitsuba 3 (beyond the paper): the lobes as BSDF plugins (`pipeline.mitsuba_bsdf`, Blinn
+form, each with its exact normalization at normal view) on three spheres of exponents
+`mitsuba.exponents` under a sky and a sun, path traced with indirect light
+(`pipeline.mitsuba_scene`); reference cos^n against f_2 and f_Q2, judged by FLIP.
+
+- Every lobe is rendered twice, with seeds `mitsuba.seed` and `mitsuba.seed + 1`, at `mitsuba.spp`
+  samples per pixel; the image is their mean, and (a - b)^2 / 4 estimates its noise variance per
+  pixel, so the noise can be set beside the differences between lobes.
+- The sun's visible highlight in each sphere: its pixels where the sun's direct specular term of
+  any lobe (in closed form from an AOV pass, E coef lobe(N.H) N.L) brightens the image without the
+  sun by at least one 8-bit display level, as in the direct-lighting renders; its epicenter, where
+  cos^n(N.H) >= the zone level L.
+- FLIP (flip-evaluator, LDR) on the displayed 8-bit images (Reinhard tone map and sRGB, as the
+  direct-lighting renders), as floats: mean over the frame and over each highlight, and the share
+  of each highlight's FLIP error in its epicenter.
+- Importance sampling: f_Q2 rendered also with cosine-weighted sampling at the same samples per
+  pixel; the per-pixel variance of each over the highlights.
+
+Without a vectorized Mitsuba variant (no LLVM >= 15: `pipeline.mitsuba_bsdf.choose_variant`) the
+scalar variant runs the Python plugins one sample at a time, so the stage renders at
+`mitsuba.fallback_spp` samples per pixel and says so.
+"""
+
+import time
+
+import numpy as np
+
+from .. import mitsuba_bsdf, mitsuba_scene
+from ..albedo import albedo_table
+from ..render import luminance, to_display
+from .render import flip_map, visible
+
+LOBES = ("cos^n", "f_2", "f_Q2")
+
+
+def _display8(radiance) -> np.ndarray:
+    return np.round(255.0 * np.asarray(to_display(radiance))).astype(np.uint8)
+
+
+def _blinn_coef(shape: str, n: float, p: float, nodes: int) -> float:
+    """The exact Blinn-form normalization at normal view: 1 / albedo per unit coef at 0 degrees."""
+    u_end = 1.0 if shape == "power" else min(1.0 / p, 2.0)
+    return 1.0 / float(albedo_table("blinn", shape, n, p, u_end, np.zeros(1), nodes)[0, 0])
+
+
+def render_pair(lobes, width, height, spp, seed, variant) -> dict:
+    """The scene with these sphere BSDFs, rendered with seeds `seed` and `seed + 1`."""
+    mitsuba_bsdf.register(variant)
+    return dict(first=mitsuba_scene.render(lobes, width, height, spp, seed),
+                second=mitsuba_scene.render(lobes, width, height, spp, seed + 1))
+
+
+def render_no_sun(lobes, width, height, spp, seed, variant) -> dict:
+    """The same scene without the sun: the background against which a highlight is visible."""
+    mitsuba_bsdf.register(variant)
+    return dict(image=mitsuba_scene.render(lobes, width, height, spp, seed, sun=False))
+
+
+def run(config, inputs, memo):
+    a, b = inputs["linear_coefficient.slope_used"], inputs["linear_coefficient.intercept_used"]
+    level = inputs["zone.level"]
+    exponents = [float(n) for n in config["mitsuba.exponents"]]
+    width, height, seed = config["mitsuba.width"], config["mitsuba.height"], config["mitsuba.seed"]
+    wanted = config["mitsuba.variant"]
+    variant = mitsuba_bsdf.register(None if wanted == "auto" else wanted)
+    spp = config["mitsuba.spp"] if variant == mitsuba_bsdf.FAST_VARIANT else config["mitsuba.fallback_spp"]
+    nodes = config["albedo.quadrature_nodes"]
+
+    def lobes(name, sampler="lobe"):
+        out = []
+        for n in exponents:
+            if name == "cos^n":
+                shape, p, coef = "cosn", n, _blinn_coef("power", n, n, nodes)
+            else:
+                p = n / 2.0 if name == "f_2" else a * n + b
+                shape, coef = "quadratic", _blinn_coef("quadratic", n, p, nodes)
+            out.append(mitsuba_scene.lobe_dict(shape, n, p, coef, sampler))
+        return out
+
+    def lobe_value(bsdf, t):
+        if bsdf["shape"] == "cosn":
+            return np.maximum(t, 0.0) ** bsdf["exponent"]
+        return np.maximum(bsdf["k"] * (t - 1.0) + 1.0, 0.0) ** 2
+
+    start = time.perf_counter()
+    runs = {}
+    # Memoized per lobe: a Q refit renders f_Q2 again and reuses cos^n and f_2.
+    for name, sampler in [(lobe, "lobe") for lobe in LOBES] + [("f_Q2", "cosine")]:
+        pair = memo("mitsuba_pair", render_pair, lobes=lobes(name, sampler), width=width, height=height, spp=spp,
+                    seed=seed, variant=variant)
+        runs[(name, sampler)] = [pair["first"], pair["second"]]
+    no_sun = memo("mitsuba_no_sun", render_no_sun, lobes=lobes("cos^n"), width=width, height=height, spp=spp,
+                  seed=seed, variant=variant)["image"]
+    seconds = time.perf_counter() - start
+
+    t, cos_light, sphere = mitsuba_scene.sun_geometry(width, height, lobes("cos^n"))
+    on = sphere >= 0
+    mean = {key: 0.5 * (p[0] + p[1]) for key, p in runs.items()}
+    lum = {key: np.asarray(luminance(m)) for key, m in mean.items()}
+    noise_var = {key: np.asarray(luminance(p[0]) - luminance(p[1])) ** 2 / 4.0 for key, p in runs.items()}
+    display = {key: _display8(m) for key, m in mean.items()}
+    base8 = _display8(no_sun)
+    seen = np.zeros(sphere.shape, dtype=bool)
+    epicenter = np.zeros(sphere.shape, dtype=bool)
+    for name in LOBES:
+        direct = np.zeros(no_sun.shape)
+        for i, bsdf in enumerate(lobes(name)):
+            here = (sphere == i) & (cos_light > 0.0)
+            value = bsdf["coef"] * lobe_value(bsdf, t) * np.maximum(cos_light, 0.0)
+            direct[here] = (mitsuba_scene.SUN_IRRADIANCE * value[..., None])[here]
+            if name == "cos^n":
+                epicenter |= (sphere == i) & (lobe_value(bsdf, t) >= level)
+        seen |= visible(_display8(no_sun + direct), base8)
+    highlight = np.where(seen & on, sphere, -1).astype(np.int8)
+    reference = ("cos^n", "lobe")
+    statistics, flip_frame, maps = [], {}, []
+    for name in LOBES[1:]:
+        key = (name, "lobe")
+        fmap = flip_map(display[reference], display[key])
+        maps.append(fmap.astype(np.float16))
+        flip_frame[name] = float(fmap.mean())
+        for i, n in enumerate(exponents):
+            region = highlight == i
+            core = region & epicenter
+            difference = lum[key][region] - lum[reference][region]
+            noise = np.sqrt(np.mean(noise_var[key][region] + noise_var[reference][region]))
+            statistics.append(dict(
+                lobe=name, n=n, highlight_pixels=int(region.sum()), epicenter_pixels=int(core.sum()),
+                flip_highlight=float(fmap[region].mean()),
+                flip_share_epicenter=float(fmap[core].sum() / max(fmap[region].sum(), 1e-30)),
+                difference_rms=float(np.sqrt(np.mean(difference ** 2))), noise_rms=float(noise),
+                noise_to_difference=float(noise / max(np.sqrt(np.mean(difference ** 2)), 1e-30))))
+    sampling = []
+    for i, n in enumerate(exponents):
+        # Over the whole sphere: in the sun's highlight the light is sampled (the sun is a delta
+        # light), so the BSDF's sampler matters for the sky it reflects.
+        region = sphere == i
+        # Variance of one render at spp: twice that of the two-render mean.
+        lobe_var = float(np.mean(2.0 * noise_var[("f_Q2", "lobe")][region]))
+        cosine_var = float(np.mean(2.0 * noise_var[("f_Q2", "cosine")][region]))
+        sampling.append(dict(n=n, lobe_sampler_variance=lobe_var, cosine_sampler_variance=cosine_var,
+                             variance_ratio=cosine_var / max(lobe_var, 1e-300)))
+    by = {(s["lobe"], s["n"]): s["flip_highlight"] for s in statistics}
+    return dict(
+        variant=variant, spp=int(spp), render_seconds=seconds, exponents=exponents,
+        display=np.stack([display[k] for k in (reference, ("f_2", "lobe"), ("f_Q2", "lobe"), ("f_Q2", "cosine"))]),
+        flip_maps=np.stack(maps), highlight=highlight, epicenter=epicenter,
+        statistics=statistics, flip_frame=flip_frame, sampling=sampling,
+        flip_f_Q2_max=max(by[("f_Q2", n)] for n in exponents), flip_f_2_max=max(by[("f_2", n)] for n in exponents),
+        f_Q2_closer_count=int(sum(by[("f_Q2", n)] < by[("f_2", n)] for n in exponents)),
+        noise_to_difference_max=max(s["noise_to_difference"] for s in statistics),
+    )
