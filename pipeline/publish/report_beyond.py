@@ -386,7 +386,9 @@ def mitsuba_section(config, r, figures) -> list[str]:
               f"for f_Q2 and {s['flip_f_2_max']:.3f} for f_2, and at most "
               f"{pct(max(x['flip_share_epicenter'] for x in s['statistics']))} of it lies in the epicenter: the "
               "difference is the blooming zone, where the quadratic lobes end and cos^n still glows. The noise is at "
-              f"most {s['noise_to_difference_max']:.2f} of the difference it is set beside.", "",
+              f"most {s['noise_to_difference_max']:.2f} of the difference it is set beside"
+              + ("." if s["noise_to_difference_max"] < 0.3 else
+                 ": **too noisy to conclude** (raise mitsuba.spp, or run where the fast variant runs)."), "",
               "**What importance sampling buys** (f_Q2 at the same samples per pixel, per-pixel variance over each "
               "sphere, where the reflected sky is found by sampling the BSDF; the sun, a delta light, is sampled "
               "as a light):", "", "| n | variance, lobe sampler | variance, cosine-weighted | ratio |",
