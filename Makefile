@@ -32,7 +32,7 @@ $(TEST_INSTALLED): $(INSTALLED)
 
 # Best effort: a missing libllvm19 only means the slower scalar_rgb variant.
 $(LLVM_READY): $(INSTALLED)
-	@if ls /usr/lib/*/libLLVM.so.19* /usr/lib/llvm-19/lib/libLLVM.so* >/dev/null 2>&1; then \
+	@if ls /usr/lib/*/libLLVM.so.19* /usr/lib/llvm-19/lib/libLLVM.so* 2>/dev/null | grep -q .; then \
 		echo "LLVM 19 found: Mitsuba runs llvm_ad_rgb"; \
 	elif [ "$$(id -u)" = 0 ] && command -v apt-get >/dev/null; then \
 		echo "installing Debian's libllvm19 for Mitsuba's llvm_ad_rgb variant ..."; \
