@@ -107,21 +107,16 @@ def regress(path: Path, x_column: str, y_column: str, out: Path, max_complexity:
 
 
 def _write(out: Path, front, title, x, y, found, name) -> None:
-    import shutil
-    import tempfile
-
+    """front.csv and front.png, published together (`pipeline.run.publish`: a temporary folder
+    renamed into place under a lock, so a failure or a second writer leaves nothing half written)."""
+    from .cache import digest
     from .publish.plots import symbolic_front_figure
     from .publish.tables import write_front_csv
+    from .run import publish
 
-    out.parent.mkdir(parents=True, exist_ok=True)
-    tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.tmp.", dir=out.parent))
-    try:
+    def write(tmp: Path) -> str:
         write_front_csv(tmp / "front.csv", front)
         symbolic_front_figure(tmp / "front.png", front, found, title)
-        old = out.with_name(f".{out.name}.old")
-        if out.exists():
-            out.rename(old)
-        tmp.rename(out)
-        shutil.rmtree(old, ignore_errors=True)
-    finally:
-        shutil.rmtree(tmp, ignore_errors=True)
+        return f"{len(front)} front members"
+
+    publish(out, digest("regress", title, x, y, front), lambda s: None, write)

@@ -233,9 +233,7 @@ def symbolic_front_figure(path, front, found, title) -> None:
            xlim=(0, sizes[-1] + 1.5))
     ax.legend(fontsize=8, loc="lower left")
     ax.grid(alpha=0.3, which="both")
-    fig.tight_layout()
-    fig.savefig(path, dpi=110, pil_kwargs=FAST_PNG)
-    plt.close(fig)
+    _save(fig, path.parent, path.name)
 
 
 def fig10(out, config, r):

@@ -27,14 +27,15 @@ import numpy as np
 
 from .. import mitsuba_bsdf, mitsuba_scene
 from ..albedo import albedo_table
-from ..render import luminance, to_display
+from ..lobes import power_u, quadratic_u
+from ..render import display_and_luminance, luminance
 from .render import flip_map, visible
 
 LOBES = ("cos^n", "f_2", "f_Q2")
 
 
 def _display8(radiance) -> np.ndarray:
-    return np.round(255.0 * np.asarray(to_display(radiance))).astype(np.uint8)
+    return np.asarray(display_and_luminance(radiance)[0])
 
 
 def _blinn_coef(shape: str, n: float, p: float, nodes: int) -> float:
@@ -78,9 +79,10 @@ def run(config, inputs, memo):
         return out
 
     def lobe_value(bsdf, t):
+        """The sphere's lobe at N.H = t (`pipeline.lobes`, in u = 1 - t)."""
         if bsdf["shape"] == "cosn":
-            return np.maximum(t, 0.0) ** bsdf["exponent"]
-        return np.maximum(bsdf["k"] * (t - 1.0) + 1.0, 0.0) ** 2
+            return np.asarray(power_u(1.0 - t, bsdf["exponent"]))
+        return np.asarray(quadratic_u(1.0 - t, bsdf["k"]))
 
     start = time.perf_counter()
     runs = {}
