@@ -4,7 +4,8 @@ Phong and Blinn forms, each with its normalization, importance-sampled in closed
 One plugin, `cosquad_lobe`, with properties
 - `shape`: "cosn" (max(c, 0)^n) or "quadratic" (max(k (c - 1) + 1, 0)^2);
 - `form`: "phong" (c = wo . R, R the mirror direction of wi) or "blinn" (c = N . h, h the half vector);
-- `exponent` n, `k` (quadratic only), `coef` (the normalization: the BSDF is coef * lobe(c));
+- `exponent` n, `k` (quadratic only), `coef` (the normalization: the BSDF is coef * lobe(c); by
+  default the lobe's exact normalization at normal incidence, `normalization()`);
 - `sampler`: "lobe" (the closed-form importance sampler of `pipeline.sampling`, for cos^n its
   standard one c = xi^(1/(n+1))) or "cosine" (cosine-weighted hemisphere, for comparison).
 
@@ -32,6 +33,21 @@ _PROBE = ("import mitsuba as mi\n"
           "mi.set_variant('llvm_ad_rgb')\n"
           "scene = mi.load_dict(mi.cornell_box())\n"
           "mi.render(scene, spp=1)\n")
+
+
+@functools.cache
+def normalization(shape: str, form: str, n: float, k: float, nodes: int = 96) -> float:
+    """The exact normalization of a lobe (`shape` "cosn" or "quadratic") at normal incidence: 1 over
+    its albedo per unit coef there, by the pipeline's hemisphere quadrature (`pipeline.albedo`)."""
+    import numpy as np
+
+    from .albedo import albedo_table
+
+    if shape == "cosn":
+        albedo = albedo_table(form, "power", n, n, 1.0, np.zeros(1), nodes)
+    else:
+        albedo = albedo_table(form, "quadratic", n, k, min(1.0 / k, 2.0), np.zeros(1), nodes)
+    return 1.0 / float(albedo[0, 0])
 
 
 @functools.cache
@@ -80,7 +96,8 @@ def _make_class():
             self.sampler = props.get("sampler", "lobe")
             self.n = float(props.get("exponent", 100.0))
             self.k = float(props.get("k", 1.0))
-            self.coef = float(props.get("coef", 1.0))
+            self.coef = float(props["coef"]) if "coef" in props else normalization(
+                self.shape, self.form, self.n, self.k if self.shape == "quadratic" else self.n)
             for name, value, allowed in (("shape", self.shape, ("cosn", "quadratic")),
                                          ("form", self.form, ("phong", "blinn")),
                                          ("sampler", self.sampler, ("lobe", "cosine"))):

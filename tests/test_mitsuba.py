@@ -46,6 +46,17 @@ def normal_albedo(lobe, form, n):
     return quadrature_albedo(lobe, form, n, [0.0])[0]
 
 
+def test_the_default_normalization_is_the_exact_one(variant):
+    """Without a coef the plugin takes the exact normalization: the closed forms (n + 2)/(2 pi) for
+    cos^n (Phong) and 6k^2/(pi (4k - 1)) for the quadratic lobe with k >= 1 (Phong)."""
+    cos_n = mi.load_dict({"type": mitsuba_bsdf.NAME, "shape": "cosn", "form": "phong", "exponent": 50.0})
+    quadratic = mi.load_dict({"type": mitsuba_bsdf.NAME, "shape": "quadratic", "form": "phong", "exponent": 50.0,
+                              "k": 22.499})
+    k = 22.499
+    assert cos_n.coef == pytest.approx(52.0 / (2 * math.pi), rel=1e-9)
+    assert quadratic.coef == pytest.approx(6 * k * k / (math.pi * (4 * k - 1)), rel=1e-9)
+
+
 def quadrature_albedo(lobe, form, n, angles_deg):
     shape, k = LOBES[lobe]
     if shape == "cosn":

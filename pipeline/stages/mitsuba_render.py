@@ -26,7 +26,6 @@ import time
 import numpy as np
 
 from .. import mitsuba_bsdf, mitsuba_scene
-from ..albedo import albedo_table
 from ..lobes import power_u, quadratic_u
 from ..render import display_and_luminance, luminance
 from .render import flip_map, visible
@@ -36,12 +35,6 @@ LOBES = ("cos^n", "f_2", "f_Q2")
 
 def _display8(radiance) -> np.ndarray:
     return np.asarray(display_and_luminance(radiance)[0])
-
-
-def _blinn_coef(shape: str, n: float, p: float, nodes: int) -> float:
-    """The exact Blinn-form normalization at normal view: 1 / albedo per unit coef at 0 degrees."""
-    u_end = 1.0 if shape == "power" else min(1.0 / p, 2.0)
-    return 1.0 / float(albedo_table("blinn", shape, n, p, u_end, np.zeros(1), nodes)[0, 0])
 
 
 def render_pair(lobes, width, height, spp, seed, variant) -> dict:
@@ -71,10 +64,10 @@ def run(config, inputs, memo):
         out = []
         for n in exponents:
             if name == "cos^n":
-                shape, p, coef = "cosn", n, _blinn_coef("power", n, n, nodes)
+                shape, p = "cosn", n
             else:
-                p = n / 2.0 if name == "f_2" else a * n + b
-                shape, coef = "quadratic", _blinn_coef("quadratic", n, p, nodes)
+                shape, p = "quadratic", (n / 2.0 if name == "f_2" else a * n + b)
+            coef = mitsuba_bsdf.normalization(shape, "blinn", n, p, nodes)
             out.append(mitsuba_scene.lobe_dict(shape, n, p, coef, sampler))
         return out
 
