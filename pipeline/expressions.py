@@ -226,23 +226,31 @@ def parse(text: str, variable: str = "x"):
     return e
 
 
+def substitute(e, constants, variable):
+    """e with its constants (in order of appearance) and the variable put in: numbers and a numpy
+    array give its values, sympy Floats and a Symbol its sympy expression."""
+    values = iter(constants)
+
+    def build(node):
+        if node == X:
+            return variable
+        if node == C:
+            return next(values)
+        a, b = build(node[1]), build(node[2])
+        if node[0] == "+":
+            return a + b
+        if node[0] == "-":
+            return a - b
+        return a * b if node[0] == "*" else a / b
+
+    return build(e)
 
 
 def to_sympy(e, constants, symbol):
     """The sympy expression of e with its fitted constants."""
     import sympy as sp
 
-    values = iter(constants)
-
-    def build(node):
-        if node == X:
-            return symbol
-        if node == C:
-            return sp.Float(float(next(values)), 15)
-        a, b = build(node[1]), build(node[2])
-        return {"+": a + b, "-": a - b, "*": a * b, "/": a / b}[node[0]]
-
-    return build(e)
+    return substitute(e, [sp.Float(float(v), 15) for v in constants], symbol)
 
 
 def canonical(expression, symbol) -> str:
@@ -256,15 +264,6 @@ def canonical(expression, symbol) -> str:
 
 def evaluate_numpy(e, c, x):
     """Value of e with constants c (in order of appearance) at x, in numpy."""
-    values = iter(c)
-
-    def value(node):
-        if node == X:
-            return x
-        if node == C:
-            return float(next(values))
-        a, b = value(node[1]), value(node[2])
-        return {"+": a + b, "-": a - b, "*": a * b, "/": a / b}[node[0]]
-
     with np.errstate(divide="ignore", invalid="ignore"):
-        return np.broadcast_to(value(e), np.shape(x)).astype(np.float64)
+        value = substitute(e, [float(v) for v in c], np.asarray(x, dtype=np.float64))
+        return np.broadcast_to(value, np.shape(x)).astype(np.float64)
