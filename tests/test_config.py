@@ -77,3 +77,10 @@ def test_cli_bad_input_exits_2_and_writes_nothing(args, message, tmp_path):
     assert message in proc.stderr
     assert proc.stderr.count("\n") == 1          # one message
     assert not (tmp_path / "cache").exists() and not (tmp_path / "out").exists()
+
+
+def test_the_readme_lists_every_config_key_as_pipeline_keys_does():
+    from pipeline import paths
+    from pipeline.config import key_table
+    readme = (paths.ROOT / "README.md").read_text()
+    assert key_table().strip() in readme
