@@ -21,7 +21,8 @@ SPHERE_X, RADIUS = (-1.25, 0.0, 1.25), 0.55
 SAMPLER = "multijitter"     # stratified pixel positions: far less noise across a narrow highlight than independent
 
 
-def scene_dict(lobes, width: int, height: int, spp: int, integrator: dict | None = None, sun: bool = True) -> dict:
+def scene_dict(lobes, width: int, height: int, spp: int, integrator: dict | None = None, sun: bool = True,
+               sampler: dict | None = None) -> dict:
     """The scene with one BSDF dict per sphere (`lobes`, three); without the sun if `sun` is False."""
     import mitsuba as mi
 
@@ -31,7 +32,7 @@ def scene_dict(lobes, width: int, height: int, spp: int, integrator: dict | None
         "sensor": {"type": "perspective", "fov": 35,
                    "to_world": mi.ScalarTransform4f().look_at(origin=list(CAMERA), target=list(TARGET), up=[0, 1, 0]),
                    "film": {"type": "hdrfilm", "width": width, "height": height, "rfilter": {"type": "box"}},
-                   "sampler": {"type": SAMPLER, "sample_count": spp}},
+                   "sampler": sampler or {"type": SAMPLER, "sample_count": spp}},
         "sky": {"type": "constant", "radiance": {"type": "rgb", "value": [0.25, 0.3, 0.4]}},
         "sun": {"type": "directional", "direction": SUN.tolist(), "irradiance": {"type": "rgb", "value": SUN_IRRADIANCE.tolist()}},
         "floor": {"type": "rectangle", "to_world": mi.ScalarTransform4f().rotate([1, 0, 0], -90).scale(6),
@@ -62,7 +63,8 @@ def sun_geometry(width: int, height: int, lobes) -> tuple[np.ndarray, np.ndarray
     import mitsuba as mi
 
     aov = {"type": "aov", "aovs": "pp:position,nn:sh_normal"}
-    scene = mi.load_dict(scene_dict(lobes, width, height, 1, integrator=aov))
+    centres = {"type": "stratified", "sample_count": 1, "jitter": False}     # one ray through each pixel centre
+    scene = mi.load_dict(scene_dict(lobes, width, height, 1, integrator=aov, sampler=centres))
     image = np.asarray(mi.render(scene, spp=1, seed=0), dtype=np.float64)
     position, normal = image[..., -6:-3], image[..., -3:]
     sphere = np.full((height, width), -1)
