@@ -33,7 +33,7 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
 FLOOR = "import jax, optimistix, pysindy, matplotlib.pyplot"
-COUNTED_REPRODUCE = ("from pipeline.numerics import CompileCounter\n"
+COUNTED_REPRODUCE = ("from pipeline.optics.numerics import CompileCounter\n"
                      "counter = CompileCounter()\n"
                      "from pipeline.cli import main\n"
                      "code = main(['reproduce'])\n"

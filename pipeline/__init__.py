@@ -12,4 +12,4 @@ import os
 # variable is read when JAX is first imported; `pipeline.numerics` also sets the flag directly.
 os.environ.setdefault("JAX_ENABLE_X64", "1")
 
-from .config import Config as Config, ConfigError as ConfigError, load_config as load_config  # noqa: E402
+from .engine.config import Config as Config, ConfigError as ConfigError, load_config as load_config  # noqa: E402

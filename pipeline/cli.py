@@ -12,10 +12,11 @@ import sys
 import time
 from pathlib import Path
 
-from . import checks as checks_mod
-from . import graph, paths
-from .config import ConfigError, key_table, load_config
-from .regress import RegressError
+from .engine import checks as checks_mod
+from .engine import graph
+from .engine import paths
+from .engine.config import ConfigError, key_table, load_config
+from .symbolic.regress import RegressError
 
 
 def _print_checks(outcome) -> None:
@@ -42,7 +43,7 @@ def _refit_config(args):
 
 
 def _explain(config) -> int:
-    from .cache import Cache
+    from .engine.cache import Cache
     from .run import explain
 
     rows = explain(config, Cache(paths.CACHE))
@@ -57,7 +58,7 @@ def _explain(config) -> int:
 
 
 def _cache(args) -> int:
-    from .cache import Cache
+    from .engine.cache import Cache
 
     cache = Cache(paths.CACHE)
     if args.prune:
@@ -79,7 +80,7 @@ def _cache(args) -> int:
 
 
 def _regress(args) -> int:
-    from .regress import parse_operations, regress
+    from .symbolic.regress import parse_operations, regress
 
     start = time.perf_counter()
     out = Path(args.out) if args.out else paths.OUTPUTS / "regress" / Path(args.file).stem
@@ -146,7 +147,7 @@ def main(argv: list[str] | None = None) -> int:
         print(f"error: {e}", file=sys.stderr)
         return 2
 
-    from .roots import SolverError
+    from .optics.roots import SolverError
     from .run import run_derivation
 
     start = time.perf_counter()

@@ -13,11 +13,8 @@ left behind.
 from __future__ import annotations
 
 import dataclasses
-import fcntl
 import importlib
 import json
-import shutil
-import tempfile
 import threading
 import time
 from collections.abc import Callable
@@ -25,10 +22,12 @@ from concurrent.futures import FIRST_COMPLETED, ThreadPoolExecutor, wait
 from pathlib import Path
 from typing import Any
 
-from . import checks as checks_mod
-from . import graph, paths
-from .cache import XLA, Cache, DamagedEntry, Memo, code_hash, digest, stage_key
-from .config import Config
+from .engine import checks as checks_mod
+from .engine import graph
+from .engine import paths
+from .engine.publishing import publish
+from .engine.cache import XLA, Cache, DamagedEntry, Memo, code_hash, digest, stage_key
+from .engine.config import Config
 
 
 class StageContractError(RuntimeError):
@@ -72,7 +71,7 @@ def _compute(stage: graph.Stage, values, inputs, cache: Cache) -> dict[str, Any]
     module = importlib.import_module(stage.module)      # imports JAX only when something is computed
     with _setup_lock:
         if not _compile_cache_on:
-            from .numerics import use_compilation_cache
+            from .optics.numerics import use_compilation_cache
             use_compilation_cache(paths.XLA_CACHE or cache.root / XLA)
             _compile_cache_on = True
     memo = Memo(cache)
@@ -188,7 +187,7 @@ def _outputs_key(config: Config, keys: dict[str, str], baseline: RunOutcome | No
     code = "".join(code_hash(m) for m in ("pipeline.publish.figures", "pipeline.publish.plots",
                                           "pipeline.publish.report",
                                           "pipeline.publish.results", "pipeline.publish.shader",
-                                          "pipeline.publish.tables", "pipeline.checks"))
+                                          "pipeline.publish.tables", "pipeline.engine.checks"))
     return digest("outputs", keys, baseline.keys if baseline else None, dict(config.values), config.source,
                   json.dumps([dataclasses.asdict(e) for e in config.expectations], sort_keys=True, default=str),
                   code)
@@ -215,37 +214,6 @@ def run_derivation(config: Config, cache_dir: Path = paths.CACHE, outputs: Path 
         if drawer is not None:
             drawer.close()
     return RunOutcome(results, keys, computed, checks, out_dir, config)
-
-
-def publish(out_dir: Path, stamp_key: str, log, write: Callable[[Path], str]) -> None:
-    """Writes `out_dir` through `write(tmp)` unless its stamp already equals `stamp_key`.
-
-    Holds an exclusive lock on `.<name>.lock` beside it meanwhile; any hidden `.<name>.*` folder
-    found under the lock was left by a killed run, and is removed.
-    """
-    out_dir.parent.mkdir(parents=True, exist_ok=True)
-    with open(out_dir.parent / f".{out_dir.name}.lock", "a") as lock:
-        fcntl.flock(lock, fcntl.LOCK_EX)
-        for stale in out_dir.parent.glob(f".{out_dir.name}.*"):
-            if stale.is_dir():
-                shutil.rmtree(stale, ignore_errors=True)
-        stamp = out_dir / ".stamp"
-        if stamp.exists() and stamp.read_text() == stamp_key:
-            log(f"outputs in {out_dir} are up to date")
-            return
-        start = time.perf_counter()
-        tmp = Path(tempfile.mkdtemp(prefix=f".{out_dir.name}.tmp.", dir=out_dir.parent))
-        try:
-            summary = write(tmp)
-            (tmp / ".stamp").write_text(stamp_key)
-            old = out_dir.with_name(f".{out_dir.name}.old")
-            if out_dir.exists():
-                out_dir.rename(old)
-            tmp.rename(out_dir)
-            shutil.rmtree(old, ignore_errors=True)
-        finally:
-            shutil.rmtree(tmp, ignore_errors=True)
-        log(f"wrote {out_dir} ({summary}) in {time.perf_counter() - start:.1f} s")
 
 
 def _write_outputs(tmp: Path, config, results, keys, checks, baseline, drawer) -> str:

@@ -3,14 +3,14 @@ import os
 import pytest
 
 import pipeline
-from pipeline import paths
-from pipeline.cache import Cache
+from pipeline.engine import paths
+from pipeline.engine.cache import Cache
 from pipeline.run import run_stages
 
 
 def pytest_sessionstart(session):
     # float64 must be on for every test; an array made before the switch would silently be float32.
-    from pipeline.numerics import jax
+    from pipeline.optics.numerics import jax
     assert jax.config.jax_enable_x64 and jax.numpy.zeros(1).dtype == jax.numpy.float64
 
 

@@ -11,9 +11,10 @@ import pytest
 import sympy as sp
 from scipy import integrate
 
-from pipeline import cheap_lobes, exact
-from pipeline.albedo import directional_albedo
-from pipeline.lobes import quadratic_u
+from pipeline.optics import cheap_lobes
+from pipeline.optics import integrals as exact
+from pipeline.optics.albedo import directional_albedo
+from pipeline.optics.lobes import quadratic_u
 
 from .oracles import quadratic_np
 

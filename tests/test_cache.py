@@ -11,8 +11,9 @@ import numpy as np
 import pytest
 
 import pipeline
-from pipeline import graph, paths
-from pipeline.cache import MEMO, Cache, code_modules, digest
+from pipeline.engine import graph
+from pipeline.engine import paths
+from pipeline.engine.cache import MEMO, Cache, code_modules, digest
 from pipeline.run import run_stages
 
 from .conftest import cli_env
@@ -153,7 +154,7 @@ def test_keys_hash_values_not_identities():
 
 def test_code_key_covers_the_helpers_a_stage_imports():
     mods = code_modules("pipeline.stages.q_scan")
-    assert {"pipeline.lobes", "pipeline.error_measures", "pipeline.roots", "pipeline.stages.common"} <= set(mods)
+    assert {"pipeline.optics.lobes", "pipeline.optics.error_measures", "pipeline.optics.roots", "pipeline.stages.common"} <= set(mods)
     assert "pipeline.stages.sparse_regression" not in mods
     assert "pipeline.stages.sample" in code_modules("pipeline.stages.sparse_regression")
 

@@ -10,7 +10,8 @@ import time
 
 import pytest
 
-from pipeline import graph, paths
+from pipeline.engine import graph
+from pipeline.engine import paths
 
 from .conftest import cli_env
 
@@ -57,7 +58,7 @@ def test_the_graph_is_a_dag_of_declared_fields():
 
 
 def test_config_dependencies_follow_the_graph():
-    from pipeline.config import KEYS
+    from pipeline.engine.config import KEYS
     # The scan's best Q depends on the zone (through zone.level) but not on Q or the line.
     deps = graph.config_dependencies("q_scan.Q_scan_best", KEYS)
     assert "zone.calibration_target" in deps and "scan.fine_step" in deps

@@ -3,8 +3,8 @@ import sys
 
 import pytest
 
-from pipeline import paths
-from pipeline.config import ConfigError, load_config, parse_override
+from pipeline.engine import paths
+from pipeline.engine.config import ConfigError, load_config, parse_override
 
 from .conftest import cli_env
 
@@ -80,7 +80,7 @@ def test_cli_bad_input_exits_2_and_writes_nothing(args, message, tmp_path):
 
 
 def test_the_readme_lists_every_config_key_as_pipeline_keys_does():
-    from pipeline import paths
-    from pipeline.config import key_table
+    from pipeline.engine import paths
+    from pipeline.engine.config import key_table
     readme = (paths.ROOT / "README.md").read_text()
     assert key_table().strip() in readme

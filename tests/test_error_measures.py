@@ -3,8 +3,8 @@ import numpy as np
 import pytest
 from scipy.integrate import quad
 
-from pipeline.error_measures import absolute_parts, relative_parts, rms_relative, zone_u
-from pipeline.roots import SolverSettings
+from pipeline.optics.error_measures import absolute_parts, relative_parts, rms_relative, zone_u
+from pipeline.optics.roots import SolverSettings
 
 from .oracles import dense_max_errors, k_Q_np, quadratic_np
 

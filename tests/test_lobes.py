@@ -2,7 +2,7 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from pipeline.lobes import f_2, f_b, f_Q, f_Q2, gran, k_2, k_Q, quadratic
+from pipeline.optics.lobes import f_2, f_b, f_Q, f_Q2, gran, k_2, k_Q, quadratic
 
 X = jnp.linspace(0.0, jnp.pi / 2, 2001)
 

@@ -1,13 +1,13 @@
 """The lobes in Mitsuba 3: Mitsuba's own chi-square test of every sampler, a white furnace against
-the pipeline's quadrature albedo, and reciprocity (`pipeline.mitsuba_bsdf`)."""
+the pipeline's quadrature albedo, and reciprocity (`pipeline.mitsuba.bsdf`)."""
 
 import math
 
 import numpy as np
 import pytest
 
-from pipeline import mitsuba_bsdf
-from pipeline.albedo import albedo_table
+from pipeline.mitsuba import bsdf as mitsuba_bsdf
+from pipeline.optics.albedo import albedo_table
 
 import drjit as dr  # noqa: E402
 import mitsuba as mi  # noqa: E402

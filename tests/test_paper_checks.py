@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from pipeline import checks
+from pipeline.engine import checks
 
 from .oracles import dense_max_errors, k_Q_np
 

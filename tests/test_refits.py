@@ -7,10 +7,10 @@ import pytest
 from scipy.optimize import minimize
 
 import pipeline
-from pipeline import paths
-from pipeline.cache import Cache
-from pipeline.checks import NOT_COMPARABLE, PASS
-from pipeline.graph import PAPER_STAGES
+from pipeline.engine import paths
+from pipeline.engine.cache import Cache
+from pipeline.engine.checks import NOT_COMPARABLE, PASS
+from pipeline.engine.graph import PAPER_STAGES
 from pipeline.run import run_derivation, run_stages
 
 from .oracles import dense_max_errors, k_Q_np
@@ -127,7 +127,7 @@ def test_refit_writes_its_own_outputs_with_a_comparison(cache, tmp_path, paper_c
 def test_paper_expectations_are_not_comparable_where_a_refit_changes_their_settings(cache, paper_run):
     config = pipeline.load_config(paths.PAPER_CONFIG, ("derivation.Q=0.7", "derivation.constants=fitted"))
     results = run_stages(config, cache, log=lambda s: None, stages=PAPER_STAGES)[0]
-    from pipeline import checks
+    from pipeline.engine import checks
     verdicts = {c.expectation.id: c for c in checks.evaluate(config, results)}
     # The scan (P1, P2) does not read Q: still checked, still passing.
     assert verdicts["P1"].verdict == PASS and verdicts["P2"].verdict == PASS

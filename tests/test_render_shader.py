@@ -12,14 +12,14 @@ import numpy as np
 import pytest
 
 from pipeline.publish import shader
-from pipeline.lobes import quadratic_u
-from pipeline.render import SCENES
+from pipeline.optics.lobes import quadratic_u
+from pipeline.optics.raytrace import SCENES
 
 from .oracles import quadratic_np
 
 
 def _numpy_sphere(resolution, lobe, coef, with_geometry=False):
-    """The 'sphere' scene, ray-traced and shaded in plain numpy (no shared code with pipeline.render)."""
+    """The 'sphere' scene, ray-traced and shaded in plain numpy (no shared code with pipeline.optics.raytrace)."""
     scene = SCENES[0]
     cam = np.array(scene.camera)
     forward = -cam / np.linalg.norm(cam)
@@ -125,12 +125,12 @@ void main() {
 
 
 def _main_instructions(source):
-    from pipeline import shader_cost
+    from pipeline.optics import spirv as shader_cost
     return shader_cost.count(shader_cost.function_body(shader_cost.optimized_disassembly(source)))
 
 
 def test_exported_lobe_has_no_transcendental_instruction_after_optimization(exported):
-    from pipeline import shader_cost
+    from pipeline.optics import spirv as shader_cost
     try:
         shader_cost.tool("spirv-opt")
     except shader_cost.ToolMissing as e:
@@ -219,7 +219,7 @@ def test_flip_statistics_against_flip_on_the_stored_images(paper_run):
 
 
 def test_exported_sampler_matches_the_pipelines(exported):
-    from pipeline import sampling
+    from pipeline.optics import sampling
     spec = importlib.util.spec_from_file_location("cosquad_twin_s", exported / "cosquad_twin.py")
     twin = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(twin)

@@ -1,14 +1,14 @@
 """Importance sampling of the quadratic lobe: the sampled cosines follow the pdf (chi-square), the pdf
 integrates to 1, and estimates of the directional albedo with it match the quadrature of
-`pipeline.albedo`; deliberately wrong samplers fail the same tests."""
+`pipeline.optics.albedo`; deliberately wrong samplers fail the same tests."""
 
 import numpy as np
 import pytest
 from scipy import integrate, stats
 
-from pipeline import sampling
-from pipeline.albedo import albedo_table
-from pipeline.numerics import jax
+from pipeline.optics import sampling
+from pipeline.optics.albedo import albedo_table
+from pipeline.optics.numerics import jax
 
 K = {2.0: 0.448 * 2 + 0.099, 10.0: 0.448 * 10 + 0.099, 100.0: 0.448 * 100 + 0.099, 1000.0: 0.448 * 1000 + 0.099}
 

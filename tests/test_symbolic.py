@@ -11,8 +11,8 @@ import pytest
 import sympy as sp
 from scipy.optimize import least_squares
 
-from pipeline import symbolic
-from pipeline.regress import RegressError, parse_operations, read_columns, regress
+from pipeline.symbolic import search as symbolic
+from pipeline.symbolic.regress import RegressError, parse_operations, read_columns, regress
 from pipeline.stages.symbolic_regression import exact_constants, partial_fractions
 
 from .conftest import cli_env

@@ -19,7 +19,7 @@ import tempfile
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
-from ..cache import code_hash, digest
+from ..engine.cache import code_hash, digest
 
 FIGURE_CACHE = "_figures"       # under the stage cache's root
 RANGE = ("derivation.n_min", "derivation.n_max")

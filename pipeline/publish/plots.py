@@ -213,29 +213,6 @@ def fig9(out, config, r):
     return _save(fig, out, "fig9_front.png")
 
 
-def symbolic_front_figure(path, front, found, title) -> None:
-    """The front of `pipeline regress`: RMS against complexity, every complexity's best in grey."""
-    fig, ax = plt.subplots(figsize=(10, 5))
-    sizes = sorted(set(int(k) for k in found["complexity"]))
-    floor = 1e-16 * max(float(np.max(found["rms"][np.isfinite(found["rms"])])), 1e-300)
-    best = [max(float(np.min(found["rms"][found["complexity"] == k])), floor) for k in sizes]
-    ax.plot(sizes, best, "o", color="0.75", ms=5, label=f"best expression at each complexity ({len(found['forms'])} searched)")
-    xs, ys = [m["complexity"] for m in front], [max(m["rms"], floor) for m in front]
-    ax.step(xs + [sizes[-1] + 1], ys + [ys[-1]], where="post", color="C0", label="front")
-    ax.plot(xs, ys, "o", color="C0", ms=7)
-    lines = ["front (complexity, RMS, sympy's canonical form):"]
-    lines += [f"{m['complexity']:>2}  {m['rms']:.3g}  {m['canonical'].replace('**', '^').replace('*', ' ')}" for m in front]
-    ax.text(0.98, 0.97, "\n".join(lines), transform=ax.transAxes, fontsize=7.5, family="monospace", va="top",
-            ha="right", multialignment="left", bbox=dict(facecolor="white", edgecolor="0.8", alpha=0.9))
-    positive = [v for v in best if v > 0]
-    ax.set(yscale="log" if positive and max(positive) / min(positive) > 20 else "linear",
-           xlabel="complexity (constants, variable, +, -, x count 1; / counts 2)", ylabel="RMS error", title=title,
-           xlim=(0, sizes[-1] + 1.5))
-    ax.legend(fontsize=8, loc="lower left")
-    ax.grid(alpha=0.3, which="both")
-    _save(fig, path.parent, path.name)
-
-
 def fig10(out, config, r):
     s, e, h, n = r["sparse_regression"], r["energy_dataset"], r["hemispherical"], n_of(config)
     fig, (a, b) = plt.subplots(2, 1, figsize=(7, 6), sharex=True, height_ratios=(1, 1.3))

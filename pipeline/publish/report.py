@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from .. import checks as checks_mod
+from ..engine import checks as checks_mod
 from .report_beyond import embed, ns, pct as _pct
 from .report_beyond import sections as beyond_sections
 from .results import HEADLINE, headline

@@ -5,7 +5,7 @@ the verdicts are decided by those numbers, not written in advance.
 
 from __future__ import annotations
 
-from ..checks import fmt
+from ..engine.checks import fmt
 
 
 def pct(x: float) -> str:
@@ -360,8 +360,8 @@ def sections(config, r, figures) -> list[str]:
 def mitsuba_section(config, r, figures) -> list[str]:
     s = r["mitsuba_render"]
     lines = ["## Renders in Mitsuba 3", "",
-             f"The lobes as Mitsuba BSDF plugins (`pipeline/mitsuba_bsdf.py`; Blinn form, each with its exact "
-             f"normalization at normal view; closed-form importance sampling) on three spheres of n = "
+             "The lobes as Mitsuba BSDF plugins (`pipeline/mitsuba_bsdf.py`; Blinn form, each with its exact "
+             "normalization at normal view; closed-form importance sampling) on three spheres of n = "
              + ", ".join(f"{n:g}" for n in s["exponents"]) + " on a grey floor, under a constant sky and a sun, "
              f"path traced with indirect light (max depth 4). Variant **{s['variant']}**, {s['spp']} samples per "
              f"pixel (multi-jittered), each lobe rendered with two seeds: the image is their mean, and their "

@@ -14,9 +14,9 @@ from pathlib import Path
 
 import sympy as sp
 
-from .. import exact
-from ..cache import digest
-from ..shader_cost import QUADRATIC_BODY
+from ..optics import integrals
+from ..engine.cache import digest
+from ..optics.spirv import QUADRATIC_BODY
 
 t, n = sp.symbols("t n", real=True)
 PREFIX = "cosquad_"
@@ -25,11 +25,11 @@ PREFIX = "cosquad_"
 def functions(slope: float, intercept: float, coef_scale: float, coef_offset: float) -> dict[str, tuple]:
     """name -> (arguments, sympy expression) with the constants filled in, evaluated to floats."""
     k = sp.Float(slope) * n + sp.Float(intercept)
-    values = {exact.slope: slope, exact.intercept: intercept}
+    values = {integrals.slope: slope, integrals.intercept: intercept}
 
     def exact_coef(which):
-        integral = exact.phong_integral() if which == "phong" else exact.blinn_integral()
-        return exact.coef_of_n(integral).subs(values).subs(exact.n, n)
+        integral = integrals.phong_integral() if which == "phong" else integrals.blinn_integral()
+        return integrals.coef_of_n(integral).subs(values).subs(integrals.n, n)
     exprs = {
         "k": ((n,), k),
         "coef": ((n,), sp.Float(coef_scale) * (sp.Float(coef_offset) + n)),
@@ -68,7 +68,7 @@ def _python(expr) -> str:
 
 
 def _relative(source: str) -> str:
-    from ..paths import ROOT
+    from ..engine.paths import ROOT
     path = Path(source).resolve()
     return str(path.relative_to(ROOT)) if path.is_relative_to(ROOT) else str(path)
 

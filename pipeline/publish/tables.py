@@ -2,8 +2,9 @@
 
 from __future__ import annotations
 
-import csv
 from pathlib import Path
+
+from ..symbolic.regress import write_front_csv
 
 
 def write(out: Path, config, results) -> None:
@@ -25,20 +26,6 @@ def write(out: Path, config, results) -> None:
         for m in reg["front"]:
             f.write(f"{len(m['terms'])},{m['expression']},{m['rms']:.6g},{m['rms_all_n']:.6g},"
                     f"{m['threshold']:.3g}\n")
-
-
-FRONT_COLUMNS = ("complexity", "rms", "form", "expression", "canonical", "max_rel_to_exact",
-                 "max_energy_excess", "equivalent_to_exact")
-
-
-def write_front_csv(path, front) -> None:
-    """A symbolic-regression front as CSV, one member per row; columns a member lacks are left out."""
-    columns = [c for c in FRONT_COLUMNS if all(c in m for m in front)]
-    with open(path, "w", newline="") as f:
-        writer = csv.writer(f)
-        writer.writerow(columns)
-        for m in front:
-            writer.writerow([f"{m[c]:.10g}" if isinstance(m[c], float) else m[c] for c in columns])
 
 
 def front_markdown(reg) -> str:

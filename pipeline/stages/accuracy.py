@@ -7,8 +7,8 @@ Each lobe's measures are one memoized call, so a refit that moves only the line 
 
 import numpy as np
 
-from ..numerics import jax
-from ..lobes import f_b, k_2, k_Q, k_Q2, quadratic
+from ..optics.numerics import jax
+from ..optics.lobes import f_b, k_2, k_Q, k_Q2, quadratic
 from .common import n_range
 from .f2_errors import quadratic_errors, summary
 

@@ -1,12 +1,12 @@
 """Helpers shared by the stages: the exponent range and the vectorized error measures."""
 
 
-from ..numerics import jax
+from ..optics.numerics import jax
 import jax.numpy as jnp
 import numpy as np
 
-from ..error_measures import absolute_parts, relative_parts, rms_relative
-from ..roots import SolverError, SolverSettings
+from ..optics.error_measures import absolute_parts, relative_parts, rms_relative
+from ..optics.roots import SolverError, SolverSettings
 
 
 def n_range(config) -> np.ndarray:

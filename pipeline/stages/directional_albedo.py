@@ -11,10 +11,10 @@ closed-form azimuthal integrals) cross-checks a grid of (n, theta_i). Reciprocit
 is evaluated on random direction pairs.
 """
 
-from ..numerics import jax
+from ..optics.numerics import jax
 import numpy as np
 
-from ..albedo import albedo_table, monte_carlo_albedo, random_directions, reciprocity_error
+from ..optics.albedo import albedo_table, monte_carlo_albedo, random_directions, reciprocity_error
 from .common import n_range
 
 MC_ANGLES_DEG = (0.0, 30.0, 60.0, 80.0)

@@ -9,11 +9,11 @@ horizon (k < 1, e.g. n = 2 with the paper's constants), where cos(g) < 0.
 
 import functools
 
-from ..numerics import jax
+from ..optics.numerics import jax
 import jax.numpy as jnp
 import numpy as np
 
-from ..lobes import gran, k_Q2, quadratic
+from ..optics.lobes import gran, k_Q2, quadratic
 from .common import n_range
 
 

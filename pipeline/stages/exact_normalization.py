@@ -15,8 +15,8 @@ beside the paper's regressed 0.214 (0.807 + n), the run's own fit, and the quadr
 import numpy as np
 import sympy as sp
 
-from .. import exact
-from ..albedo import albedo_table
+from ..optics import integrals
+from ..optics.albedo import albedo_table
 from .common import n_range, runs_of
 
 
@@ -26,10 +26,10 @@ def run(config, inputs, memo):
     k = a * n + b
     n_np = np.asarray(n)
 
-    coef_fn, coef_source = exact.exact_coef_code("phong")
-    blinn_fn, blinn_source = exact.exact_coef_code("blinn")
-    Int_fn, _ = exact.jax_function(exact.phong_integral(), (exact.k,))
-    gran_fn, _ = exact.jax_function(exact.phong_integral_gran(), (exact.k,))
+    coef_fn, coef_source = integrals.exact_coef_code("phong")
+    blinn_fn, blinn_source = integrals.exact_coef_code("blinn")
+    Int_fn, _ = integrals.jax_function(integrals.phong_integral(), (integrals.k,))
+    gran_fn, _ = integrals.jax_function(integrals.phong_integral_gran(), (integrals.k,))
     coef_exact = np.asarray(coef_fn(n, a, b))
     coef_blinn = np.asarray(blinn_fn(n, a, b))
     Int = np.asarray(Int_fn(k))
@@ -49,11 +49,11 @@ def run(config, inputs, memo):
     dataset_dev = inputs["energy_dataset.Int"] / Int_gran - 1.0
 
     # Large-n expansions, numeric in this run's a, b.
-    values = {exact.slope: a, exact.intercept: b}
-    phong_k = exact.large_k_expansion("phong")
-    blinn_k = exact.large_k_expansion("blinn")
-    phong_n = exact.expansion_in_n(phong_k)
-    terms = {name: float(phong_n.coeff(exact.n, p).subs(values)) for name, p in
+    values = {integrals.slope: a, integrals.intercept: b}
+    phong_k = integrals.large_k_expansion("phong")
+    blinn_k = integrals.large_k_expansion("blinn")
+    phong_n = integrals.expansion_in_n(phong_k)
+    terms = {name: float(phong_n.coeff(integrals.n, p).subs(values)) for name, p in
              (("n", 1), ("1", 0), ("1/n", -1))}
     asym_phong = 3.0 / (2.0 * np.pi) * (k + 0.25)
     asym_blinn = 3.0 / (8.0 * np.pi) * (k + 1.25)
@@ -72,10 +72,10 @@ def run(config, inputs, memo):
         exact_coef_max_abs_dev=float(np.max(np.abs(exact_dev))),
         dataset_quadrature_max_rel_dev=float(np.max(np.abs(dataset_dev))),
         below_horizon_n=n_np[below], below_horizon_Int_difference=Int[below] - Int_gran[below], below_horizon_coef=coef_exact[below], below_horizon_coef_gran=1.0 / (2.0 * np.pi * Int_gran[below]),
-        formula_Int=sp.sstr(exact.phong_integral()), formula_Int_gran=sp.sstr(exact.phong_integral_gran()),
-        formula_coef=sp.sstr(exact.coef_of_k(exact.phong_integral())),
-        formula_Int_blinn=sp.sstr(exact.blinn_integral()),
-        formula_coef_blinn=sp.sstr(exact.coef_of_k(exact.blinn_integral())),
+        formula_Int=sp.sstr(integrals.phong_integral()), formula_Int_gran=sp.sstr(integrals.phong_integral_gran()),
+        formula_coef=sp.sstr(integrals.coef_of_k(integrals.phong_integral())),
+        formula_Int_blinn=sp.sstr(integrals.blinn_integral()),
+        formula_coef_blinn=sp.sstr(integrals.coef_of_k(integrals.blinn_integral())),
         formula_expansion_k=sp.sstr(phong_k), formula_expansion_blinn_k=sp.sstr(blinn_k),
         formula_expansion_n=sp.sstr(phong_n),
         code_coef=coef_source, code_coef_blinn=blinn_source,

@@ -5,8 +5,8 @@ on neither Q nor the line, so a refit that changes those keeps it (and its check
 
 import numpy as np
 
-from ..lobes import k_2
-from ..roots import SolverSettings
+from ..optics.lobes import k_2
+from ..optics.roots import SolverSettings
 from .common import measures, n_range, require_converged
 
 

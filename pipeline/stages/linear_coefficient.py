@@ -6,14 +6,14 @@ max_n |(slope n + intercept) / k_Q(n) - 1|, a linear program (scipy's HiGHS).
 This stage also fixes the constants the later stages use: the paper's rounded ones or this fit.
 """
 
-from ..numerics import jax
+from ..optics.numerics import jax
 import jax.numpy as jnp
 import numpy as np
 import optimistix as optx
 from scipy.optimize import linprog
 
-from ..lobes import k_Q
-from ..roots import SolverError
+from ..optics.lobes import k_Q
+from ..optics.roots import SolverError
 from .common import n_range
 
 

@@ -11,10 +11,10 @@ values: a refit that changes Q or the line recomputes only the lobes and rows th
 
 import numpy as np
 
-from .. import cheap_lobes
-from ..albedo import albedo_table
-from ..extrema import error_curves
-from ..roots import SolverSettings
+from ..optics import cheap_lobes
+from ..optics.albedo import albedo_table
+from ..optics.extrema import error_curves
+from ..optics.roots import SolverSettings
 from .common import n_range, require_converged, runs_of
 
 QUADRATURE_CHECK_N = (2.0, 10.0, 100.0, 1000.0)

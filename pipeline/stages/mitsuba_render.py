@@ -25,9 +25,10 @@ import time
 
 import numpy as np
 
-from .. import mitsuba_bsdf, mitsuba_scene
-from ..lobes import power_u, quadratic_u
-from ..render import display_and_luminance, luminance
+from ..mitsuba import bsdf
+from ..mitsuba import scene
+from ..optics.lobes import power_u, quadratic_u
+from ..optics.raytrace import display_and_luminance, luminance
 from .render import flip_map, visible
 
 LOBES = ("cos^n", "f_2", "f_Q2")
@@ -39,15 +40,15 @@ def _display8(radiance) -> np.ndarray:
 
 def render_pair(lobes, width, height, spp, seed, variant) -> dict:
     """The scene with these sphere BSDFs, rendered with seeds `seed` and `seed + 1`."""
-    mitsuba_bsdf.register(variant)
-    return dict(first=mitsuba_scene.render(lobes, width, height, spp, seed),
-                second=mitsuba_scene.render(lobes, width, height, spp, seed + 1))
+    bsdf.register(variant)
+    return dict(first=scene.render(lobes, width, height, spp, seed),
+                second=scene.render(lobes, width, height, spp, seed + 1))
 
 
 def render_no_sun(lobes, width, height, spp, seed, variant) -> dict:
     """The same scene without the sun: the background against which a highlight is visible."""
-    mitsuba_bsdf.register(variant)
-    return dict(image=mitsuba_scene.render(lobes, width, height, spp, seed, sun=False))
+    bsdf.register(variant)
+    return dict(image=scene.render(lobes, width, height, spp, seed, sun=False))
 
 
 def run(config, inputs, memo):
@@ -56,8 +57,8 @@ def run(config, inputs, memo):
     exponents = [float(n) for n in config["mitsuba.exponents"]]
     width, height, seed = config["mitsuba.width"], config["mitsuba.height"], config["mitsuba.seed"]
     wanted = config["mitsuba.variant"]
-    variant = mitsuba_bsdf.register(None if wanted == "auto" else wanted)
-    spp = config["mitsuba.spp"] if variant == mitsuba_bsdf.FAST_VARIANT else config["mitsuba.fallback_spp"]
+    variant = bsdf.register(None if wanted == "auto" else wanted)
+    spp = config["mitsuba.spp"] if variant == bsdf.FAST_VARIANT else config["mitsuba.fallback_spp"]
     nodes = config["albedo.quadrature_nodes"]
 
     def lobes(name, sampler="lobe"):
@@ -67,15 +68,15 @@ def run(config, inputs, memo):
                 shape, p = "cosn", n
             else:
                 shape, p = "quadratic", (n / 2.0 if name == "f_2" else a * n + b)
-            coef = mitsuba_bsdf.normalization(shape, "blinn", n, p, nodes)
-            out.append(mitsuba_scene.lobe_dict(shape, n, p, coef, sampler))
+            coef = bsdf.normalization(shape, "blinn", n, p, nodes)
+            out.append(scene.lobe_dict(shape, n, p, coef, sampler))
         return out
 
-    def lobe_value(bsdf, t):
+    def lobe_value(props, t):
         """The sphere's lobe at N.H = t (`pipeline.lobes`, in u = 1 - t)."""
-        if bsdf["shape"] == "cosn":
-            return np.asarray(power_u(1.0 - t, bsdf["exponent"]))
-        return np.asarray(quadratic_u(1.0 - t, bsdf["k"]))
+        if props["shape"] == "cosn":
+            return np.asarray(power_u(1.0 - t, props["exponent"]))
+        return np.asarray(quadratic_u(1.0 - t, props["k"]))
 
     start = time.perf_counter()
     runs = {}
@@ -88,7 +89,7 @@ def run(config, inputs, memo):
                   seed=seed, variant=variant)["image"]
     seconds = time.perf_counter() - start
 
-    t, cos_light, sphere = mitsuba_scene.sun_geometry(width, height, lobes("cos^n"))
+    t, cos_light, sphere = scene.sun_geometry(width, height, lobes("cos^n"))
     on = sphere >= 0
     mean = {key: 0.5 * (p[0] + p[1]) for key, p in runs.items()}
     lum = {key: np.asarray(luminance(m)) for key, m in mean.items()}
@@ -99,12 +100,12 @@ def run(config, inputs, memo):
     epicenter = np.zeros(sphere.shape, dtype=bool)
     for name in LOBES:
         direct = np.zeros(no_sun.shape)
-        for i, bsdf in enumerate(lobes(name)):
+        for i, props in enumerate(lobes(name)):
             here = (sphere == i) & (cos_light > 0.0)
-            value = bsdf["coef"] * lobe_value(bsdf, t) * np.maximum(cos_light, 0.0)
-            direct[here] = (mitsuba_scene.SUN_IRRADIANCE * value[..., None])[here]
+            value = props["coef"] * lobe_value(props, t) * np.maximum(cos_light, 0.0)
+            direct[here] = (scene.SUN_IRRADIANCE * value[..., None])[here]
             if name == "cos^n":
-                epicenter |= (sphere == i) & (lobe_value(bsdf, t) >= level)
+                epicenter |= (sphere == i) & (lobe_value(props, t) >= level)
         seen |= visible(_display8(no_sun + direct), base8)
     highlight = np.where(seen & on, sphere, -1).astype(np.int8)
     reference = ("cos^n", "lobe")

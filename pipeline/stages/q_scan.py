@@ -11,12 +11,12 @@ Every grid is evaluated in chunks of `CHUNK` values of Q by one compiled functio
 
 import functools
 
-from ..numerics import jax
+from ..optics.numerics import jax
 import jax.numpy as jnp
 import numpy as np
 
-from ..lobes import k_Q
-from ..roots import SolverError, SolverSettings, bracketed_root
+from ..optics.lobes import k_Q
+from ..optics.roots import SolverError, SolverSettings, bracketed_root
 from .common import lobe_measures, n_range, require_converged
 
 # Objective of each metric: the measure whose max over n it minimizes.

@@ -15,13 +15,13 @@ Per scene, exponent and candidate lobe, against the reference:
 - absolute error of linear radiance and the PSNR of the displayed images, as before.
 """
 
-from ..numerics import jax  # noqa: F401  (float64 before any array)
+from ..optics.numerics import jax  # noqa: F401  (float64 before any array)
 import flip_evaluator
 import numpy as np
 
-from .. import exact
-from ..cheap_lobes import giesen
-from ..render import SCENES, display_and_luminance, epicenter_mask, image_statistics, shade
+from ..optics import integrals
+from ..optics.cheap_lobes import giesen
+from ..optics.raytrace import SCENES, display_and_luminance, epicenter_mask, image_statistics, shade
 
 LOBES = ("cos^n", "f_2", "f_Q2")
 LUMINANCE = np.array([0.2126, 0.7152, 0.0722])
@@ -77,7 +77,7 @@ def reference(scene_index: int, resolution: int, n: float, coef: float) -> dict:
 def run(config, inputs, memo):
     a, b = inputs["linear_coefficient.slope_used"], inputs["linear_coefficient.intercept_used"]
     level = inputs["zone.level"]
-    blinn_coef, _ = exact.exact_coef_code("blinn")
+    blinn_coef, _ = integrals.exact_coef_code("blinn")
     res = config["render.resolution"]
     exponents = [float(v) for v in config["render.exponents"]]
     own = config["render.normalization"] == "exact"

@@ -3,11 +3,11 @@ optimized by spirv-opt, its instructions counted by kind (`pipeline.shader_cost`
 compilers are not installed, the stage says so instead of counting.
 """
 
-from .. import shader_cost
+from ..optics import spirv
 
 
 def run(config, inputs, memo):
     try:
-        return dict(available=True, tools=shader_cost.tool_versions(), lobes=shader_cost.lobe_costs())
-    except shader_cost.ToolMissing as e:
+        return dict(available=True, tools=spirv.tool_versions(), lobes=spirv.lobe_costs())
+    except spirv.ToolMissing as e:
         return dict(available=False, tools=str(e), lobes=[])

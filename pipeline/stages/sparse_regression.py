@@ -13,7 +13,7 @@ import warnings
 import numpy as np
 import pysindy as ps
 
-from ..roots import SolverError
+from ..optics.roots import SolverError
 from .sample import alternative_samples, same_kind
 
 TERMS = {

@@ -17,8 +17,8 @@ whether or not it is the front's member at its size.
 import numpy as np
 import sympy as sp
 
-from .. import symbolic
-from ..roots import SolverError
+from ..symbolic import search
+from ..optics.roots import SolverError
 from .common import n_range
 from .sample import alternative_samples, same_kind
 
@@ -59,23 +59,23 @@ def run(config, inputs, memo):
     # sample; without rounding, by the dataset's quadrature (1e-6 leaves a wide margin).
     tolerance = 10.0 ** -decimals if decimals >= 0 else 1e-6
 
-    found = symbolic.search(n_s, y_s, config["symbolic.max_complexity"], config["symbolic.operations"],
+    found = search.search(n_s, y_s, config["symbolic.max_complexity"], config["symbolic.operations"],
                             config["symbolic.starts"], config["symbolic.iterations"], config["symbolic.refine"],
                             config["symbolic.polish_starts"], config["symbolic.seed"])
     forms, rms, fitted = found["forms"], found["rms"], found["constants"]
     if not all(found["converged"][i] for i in found["front"]):
-        bad = [symbolic.show(forms[i], "n") for i in found["front"] if not found["converged"][i]]
+        bad = [search.show(forms[i], "n") for i in found["front"] if not found["converged"][i]]
         raise SolverError(f"symbolic regression: the least-squares fit of front member(s) {bad} did not "
                           f"converge; raise symbolic.polish_starts")
 
     front = []
     for i in found["front"]:
         e, c = forms[i], fitted[i][:found["constant_count"][i]]
-        on_n = symbolic.evaluate_numpy(e, c, n_all)
+        on_n = search.evaluate_numpy(e, c, n_all)
         ratio = on_n / coef_exact - 1.0
-        expression = symbolic.to_sympy(e, c, N)
-        member = dict(complexity=int(found["complexity"][i]), form=symbolic.show(e, "n"),
-                      expression=symbolic.show(e, "n", c), canonical=symbolic.canonical(expression, N),
+        expression = search.to_sympy(e, c, N)
+        member = dict(complexity=int(found["complexity"][i]), form=search.show(e, "n"),
+                      expression=search.show(e, "n", c), canonical=search.canonical(expression, N),
                       constants=[float(v) for v in c], rms=float(rms[i]),
                       max_rel_to_exact=float(np.max(np.abs(ratio))),
                       max_abs_to_exact=float(np.max(np.abs(on_n - coef_exact))),
@@ -92,8 +92,8 @@ def run(config, inputs, memo):
 
     # The paper's five rows as forms of their own, fitted the same way.
     rows, row_fields = [], {}
-    paper_forms = [symbolic.parse(text, "n") for _, text, _ in PAPER_ROWS]
-    fits = symbolic.fit_forms(paper_forms, n_s, y_s, seed=config["symbolic.seed"],
+    paper_forms = [search.parse(text, "n") for _, text, _ in PAPER_ROWS]
+    fits = search.fit_forms(paper_forms, n_s, y_s, seed=config["symbolic.seed"],
                               steps=config["symbolic.max_complexity"], width=found["width"])
     for (size, text, names), e, (c, row_rms, converged) in zip(PAPER_ROWS, paper_forms, fits):
         if not converged:
@@ -113,7 +113,7 @@ def run(config, inputs, memo):
     others = [(ns, ys) for label, (ns, ys) in alternative_samples(config, n_s, y_s, inputs["energy_dataset.y"]).items()
               if label != "configured sample" and same_kind(label, len(ns), len(n_s))]
     if others:
-        refits = symbolic.fit_forms(paper_forms, np.array([o[0] for o in others]), np.array([o[1] for o in others]),
+        refits = search.fit_forms(paper_forms, np.array([o[0] for o in others]), np.array([o[1] for o in others]),
                                     seed=config["symbolic.seed"], steps=config["symbolic.max_complexity"],
                                     width=found["width"])
         for per_sample in refits:

@@ -4,12 +4,12 @@ that the maximum relative error of f_2 in the zone equals one reported figure (P
 
 import functools
 
-from ..numerics import jax
+from ..optics.numerics import jax
 import jax.numpy as jnp
 
-from ..error_measures import relative_error_u, zone_u
-from ..lobes import k_2
-from ..roots import SolverError, SolverSettings, bracketed_root
+from ..optics.error_measures import relative_error_u, zone_u
+from ..optics.lobes import k_2
+from ..optics.roots import SolverError, SolverSettings, bracketed_root
 from .common import n_range
 
 LOWEST, HIGHEST = 1e-6, 1.0 - 1e-9

@@ -16,6 +16,7 @@ from types import MappingProxyType
 from typing import Any
 
 from . import graph
+from .graph import expand_patterns
 
 
 class ConfigError(ValueError):
@@ -242,15 +243,12 @@ class Config:
                 and v["derivation.fit"] == "least_squares")
 
 
-def expand_patterns(patterns, keys) -> list[str]:
-    """Config key names matched by `patterns` (exact names, or `section.*`), sorted."""
-    out = set()
-    for p in patterns:
-        if p.endswith(".*"):
-            out.update(k for k in keys if k.startswith(p[:-1]))
-        else:
-            out.add(p)
-    return sorted(out)
+def n_range(config):
+    """Every integer exponent n in [derivation.n_min, derivation.n_max], as float64: the n over which
+    the stages' per-n arrays run. `config` is anything that maps the two keys to their values."""
+    import numpy as np
+
+    return np.arange(config["derivation.n_min"], config["derivation.n_max"] + 1, dtype=np.float64)
 
 
 def _fail(key: str, value: Any, allowed: str) -> ConfigError:

@@ -37,7 +37,7 @@ from typing import Any
 
 import numpy as np
 
-PACKAGE_ROOT = Path(__file__).resolve().parent
+PACKAGE_ROOT = Path(__file__).resolve().parent.parent
 FORMAT = 2
 MEMO = "_memo"
 XLA = "_xla"

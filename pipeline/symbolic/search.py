@@ -17,9 +17,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from .expressions import (ADD, CONST, COST, DIV, MUL, SUB, VAR, C, X, canonical, complexity, constants,  # noqa: F401
+from .grammar import (ADD, CONST, COST, DIV, MUL, SUB, VAR, C, X, canonical, complexity, constants,  # noqa: F401
                           enumerate_forms, evaluate_numpy, parse, programs, show, to_sympy)
-from .numerics import jax
+from ..optics.numerics import jax
 import jax.numpy as jnp  # noqa: E402
 import optimistix as optx  # noqa: E402
 

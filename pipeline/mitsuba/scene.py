@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from . import mitsuba_bsdf
+from . import bsdf
 
 CAMERA, TARGET = (0.0, 2.2, 6.5), (0.0, 0.55, 0.0)
 SUN = np.array([0.4, -1.0, -0.6]) / np.linalg.norm([0.4, -1.0, -0.6])     # direction light travels
@@ -40,13 +40,13 @@ def scene_dict(lobes, width: int, height: int, spp: int, integrator: dict | None
     }
     if not sun:
         del scene["sun"]
-    for i, (x, bsdf) in enumerate(zip(SPHERE_X, lobes)):
-        scene[f"sphere{i}"] = {"type": "sphere", "center": [x, RADIUS, 0.0], "radius": RADIUS, "bsdf": bsdf}
+    for i, (x, props) in enumerate(zip(SPHERE_X, lobes)):
+        scene[f"sphere{i}"] = {"type": "sphere", "center": [x, RADIUS, 0.0], "radius": RADIUS, "bsdf": props}
     return scene
 
 
 def lobe_dict(shape: str, n: float, k: float, coef: float, sampler: str = "lobe") -> dict:
-    return {"type": mitsuba_bsdf.NAME, "shape": shape, "form": "blinn", "exponent": float(n), "k": float(k),
+    return {"type": bsdf.NAME, "shape": shape, "form": "blinn", "exponent": float(n), "k": float(k),
             "coef": float(coef), "sampler": sampler}
 
 

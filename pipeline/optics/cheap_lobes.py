@@ -27,7 +27,7 @@ import jax.numpy as jnp
 import numpy as np
 import sympy as sp
 
-from . import exact
+from . import integrals
 from .lobes import SHAPES, k_Q
 
 t, n_sym = sp.symbols("t n", positive=True)
@@ -105,10 +105,10 @@ def normalizations(slope: float, intercept: float, coef_scale: float, coef_offse
     """The normalizations of the comparison, by name."""
     n = n_sym
     k_expr = sp.Float(slope) * n + sp.Float(intercept)
-    exact_phong = exact.coef_of_k(exact.phong_integral()).args[0][0].subs(exact.k, _U(k_expr))
-    exact_blinn = exact.coef_of_k(exact.blinn_integral()).args[0][0].subs(exact.k, _U(k_expr))
-    phong_fn, _ = exact.exact_coef_code("phong")
-    blinn_fn, _ = exact.exact_coef_code("blinn")
+    exact_phong = integrals.coef_of_k(integrals.phong_integral()).args[0][0].subs(integrals.k, _U(k_expr))
+    exact_blinn = integrals.coef_of_k(integrals.blinn_integral()).args[0][0].subs(integrals.k, _U(k_expr))
+    phong_fn, _ = integrals.exact_coef_code("phong")
+    blinn_fn, _ = integrals.exact_coef_code("blinn")
     items = [
         Normalization("(n+2)/(2pi)", "(n + 2) / (2 pi)", lambda n: (n + 2.0) / (2.0 * np.pi),
                       (n + 2) / (2 * sp.pi)),

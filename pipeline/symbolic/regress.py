@@ -14,7 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
-from . import expressions
+from . import grammar
 
 MAX_COMPLEXITY = 14
 
@@ -79,10 +79,10 @@ def regress(path: Path, x_column: str, y_column: str, out: Path, max_complexity:
     if not 1 <= max_complexity <= MAX_COMPLEXITY:
         raise RegressError(f"--max-complexity {max_complexity}: give an integer in [1, {MAX_COMPLEXITY}]")
     x, y = read_columns(Path(path), x_column, y_column)
-    forms = expressions.enumerate_forms(max_complexity, ops)
+    forms = grammar.enumerate_forms(max_complexity, ops)
     if not forms:
         raise RegressError(f"no expression of complexity <= {max_complexity} uses only the operations {' '.join(ops)}")
-    most = max(expressions.constants(e) for e in forms)
+    most = max(grammar.constants(e) for e in forms)
     if x.size <= most:
         raise RegressError(f"{path}: {x.size} data points, but expressions up to complexity {max_complexity} have up "
                            f"to {most} constants; give at least {most + 1} points or a lower --max-complexity")
@@ -90,29 +90,27 @@ def regress(path: Path, x_column: str, y_column: str, out: Path, max_complexity:
         f"with operations {' '.join(ops)}")
     import sympy as sp
 
-    from . import symbolic
+    from . import search
 
     name = variable_name(x_column)
     symbol = sp.Symbol(name)
-    found = symbolic.search(x, y, max_complexity, ops, starts, iterations, refine, polish_starts, seed, progress=log)
+    found = search.search(x, y, max_complexity, ops, starts, iterations, refine, polish_starts, seed, progress=log)
     front = []
     for i in found["front"]:
         e, c = found["forms"][i], found["constants"][i][:found["constant_count"][i]]
         front.append(dict(complexity=int(found["complexity"][i]), rms=float(found["rms"][i]),
-                          form=symbolic.show(e, name), expression=symbolic.show(e, name, c),
-                          canonical=symbolic.canonical(symbolic.to_sympy(e, c, symbol), symbol),
+                          form=search.show(e, name), expression=search.show(e, name, c),
+                          canonical=search.canonical(search.to_sympy(e, c, symbol), symbol),
                           converged=found["converged"].get(i, False)))
     _write(Path(out), front, f"{Path(path).name}: {y_column} against {x_column}", x, y, found, name)
     return front
 
 
 def _write(out: Path, front, title, x, y, found, name) -> None:
-    """front.csv and front.png, published together (`pipeline.run.publish`: a temporary folder
+    """front.csv and front.png, published together (`pipeline.engine.publishing`: a temporary folder
     renamed into place under a lock, so a failure or a second writer leaves nothing half written)."""
-    from .cache import digest
-    from .publish.plots import symbolic_front_figure
-    from .publish.tables import write_front_csv
-    from .run import publish
+    from ..engine.cache import digest
+    from ..engine.publishing import publish
 
     def write(tmp: Path) -> str:
         write_front_csv(tmp / "front.csv", front)
@@ -120,3 +118,47 @@ def _write(out: Path, front, title, x, y, found, name) -> None:
         return f"{len(front)} front members"
 
     publish(out, digest("regress", title, x, y, front), lambda s: None, write)
+
+
+FRONT_COLUMNS = ("complexity", "rms", "form", "expression", "canonical", "max_rel_to_exact",
+                 "max_energy_excess", "equivalent_to_exact")
+
+
+def write_front_csv(path, front) -> None:
+    """A symbolic-regression front as CSV, one member per row; columns a member lacks are left out."""
+    columns = [c for c in FRONT_COLUMNS if all(c in m for m in front)]
+    with open(path, "w", newline="") as f:
+        writer = csv.writer(f)
+        writer.writerow(columns)
+        for m in front:
+            writer.writerow([f"{m[c]:.10g}" if isinstance(m[c], float) else m[c] for c in columns])
+
+
+def symbolic_front_figure(path, front, found, title) -> None:
+    """The front of `pipeline regress`: RMS against complexity, every complexity's best in grey."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(10, 5))
+    sizes = sorted(set(int(k) for k in found["complexity"]))
+    floor = 1e-16 * max(float(np.max(found["rms"][np.isfinite(found["rms"])])), 1e-300)
+    best = [max(float(np.min(found["rms"][found["complexity"] == k])), floor) for k in sizes]
+    ax.plot(sizes, best, "o", color="0.75", ms=5, label=f"best expression at each complexity ({len(found['forms'])} searched)")
+    xs, ys = [m["complexity"] for m in front], [max(m["rms"], floor) for m in front]
+    ax.step(xs + [sizes[-1] + 1], ys + [ys[-1]], where="post", color="C0", label="front")
+    ax.plot(xs, ys, "o", color="C0", ms=7)
+    lines = ["front (complexity, RMS, sympy's canonical form):"]
+    lines += [f"{m['complexity']:>2}  {m['rms']:.3g}  {m['canonical'].replace('**', '^').replace('*', ' ')}" for m in front]
+    ax.text(0.98, 0.97, "\n".join(lines), transform=ax.transAxes, fontsize=7.5, family="monospace", va="top",
+            ha="right", multialignment="left", bbox=dict(facecolor="white", edgecolor="0.8", alpha=0.9))
+    positive = [v for v in best if v > 0]
+    ax.set(yscale="log" if positive and max(positive) / min(positive) > 20 else "linear",
+           xlabel="complexity (constants, variable, +, -, x count 1; / counts 2)", ylabel="RMS error", title=title,
+           xlim=(0, sizes[-1] + 1.5))
+    ax.legend(fontsize=8, loc="lower left")
+    ax.grid(alpha=0.3, which="both")
+    fig.tight_layout()
+    fig.savefig(path, dpi=110, pil_kwargs={"compress_level": 1})
+    plt.close(fig)

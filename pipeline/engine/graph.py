@@ -371,9 +371,19 @@ def validate() -> None:
         seen.update(f"{s.name}.{f}" for f in s.outputs)
 
 
+def expand_patterns(patterns, keys) -> list[str]:
+    """Config key names matched by `patterns` (exact names, or `section.*`), sorted."""
+    out = set()
+    for p in patterns:
+        if p.endswith(".*"):
+            out.update(k for k in keys if k.startswith(p[:-1]))
+        else:
+            out.add(p)
+    return sorted(out)
+
+
 def config_dependencies(path: str, keys) -> set[str]:
     """Every config key (of `keys`) that the field `stage.field` depends on, transitively."""
-    from .config import expand_patterns
     stage = BY_NAME[path.split(".", 1)[0]]
     found = set(expand_patterns(stage.reads, keys))
     for upstream in stage.inputs:

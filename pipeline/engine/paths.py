@@ -3,7 +3,7 @@
 import os
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parent.parent
+ROOT = Path(__file__).resolve().parent.parent.parent
 CONFIGS = ROOT / "configs"
 PAPER_CONFIG = CONFIGS / "paper.toml"
 OUTPUTS = Path(os.environ.get("PIPELINE_OUTPUTS_DIR", ROOT / "outputs"))

@@ -41,7 +41,7 @@ def normalization(shape: str, form: str, n: float, k: float, nodes: int = 96) ->
     its albedo per unit coef there, by the pipeline's hemisphere quadrature (`pipeline.albedo`)."""
     import numpy as np
 
-    from .albedo import albedo_table
+    from ..optics.albedo import albedo_table
 
     if shape == "cosn":
         albedo = albedo_table(form, "power", n, n, 1.0, np.zeros(1), nodes)
