@@ -55,42 +55,32 @@ def recomputed(output: str) -> str:
     return line.split(";")[0]
 
 
-LOBES = {
-    "cos^n (pow)": lambda t, n, k: t ** n,
-    "f_2 / f_Q2": lambda t, n, k: jnp_square(k * t + (1.0 - k)),
-    "Schlick": lambda t, n, k: t / (n - n * t + t),
-    "SG exp(n (t - 1))": lambda t, n, k: jnp_exp(n * (t - 1.0)),
-}
-
-
-def jnp_square(b):
-    import jax.numpy as jnp
-    b = jnp.maximum(b, 0.0)
-    return b * b
-
-
-def jnp_exp(x):
-    import jax.numpy as jnp
-    return jnp.exp(x)
-
-
 def lobe_throughput(device, size=2**24, repeats=9) -> list[tuple[str, float, float, float]]:
-    """(lobe, median, min, max) evaluations per second of each lobe on `device`."""
+    """(lobe, median, min, max) evaluations per second of each lobe of the registry on `device`, at
+    n = 100 with the paper's line and Q (their parameter computed once, as per material)."""
     import jax
     import jax.numpy as jnp
+
+    from pipeline.engine.config import load_config
+    from pipeline.engine.paths import PAPER_CONFIG
+    from pipeline.optics import registry
+    from pipeline.optics.lobes import SHAPES
+
+    config = load_config(PAPER_CONFIG)
+    params = registry.Parameters(Q=0.64, slope=config["paper_model.slope"], intercept=config["paper_model.intercept"])
     t = jax.device_put(jnp.linspace(0.0, 1.0, size, dtype=jnp.float32), device)
-    n, k = jnp.float32(100.0), jnp.float32(0.448 * 100.0 + 0.099)
     rows = []
-    for name, fn in LOBES.items():
-        f = jax.jit(fn)
-        f(t, n, k).block_until_ready()
+    for lobe in registry.LOBES.values():
+        p = jnp.float32(lobe.parameter(jnp, 100.0, params))
+        f = jax.jit(lambda t, p, shape=SHAPES[lobe.shape]: shape(1.0 - t, p))
+        f(t, p).block_until_ready()
         times = []
         for _ in range(repeats):
             start = time.perf_counter()
-            f(t, n, k).block_until_ready()
+            f(t, p).block_until_ready()
             times.append(time.perf_counter() - start)
         rates = sorted(size / s for s in times)
-        rows.append((name, statistics.median(rates), rates[0], rates[-1]))
+        rows.append((lobe.key, statistics.median(rates), rates[0], rates[-1]))
     return rows
 
 

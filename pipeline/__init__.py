@@ -1,15 +1,15 @@
 """Reproduction of the modified cosine-quadratic specular lobe (Zavalniuk, Romanyuk, Kotlyk 2025).
 
-The derivation runs in stages that follow the paper; `pipeline.graph` declares them. Importing the
+The derivation runs in stages that follow the paper; `pipeline.engine.graph` declares them. Importing the
 package imports no numerical library, so that `pipeline keys`, `pipeline graph` and config errors
-answer at once; `pipeline.numerics` switches JAX to float64 and is imported by every module that
+answer at once; `pipeline.optics.numerics` switches JAX to float64 and is imported by every module that
 computes with JAX.
 """
 
 import os
 
 # float64 must be on before any JAX array exists: an array made earlier stays float32. The
-# variable is read when JAX is first imported; `pipeline.numerics` also sets the flag directly.
+# variable is read when JAX is first imported; `pipeline.optics.numerics` also sets the flag directly.
 os.environ.setdefault("JAX_ENABLE_X64", "1")
 
 from .engine.config import Config as Config, ConfigError as ConfigError, load_config as load_config  # noqa: E402

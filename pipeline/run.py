@@ -1,6 +1,6 @@
 """Runs the derivation: each stage from cache or computed, then checks, results, figures, report.
 
-A stage is passed exactly the config keys and upstream fields it declares (`pipeline.graph`) and
+A stage is passed exactly the config keys and upstream fields it declares (`pipeline.engine.graph`) and
 must return exactly its declared outputs. Its cache key covers the values it reads, so a change
 whose upstream values come out identical stops there.
 
@@ -26,12 +26,12 @@ from .engine import checks as checks_mod
 from .engine import graph
 from .engine import paths
 from .engine.publishing import publish
-from .engine.cache import XLA, Cache, DamagedEntry, Memo, code_hash, digest, stage_key
+from .engine.cache import XLA, Cache, DamagedEntry, Memo, code_hash, digest, direct_imports, stage_key
 from .engine.config import Config
 
 
 class StageContractError(RuntimeError):
-    """A stage returned other fields than it declares in `pipeline.graph` (a programming error)."""
+    """A stage returned other fields than it declares in `pipeline.engine.graph` (a programming error)."""
 
 
 @dataclasses.dataclass
@@ -57,9 +57,20 @@ def stage_inputs(stage: graph.Stage, config: Config, results) -> tuple[dict[str,
     return config.subset(stage.reads), inputs
 
 
+def stage_code(stage: graph.Stage) -> str:
+    """What a stage's key takes of its code: the source of its module and of every `pipeline` module
+    it imports, and, for a stage that reads the lobe registry itself, the registry's entries (a lobe
+    may be registered at run time, outside any source file)."""
+    code = code_hash(stage.module)
+    if "pipeline.optics.registry" in direct_imports(stage.module):
+        from .optics import registry
+        code = digest(code, registry.fingerprint())
+    return code
+
+
 def key_of(stage: graph.Stage, config: Config, results) -> str:
     values, inputs = stage_inputs(stage, config, results)
-    return stage_key(stage.name, values, inputs, code_hash(stage.module))
+    return stage_key(stage.name, values, inputs, stage_code(stage))
 
 
 _setup_lock = threading.Lock()
@@ -122,7 +133,7 @@ def run_stages(config: Config, cache: Cache, log: Callable[[str], None] = print,
                     pending.remove(stage)
                     progress = True
                     values, inputs = stage_inputs(stage, config, results)
-                    key = stage_key(stage.name, values, inputs, code_hash(stage.module))
+                    key = stage_key(stage.name, values, inputs, stage_code(stage))
                     keys[stage.name] = key
                     label = f"[{order[stage.name]:>2}/{len(chosen)}] {stage.name:<{width}}"
                     try:

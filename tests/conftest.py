@@ -1,11 +1,19 @@
-import os
+"""Fixtures sized to what a test needs: the paper's full run is computed once, for the tests that
+compare with the paper's numbers; every other test that needs a whole derivation uses the light
+configuration (`tests/light.toml`: the paper's settings and n range with small renders, few Monte
+Carlo samples and a low symbolic complexity), also computed once."""
+
+from pathlib import Path
 
 import pytest
 
 import pipeline
 from pipeline.engine import paths
 from pipeline.engine.cache import Cache
+from pipeline.engine.exponents import n_range
 from pipeline.run import run_stages
+
+LIGHT_CONFIG = Path(__file__).parent / "light.toml"
 
 
 def pytest_sessionstart(session):
@@ -33,12 +41,42 @@ def paper_run(paper_config, paper_cache):
 
 @pytest.fixture(scope="session")
 def n_all(paper_config):
-    import numpy as np
-    return np.arange(paper_config["derivation.n_min"], paper_config["derivation.n_max"] + 1, dtype=np.float64)
+    return n_range(paper_config)
 
 
-def cli_env(tmp_path, **extra):
-    """Environment for running the CLI in a subprocess with its own cache and outputs; compiled XLA
-    programs are shared by the session's subprocesses (the stage cache is what the tests test)."""
-    return dict(os.environ, PIPELINE_CACHE_DIR=str(tmp_path / "cache"), PIPELINE_OUTPUTS_DIR=str(tmp_path / "out"),
-                PIPELINE_XLA_CACHE_DIR=str(tmp_path.parent / "xla"), **extra)
+@pytest.fixture(scope="session")
+def light_config():
+    return pipeline.load_config(LIGHT_CONFIG)
+
+
+@pytest.fixture(scope="session")
+def light_cache(tmp_path_factory):
+    return tmp_path_factory.mktemp("light_cache")
+
+
+@pytest.fixture(scope="session")
+def light_run(light_config, light_cache):
+    """Every stage of the light configuration, computed once into a fresh cache."""
+    results, keys, computed = run_stages(light_config, Cache(light_cache), log=lambda s: None)
+    return results
+
+
+@pytest.fixture()
+def refit_cache(paper_run, paper_cache, light_run, light_cache, tmp_path):
+    """`tmp_path / "cache"`, holding the paper's and the light run (what a CLI refit of the light config reads)."""
+    from .helpers import copy_caches
+    return copy_caches(tmp_path / "cache", paper_cache, light_cache)
+
+
+@pytest.fixture(scope="session")
+def paper_outputs(paper_config, paper_run, paper_cache, tmp_path_factory):
+    """The paper's run with its outputs written (figures, report, results.json), into a private copy of
+    the paper's cache: (outputs folder, run outcome, cache root)."""
+    import shutil
+
+    from pipeline.run import run_derivation
+
+    root = tmp_path_factory.mktemp("paper_outputs")
+    shutil.copytree(paper_cache, root / "cache")
+    outcome = run_derivation(paper_config, cache_dir=root / "cache", outputs=root / "out", log=lambda s: None)
+    return root / "out", outcome, root / "cache"

@@ -84,6 +84,12 @@ def _imports(path: Path, module: str) -> set[str]:
     return {m for m in found if _module_file(m) is not None}
 
 
+def direct_imports(module: str) -> set[str]:
+    """The `pipeline` modules that `module`'s own source imports (not transitively)."""
+    path = _module_file(module)
+    return _imports(path, module) if path is not None else set()
+
+
 def code_modules(module: str) -> dict[str, Path]:
     """`module` and every `pipeline` module it imports, transitively: name -> source file."""
     seen, todo = {}, [module]

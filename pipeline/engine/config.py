@@ -82,6 +82,8 @@ SCHEMA: tuple[Key, ...] = (
     Key("paper_model.intercept", 0.099, "a number", _is_number, "the paper's rounded intercept of k_Q2(n)"),
     Key("paper_model.coef_scale", 0.214, "a number > 0", _positive, "the paper's coef(n) = scale (offset + n)"),
     Key("paper_model.coef_offset", 0.807, "a number", _is_number, "the paper's coef(n) offset"),
+    Key("paper_model.line_max_rel_error", 0.005, "a number in (0, 1)", _open_unit,
+        "the paper's stated bound on the relative error of its line against k_Q(n) (P6: 0.5 %)"),
     Key("paper_model.turingbot_size12", [0.213904, 0.779213, 0.308609, 0.326302],
         "a list of 4 numbers [scale, offset, residue, pole]",
         lambda v: isinstance(v, list) and len(v) == 4 and all(_is_number(x) for x in v),
@@ -241,14 +243,6 @@ class Config:
         return (v["derivation.n_min"] == 2 and v["derivation.n_max"] == 1000
                 and v["derivation.Q"] in ("scan", 0.64) and v["derivation.metric"] == "relative_epicenter"
                 and v["derivation.fit"] == "least_squares")
-
-
-def n_range(config):
-    """Every integer exponent n in [derivation.n_min, derivation.n_max], as float64: the n over which
-    the stages' per-n arrays run. `config` is anything that maps the two keys to their values."""
-    import numpy as np
-
-    return np.arange(config["derivation.n_min"], config["derivation.n_max"] + 1, dtype=np.float64)
 
 
 def _fail(key: str, value: Any, allowed: str) -> ConfigError:

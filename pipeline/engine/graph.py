@@ -4,7 +4,7 @@ Each stage names the config keys it reads (`reads`; `section.*` for a whole sect
 fields it reads (`inputs`, as `stage.field`) and every field it returns (`outputs`: name -> meaning
 and unit or range). The runner passes a stage exactly its declared config keys and input fields,
 checks that it returned exactly its declared outputs, and keys its cache on those values
-(`pipeline.cache`). Nothing here imports JAX, sympy or pysindy: `pipeline graph`, `pipeline keys`
+(`pipeline.engine.cache`). Nothing here imports JAX, sympy or pysindy: `pipeline graph`, `pipeline keys`
 and config validation (which checks every expectation's result path against `OUTPUTS`) are
 answered from this module alone.
 
@@ -81,7 +81,7 @@ STAGES: tuple[Stage, ...] = (
     }),
     _stage("linear_coefficient", "Fig. 4",
            RANGE + ("derivation.fit", "derivation.constants", "paper_model.slope", "paper_model.intercept",
-                    "solver.*"),
+                    "paper_model.line_max_rel_error", "solver.*"),
            ("q_choice.Q_used", "sample.sample_n"), {
         "k_Q": f"k_Q(n) at Q_used [{PER_N}]",
         "lin_slope": "slope of the fitted line through k_Q(n) [1]",
@@ -189,6 +189,7 @@ STAGES: tuple[Stage, ...] = (
         "paper_coef_max_excess": "max of energy_run (> 0: energy created) [fraction]",
         "paper_coef_n_at_max_excess": "n where it is attained [n]",
         "paper_coef_max_abs_dev": "max of |energy_run| [fraction]",
+        "paper_coef_max_deficit": "min of energy_run (< 0: energy lost) [fraction]",
         "paper_coef_n_at_max_abs_dev": "n where it is attained [n]",
         "excess_ranges": "contiguous [first, last] n where energy_run > 0 [list]",
         "excess_count": "number of n where energy_run > 0 [count]",
@@ -287,17 +288,19 @@ STAGES: tuple[Stage, ...] = (
         "monte_carlo_max_abs_z": "largest |z| of the Monte Carlo rows [standard errors]",
         "monte_carlo_worst_point": "that point drawn again with 16 independent seeds: the z of each, their mean "
                                    "and spread [dict]",
+        "importance_sampling": "the same points estimated with the lobe's closed-form importance sampler: form, n, "
+                               "angle, quadrature, estimate, s.e., z, and the uniform cap's s.e. [list]",
+        "importance_sampling_max_abs_z": "largest |z| of those rows [standard errors]",
         "reciprocity_max_rel_dev": "max |f(L, V) / f(V, L) - 1| on random pairs [fraction]",
     }),
     _stage("lobe_comparison", "beyond", RANGE + ("solver.*", "albedo.quadrature_nodes", "comparison.*"),
            ("zone.level", "q_choice.Q_used", "q_scan.Q_continuous_best", "linear_coefficient.slope_used",
             "linear_coefficient.intercept_used", "hemispherical.coef_scale_used", "hemispherical.coef_offset_used"), {
-        "lobes": "the compared lobes: key, tag, name, formula, operations per pixel and per material [list]",
-        **{f"{m}_{tag}": f"max over n of {m} of {name} [{unit}]"
-           for tag, name in (("cosn", "cos^n (zero: a check)"), ("schlick", "Schlick's lobe"),
-                             ("sg", "exp(n (t - 1))"), ("sg_lagarde", "exp((n + 0.775)(t - 1))"))
-           for m, unit in (("d", "fraction"), ("D", "absolute"))},
-        "rows": "energy rows: lobe, form, normalization, d, D, albedo errors, operations [list]",
+        "lobes": "the compared lobes: registry key, label, formula, operations per pixel and per material [list]",
+        "d_max": "max over n of d, per compared lobe (registry key; f_Q also at the continuous optimum of Q) "
+                 "[dict, fraction]",
+        "D_max": "max over n of D, per compared lobe [dict, absolute]",
+        "rows": "energy rows: lobe, form, normalization key, d, D, albedo errors, operations [list]",
         "d_curves": "d per n of each lobe, in the order of `lobes` [array lobes x n, fraction]",
         "D_curves": "D per n of each lobe [array lobes x n, absolute]",
         "quadrature_error": "largest change of an albedo table with twice the nodes [absolute]",
@@ -316,14 +319,16 @@ STAGES: tuple[Stage, ...] = (
         "lobes": "per lobe: GLSL body, optimized-SPIR-V instruction counts (arithmetic, division, "
                  "transcendental) and each opcode [list, instructions per pixel]",
     }),
-    _stage("render", "beyond", ("render.*",),
-           ("zone.level", "linear_coefficient.slope_used", "linear_coefficient.intercept_used"), {
+    _stage("render", "beyond", ("render.*",) + RANGE,
+           ("zone.level", "linear_coefficient.slope_used", "linear_coefficient.intercept_used",
+            "f2_errors.d_f_2_curve", "accuracy.d_f_Q2_curve"), {
         "lobes": "rendered lobes, reference first [list]",
         "scenes": "rendered scenes [list]",
         "display": "displayed images: scene x n x lobe x H x W x RGB [array, uint8 sRGB]",
         "luminance": "linear luminance: scene x n x lobe x H x W [array, float32]",
         "statistics": "per scene, n, candidate lobe: image errors against the reference (epicenter relative "
-                      "error, FLIP over the frame and the visible highlight, absolute error, PSNR) [list]",
+                      "error and its analytic bound, the lobe's d at that n; FLIP over the frame and the visible "
+                      "highlight, absolute error, PSNR) [list]",
         "flip_maps": "FLIP error maps: scene x n x candidate x H x W [array, float16 in [0, 1]]",
         "visible_areas": "per scene and n: pixels of each lobe's visible highlight [list, pixels]",
         "flip_f_Q2_max": "worst mean FLIP of f_Q2 over the visible highlight [in [0, 1]]",

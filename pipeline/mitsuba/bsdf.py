@@ -2,11 +2,11 @@
 Phong and Blinn forms, each with its normalization, importance-sampled in closed form.
 
 One plugin, `cosquad_lobe`, with properties
-- `shape`: "cosn" (max(c, 0)^n) or "quadratic" (max(k (c - 1) + 1, 0)^2);
+- `shape`: "power" (max(c, 0)^n, the reference f_b) or "quadratic" (max(k (c - 1) + 1, 0)^2);
 - `form`: "phong" (c = wo . R, R the mirror direction of wi) or "blinn" (c = N . h, h the half vector);
 - `exponent` n, `k` (quadratic only), `coef` (the normalization: the BSDF is coef * lobe(c); by
   default the lobe's exact normalization at normal incidence, `normalization()`);
-- `sampler`: "lobe" (the closed-form importance sampler of `pipeline.sampling`, for cos^n its
+- `sampler`: "lobe" (the closed-form importance sampler of `pipeline.optics.sampling`, for cos^n its
   standard one c = xi^(1/(n+1))) or "cosine" (cosine-weighted hemisphere, for comparison).
 
 Phong form: the axis cosine c is drawn around R and the direction returned with the lobe's pdf over
@@ -37,13 +37,13 @@ _PROBE = ("import mitsuba as mi\n"
 
 @functools.cache
 def normalization(shape: str, form: str, n: float, k: float, nodes: int = 96) -> float:
-    """The exact normalization of a lobe (`shape` "cosn" or "quadratic") at normal incidence: 1 over
-    its albedo per unit coef there, by the pipeline's hemisphere quadrature (`pipeline.albedo`)."""
+    """The exact normalization of a lobe (`shape` "power" or "quadratic", the registry's families) at normal incidence: 1 over
+    its albedo per unit coef there, by the pipeline's hemisphere quadrature (`pipeline.optics.albedo`)."""
     import numpy as np
 
     from ..optics.albedo import albedo_table
 
-    if shape == "cosn":
+    if shape == "power":
         albedo = albedo_table(form, "power", n, n, 1.0, np.zeros(1), nodes)
     else:
         albedo = albedo_table(form, "quadratic", n, k, min(1.0 / k, 2.0), np.zeros(1), nodes)
@@ -98,7 +98,7 @@ def _make_class():
             self.k = float(props.get("k", 1.0))
             self.coef = float(props["coef"]) if "coef" in props else normalization(
                 self.shape, self.form, self.n, self.k if self.shape == "quadratic" else self.n)
-            for name, value, allowed in (("shape", self.shape, ("cosn", "quadratic")),
+            for name, value, allowed in (("shape", self.shape, ("power", "quadratic")),
                                          ("form", self.form, ("phong", "blinn")),
                                          ("sampler", self.sampler, ("lobe", "cosine"))):
                 if value not in allowed:
@@ -114,21 +114,21 @@ def _make_class():
 
         # The lobe and its sampler as functions of the axis cosine c.
         def lobe(self, c):
-            if self.shape == "cosn":
+            if self.shape == "power":
                 return dr.power(dr.maximum(c, 0.0), self.n)
             b = dr.maximum(self.k * (c - 1.0) + 1.0, 0.0)
             return b * b
 
         def axis_pdf(self, c):
             """Solid-angle pdf of directions at axis cosine c."""
-            if self.shape == "cosn":
+            if self.shape == "power":
                 return dr.select(c > 0.0, (self.n + 1.0) / (2.0 * math.pi) * dr.power(dr.maximum(c, 0.0), self.n), 0.0)
             w = self.k * (c - 1.0) + 1.0
             return dr.select(w > 0.0, w * w / self.z, 0.0)
 
         def axis_cosine(self, xi):
             """The axis cosine from one uniform number (inverse CDF)."""
-            if self.shape == "cosn":
+            if self.shape == "power":
                 return dr.power(xi, 1.0 / (self.n + 1.0))
             w = dr.cbrt(self.w0_cubed + xi * (1.0 - self.w0_cubed))
             return 1.0 + (w - 1.0) / self.k

@@ -1,32 +1,32 @@
-"""The specular lobes of the paper, as functions of x (radians) and of u = 1 - cos x.
+"""The lobes' JAX code: the shape families every registry lobe evaluates with, as functions of
+u = 1 - cos x, and the paper's lobes as functions of x.
 
-Every quadratic lobe of the paper has the form ((k (cos x - 1) + 1)^2, i.e. (1 - k u)^2, and is
-clamped to 0 beyond its zero crossing cos x = 1 - 1/k (u = 1/k). They differ only in k(n):
-
-- f_2  (Romanyuk & Lyashenko 2010): k_2(n) = n / 2, matches the curvature of cos^n at x = 0;
-- f_Q  (level-matched): k_Q(n) = (sqrt(Q) - 1) / (exp(ln(Q) / n) - 1), equals cos^n where cos^n = Q;
-- f_Q2 (the paper's model): k_Q2(n) = slope n + intercept (paper: 0.448 n + 0.099).
-
-The reference lobe f_b (Phong / Blinn-Phong) is cos(x)^n.
+Every quadratic lobe of the paper has the form (k (cos x - 1) + 1)^2, i.e. (1 - k u)^2, and is
+clamped to 0 beyond its zero crossing cos x = 1 - 1/k (u = 1/k). They differ only in k(n), whose
+formulas the registry declares (`pipeline.optics.registry`: k_2 = n / 2, the level-matched k_Q,
+the line k_Q2 = slope n + intercept). The reference lobe f_b (Phong / Blinn-Phong) is cos(x)^n.
 """
 
 import jax
 import jax.numpy as jnp
+import numpy as np
+
+from . import registry
 
 
 def k_2(n):
     """Coefficient k of f_2: n / 2."""
-    return n / 2.0
+    return registry.k_2(n)
 
 
 def k_Q(n, Q):
-    """Coefficient k of f_Q for Q in (0, 1); expm1 keeps precision where ln(Q)/n is small."""
-    return (jnp.sqrt(Q) - 1.0) / jnp.expm1(jnp.log(Q) / n)
+    """Coefficient k of f_Q for Q in (0, 1) (`registry.k_Q` in JAX)."""
+    return registry.k_Q(n, Q, jnp)
 
 
 def k_Q2(n, slope, intercept):
     """Coefficient k of f_Q2: the line slope * n + intercept."""
-    return slope * n + intercept
+    return registry.k_Q2(n, slope, intercept)
 
 
 def f_b_u(u, n):
@@ -70,10 +70,10 @@ def gran(k):
     return jnp.arccos(1.0 - 1.0 / k)
 
 
-# Lobe shapes by name, as functions of (u, p) with one parameter p per exponent n: the coefficient
-# k for the quadratics, n for cos^n and Schlick, the rate for the exponentials. A name is a static
-# argument of the jitted functions that evaluate lobes, so each shape compiles once and every lobe
-# of that shape (f_2, f_Q, f_Q2 are all "quadratic") reuses the program with other parameters.
+# The shape families, as functions of (u, p) with one parameter p per exponent n: the coefficient
+# k for the quadratics, n for cos^n and Schlick, the rate for the exponentials. A family is a static
+# argument (or a traced index) of the jitted functions that evaluate lobes, so each compiles once
+# and every lobe of that family (f_2, f_Q, f_Q2 are all "quadratic") reuses the program.
 # Past u = 1 (t = cos x < 0, reachable in the Phong form) a shader's max(t, 0) holds the lobe at
 # its t = 0 value: 0 for cos^n and Schlick, exp(-p) for the exponentials.
 def power_u(u, n):
@@ -93,7 +93,15 @@ def exp_u(u, rate):
 
 
 SHAPES = {"quadratic": quadratic_u, "power": power_u, "schlick": schlick_u, "exp": exp_u}
-SHAPE_NAMES = tuple(SHAPES)
+SHAPE_NAMES = registry.SHAPE_NAMES
+assert tuple(SHAPES) == SHAPE_NAMES, "the registry names the shape families of this module, in this order"
+
+
+def support_end(shape: str, p):
+    """The u past which the lobe is 0: 1/k for a quadratic; elsewhere the lobe is held at its t = 0
+    value past u = 1, so its support is the whole sphere (u up to 2)."""
+    p = np.asarray(p, dtype=np.float64)
+    return 1.0 / p if shape == "quadratic" else np.full_like(p, 2.0)
 
 
 def lobe_of_shape(shape_index, u, p):

@@ -41,13 +41,14 @@ FORMS = ("phong", "blinn")
 
 class Parameters(NamedTuple):
     """The run's values a lobe or a normalization may read: Q of f_Q, the line k = slope n +
-    intercept of f_Q2, and the run's coef(n) = coef_scale (coef_offset + n)."""
+    intercept of f_Q2, and the run's coef(n) = coef_scale (coef_offset + n). What a caller does not
+    set is NaN, so that a lobe reading it gives NaN rather than a silent default."""
 
-    Q: float = 0.64
-    slope: float = 0.448
-    intercept: float = 0.099
-    coef_scale: float = 0.214
-    coef_offset: float = 0.807
+    Q: float = float("nan")
+    slope: float = float("nan")
+    intercept: float = float("nan")
+    coef_scale: float = float("nan")
+    coef_offset: float = float("nan")
 
 
 class _SympyMath:
@@ -150,6 +151,18 @@ def register(lobe: Lobe) -> Lobe:
             raise ValueError(f"lobe {lobe.key!r}: form {form!r} is not one of {', '.join(FORMS)}")
     _LOBES[lobe.key] = lobe
     return lobe
+
+
+def fingerprint() -> list:
+    """Every entry's declaration as plain values (its parameter function by its compiled code), for
+    the cache keys of the stages that iterate the registry."""
+    out = []
+    for lobe in _LOBES.values():
+        code = lobe.parameter.__code__
+        out.append([lobe.key, lobe.formula, lobe.shape, lobe.glsl, dict(lobe.style), list(lobe.depends_on),
+                    [list(e) for e in lobe.energy], lobe.sampler, code.co_code.hex(), repr(code.co_consts),
+                    list(code.co_names)])
+    return out
 
 
 def unregister(key: str) -> None:

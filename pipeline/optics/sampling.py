@@ -20,8 +20,13 @@ All functions take unit vectors as arrays with a last axis of 3, the surface nor
 
 from __future__ import annotations
 
+import functools
+
+from .numerics import jax
 import jax.numpy as jnp
 import numpy as np
+
+from .lobes import quadratic_u
 
 TWO_PI = 2.0 * np.pi
 
@@ -98,3 +103,22 @@ def pdf_blinn(wi, wo, k):
     h = h / jnp.linalg.norm(h, axis=-1, keepdims=True)
     c = h[..., 2]
     return (lobe_pdf(c, k) + lobe_pdf(-c, k)) / (4.0 * jnp.abs(jnp.sum(wo * h, axis=-1)))
+
+
+@functools.partial(jax.jit, static_argnames=("form", "samples"))
+def importance_albedo(form: str, k, coef, theta_i, key, samples: int):
+    """(estimate, standard error) of the directional albedo a(theta_i) of coef times the quadratic lobe,
+    by its own sampler: the mean of f cos(theta_o) / pdf over `samples` directions drawn by
+    `sample_phong` or `sample_blinn`; a direction below the surface has weight 0."""
+    xi = jax.random.uniform(key, (samples, 2))
+    wi = jnp.broadcast_to(jnp.array([jnp.sin(theta_i), 0.0, jnp.cos(theta_i)]), (samples, 3))
+    if form == "phong":
+        wo, pdf = sample_phong(xi, wi, k)
+        c = jnp.sum(reflect(wi, NORMAL) * wo, axis=-1)
+    else:
+        wo, pdf = sample_blinn(xi, wi, k)
+        h = wi + wo
+        c = h[..., 2] / jnp.linalg.norm(h, axis=-1)
+    ok = (wo[..., 2] > 0.0) & (pdf > 0.0)
+    values = jnp.where(ok, coef * quadratic_u(1.0 - c, k) * wo[..., 2] / jnp.where(ok, pdf, 1.0), 0.0)
+    return jnp.mean(values), jnp.std(values) / jnp.sqrt(samples)

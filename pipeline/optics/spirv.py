@@ -2,8 +2,9 @@
 shader author would, compiled to SPIR-V (`glslangValidator -V`), optimized (`spirv-opt -O`), and the
 instructions of the optimized fragment shader counted by kind.
 
-Each lobe is a function of t = cos x (the caller's clamped dot product) with its per-material
-values (n, k, the exponential's rate) as uniforms, so the counts are the per-pixel cost. Kinds:
+Each lobe's GLSL body comes from the registry (`pipeline.optics.registry`): a function of t = cos x
+(the caller's clamped dot product) with its per-material values (n, k, the exponential's rate) as
+uniforms, so the counts are the per-pixel cost. Kinds:
 arithmetic (add, subtract, multiply, negate, min, max, clamp, fused multiply-add), division, and
 transcendental (pow, exp, exp2, log, log2, sqrt, inverse sqrt). Loads, stores and the output vector
 are the same for every lobe and are not counted.
@@ -18,20 +19,6 @@ import sys
 import tempfile
 from pathlib import Path
 
-# The quadratic lobe without pow: one multiply-add for the base, a max for the clamp, one multiply
-# to square. The exported shader (`pipeline.publish.shader`) uses the same body.
-QUADRATIC_BODY = ("float b = max(k * t + (1.0 - k), 0.0);   // k (t - 1) + 1, clamped at the zero crossing\n"
-                  "    return b * b;                             // squared with a multiply: no pow")
-
-# Per-pixel GLSL of each lobe. f_2 and f_Q2 differ only in k (n/2 or a n + b), set per material.
-LOBES = {
-    "cos^n (pow)": "return pow(t, n);",
-    "f_2": QUADRATIC_BODY,
-    "f_Q2": QUADRATIC_BODY,
-    "Schlick": "return t / (n - n * t + t);",
-    "SG exp(n (t - 1))": "return exp(n * (t - 1.0));",
-    "SG (Lagarde)": "return exp(rate * (t - 1.0));   // rate = n + 0.775 per material",
-}
 TRANSCENDENTAL = ("Pow", "Exp", "Exp2", "Log", "Log2", "Sqrt", "InverseSqrt")
 ARITHMETIC_OPS = ("OpFAdd", "OpFSub", "OpFMul", "OpFNegate")
 ARITHMETIC_EXT = ("FMax", "FMin", "FClamp", "NMax", "NMin", "NClamp", "Fma")
@@ -101,12 +88,13 @@ def count(body: list[str]) -> dict:
                      + ("OpFDiv",)})
 
 
-def lobe_costs() -> list[dict]:
-    """The optimized-SPIR-V instruction counts of every lobe of `LOBES` (per pixel)."""
+def lobe_costs(lobes) -> list[dict]:
+    """The optimized-SPIR-V instruction counts (per pixel) of each lobe's GLSL body (registry
+    `Lobe`s, in order)."""
     rows = []
-    for name, body in LOBES.items():
-        counts = count(function_body(optimized_disassembly(FRAGMENT.format(body=body))))
-        rows.append(dict(lobe=name, glsl=body, **counts))
+    for lobe in lobes:
+        counts = count(function_body(optimized_disassembly(FRAGMENT.format(body=lobe.glsl))))
+        rows.append(dict(lobe=lobe.key, glsl=lobe.glsl, **counts))
     return rows
 
 

@@ -20,9 +20,9 @@ from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
 from ..engine.cache import code_hash, digest
+from ..engine.graph import RANGE
 
 FIGURE_CACHE = "_figures"       # under the stage cache's root
-RANGE = ("derivation.n_min", "derivation.n_max")
 
 
 @dataclasses.dataclass(frozen=True)
@@ -45,7 +45,8 @@ FIGURES = (
     Figure("fig3_D_vs_Q.png", "Fig. 3: max absolute error versus Q", "paper", "fig3",
            ("q_scan", "f2_errors", "q_choice")),
     Figure("fig4_linear_coefficient.png", "Fig. 4: relative error of the linear coefficient", "paper", "fig4",
-           ("linear_coefficient", "q_choice"), RANGE + ("derivation.fit",)),
+           ("linear_coefficient", "q_choice"),
+           RANGE + ("derivation.fit", "paper_model.slope", "paper_model.intercept", "paper_model.line_max_rel_error")),
     Figure("fig5_lobes_n20.png", "Fig. 5: f_Q2, f_2 and f_b at n = 20", "paper", "fig5",
            ("accuracy", "linear_coefficient")),
     Figure("fig6_fQ2_errors.png", "Fig. 6: max d and max D of f_Q2 (and f_2) per n", "paper", "fig6",

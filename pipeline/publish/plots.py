@@ -13,15 +13,13 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
+from ..engine.exponents import n_range  # noqa: E402
+from ..optics import registry  # noqa: E402
+
 PAPER = dict(color="black", marker="*", markersize=12, linestyle="none", zorder=5)
 # PNG compression level 1: files ~1.5x larger than the default 6, written several times faster.
 FAST_PNG = {"compress_level": 1}
 OBJECTIVE = {"relative_epicenter": "d", "absolute": "D", "rms": "rms"}
-
-
-def n_of(config) -> np.ndarray:
-    """Every exponent n of the run, as the stages' per-n arrays hold them."""
-    return np.arange(config["derivation.n_min"], config["derivation.n_max"] + 1, dtype=np.float64)
 
 
 def paper_value(config, result_path):
@@ -53,9 +51,9 @@ def fig2(out, config, r):
         ax.plot(s["fine_Q"], 100 * s["fine_objective"], ".", color="C3", label="fine grid")
     ax.axvline(s["Q_continuous_best"], color="grey", lw=0.8,
                label=f"continuous optimum of {metric}: Q = {s['Q_continuous_best']:.4f}")
-    p = paper_value(config, "accuracy.d_f_Q")
-    if p is not None:
-        ax.plot([0.64], [100 * p], **PAPER, label=f"paper: Q = 0.64, d = {100 * p:.3f} %")
+    p, Q_paper = paper_value(config, "accuracy.d_f_Q"), paper_value(config, "q_scan.Q_scan_best")
+    if p is not None and Q_paper is not None:
+        ax.plot([Q_paper], [100 * p], **PAPER, label=f"paper: Q = {Q_paper:g}, d = {100 * p:.3f} %")
     ax.set(xlabel="Q (level at which f_Q = cos^n)", ylabel="max relative error d in epicenter zone (%)",
            title="Fig. 2: max d over n of f_Q and f_2 versus Q", ylim=(0, max(25, 110 * d_f2)))
     ax.legend(fontsize=8)
@@ -83,16 +81,18 @@ def fig3(out, config, r):
 
 
 def fig4(out, config, r):
-    s, n = r["linear_coefficient"], n_of(config)
+    s, n = r["linear_coefficient"], n_range(config)
     fig, ax = plt.subplots(figsize=(7, 4.2))
-    ax.plot(n, 100 * s["paper_line_rel_error"], label="paper's line 0.448 n + 0.099")
+    ax.plot(n, 100 * s["paper_line_rel_error"],
+            label=f"paper's line {config['paper_model.slope']:g} n + {config['paper_model.intercept']:g}")
     ax.plot(n, 100 * s["lin_rel_error"], ls="--",
             label=f"this run's {config['derivation.fit']} line {s['lin_slope']:.6f} n + {s['lin_intercept']:.6f}")
-    for b in (-0.5, 0.5):
+    bound = 100 * config["paper_model.line_max_rel_error"]
+    for b in (-bound, bound):
         ax.axhline(b, color="black", lw=0.8, ls=":")
     ax.set(xscale="log", xlabel="specular exponent n", ylabel="relative error of the line vs k_Q(n) (%)",
            title=f"Fig. 4: linear approximation of k_Q(n), Q = {r['q_choice']['Q_used']:.4g} "
-                 "(dotted: paper's 0.5 % bound)")
+                 f"(dotted: paper's {bound:g} % bound)")
     ax.legend(fontsize=8)
     ax.grid(alpha=0.3)
     return _save(fig, out, "fig4_linear_coefficient.png")
@@ -113,7 +113,7 @@ def fig5(out, config, r):
 
 
 def fig6(out, config, r):
-    s, n = r["accuracy"], n_of(config)
+    s, n = r["accuracy"], n_range(config)
     fig, (a, b) = plt.subplots(1, 2, figsize=(11, 4.2))
     a.plot(n, 100 * s["d_f_Q2_curve"], label=f"f_Q2 (max {100 * s['d_f_Q2']:.3f} %)")
     f2 = r["f2_errors"]
@@ -139,7 +139,7 @@ def fig6(out, config, r):
 def fig7(out, config, r):
     s = r["energy_dataset"]
     fig, ax = plt.subplots(figsize=(7, 4.2))
-    ax.plot(n_of(config), s["y"], color="C0", lw=1, label="y(n) = 1 / (2 pi Int(n)), every n", zorder=2)
+    ax.plot(n_range(config), s["y"], color="C0", lw=1, label="y(n) = 1 / (2 pi Int(n)), every n", zorder=2)
     ax.plot(r["sample"]["sample_n"], s["sample_y"], "o", ms=4, color="C1", zorder=4,
             label=f"{r['sample']['sample_size']}-point sample (newenergy.csv)")
     p = paper_value(config, "energy_dataset.y_n2_to_10")
@@ -214,7 +214,7 @@ def fig9(out, config, r):
 
 
 def fig10(out, config, r):
-    s, e, h, n = r["sparse_regression"], r["energy_dataset"], r["hemispherical"], n_of(config)
+    s, e, h, n = r["sparse_regression"], r["energy_dataset"], r["hemispherical"], n_range(config)
     fig, (a, b) = plt.subplots(2, 1, figsize=(7, 6), sharex=True, height_ratios=(1, 1.3))
     a.plot(r["sample"]["sample_n"], e["sample_y"], "o", ms=4, label="sample")
     fitted = s["coef_scale"] * (s["coef_offset"] + n)
@@ -251,7 +251,7 @@ def _excess_axis(ax, excess_ranges):
 def fig11(out, config, r):
     h = r["hemispherical"]
     fig, ax = plt.subplots(figsize=(7.5, 4.4))
-    ax.plot(n_of(config), 100 * h["deviation"], color="C0", label="coef(n) 2 pi Int(n) - 1 (the paper's Int)")
+    ax.plot(n_range(config), 100 * h["deviation"], color="C0", label="coef(n) 2 pi Int(n) - 1 (the paper's Int)")
     _excess_axis(ax, h["hemi_excess_ranges"])
     p = paper_value(config, "hemispherical.hemi_max_abs_dev")
     if p is not None:
@@ -293,7 +293,7 @@ def zone_sensitivity(out, config, r):
 
 
 def exact_normalization(out, config, r):
-    e, h, n = r["exact_normalization"], r["hemispherical"], n_of(config)
+    e, h, n = r["exact_normalization"], r["hemispherical"], n_range(config)
     fig, (a, b) = plt.subplots(1, 2, figsize=(12.5, 4.6))
     a.plot(n, 100 * e["energy_run"], color="C0", label=f"run's coef {h['coef_scale_used']:g} ({h['coef_offset_used']:g} + n)")
     _excess_axis(a, e["excess_ranges"])
@@ -334,12 +334,14 @@ def directional_albedo(out, config, r):
     return _save(fig, out, "directional_albedo.png")
 
 
-# Per-n figure: one style per lobe; the three nearly coincident level-matched lobes (f_Q at two Q,
-# f_Q2) share a colour and differ in line style, so that the eye reads them as one family.
-LOBE_STYLE = {"f_2": dict(color="C1", ls="-"), "f_Q2": dict(color="C0", ls="-", lw=2.2),
-              "f_Q used": dict(color="C0", ls=":", lw=1.2), "f_Q best": dict(color="C0", ls="--", lw=1.0),
-              "Schlick": dict(color="C4", ls="-"), "SG": dict(color="C3", ls="-"),
-              "SG (Lagarde)": dict(color="C3", ls="--")}
+def lobe_style(row) -> dict:
+    """A compared lobe's line style: its registry entry's (grey for a lobe this process does not know);
+    a second instance of a lobe (f_Q at the continuous optimum of Q) dashed and thinner."""
+    entry = registry.LOBES.get(row["registry_key"])
+    style = dict(lw=1.5, color="0.45") | (dict(entry.style) if entry else {})
+    if row["lobe"] != row["registry_key"]:
+        style |= dict(ls="--", lw=1.0)
+    return style
 
 
 def _direct_labels(ax, ends, top):
@@ -354,17 +356,17 @@ def _direct_labels(ax, ends, top):
 
 
 def lobe_comparison(out, config, r):
-    c, n = r["lobe_comparison"], n_of(config)
+    c, n = r["lobe_comparison"], n_range(config)
     fig, (a, b) = plt.subplots(1, 2, figsize=(13, 4.8))
     tops = (12.0, 0.22)             # clipped linear axes: every lobe's curve is visible
     ends = ([], [])
     for i, lobe in enumerate(c["lobes"]):
-        if lobe["key"] == "cos^n":
+        if lobe["registry_key"] == registry.REFERENCE:
             continue
-        style = dict(lw=1.5) | LOBE_STYLE.get(lobe["key"], {})
+        style = lobe_style(lobe)
         for ax, curve, end, scale in ((a, c["d_curves"][i], ends[0], 100.0), (b, c["D_curves"][i], ends[1], 1.0)):
             ax.plot(n, scale * curve, **style)
-            end.append((scale * curve[-1], lobe["name"], style["color"]))
+            end.append((scale * curve[-1], lobe["label"], style["color"]))
     for ax, end, top in ((a, ends[0], tops[0]), (b, ends[1], tops[1])):
         ax.set(xscale="log", xlabel="n", ylim=(0, top), xlim=(n[0], n[-1]))
         ax.grid(alpha=0.3, which="both")
@@ -391,7 +393,7 @@ def renders(out, config, r):
                 ax = axes[i, l]
                 ax.imshow(s["display"][i, j, l], interpolation="nearest")
                 ax.set_axis_off()
-                label = ("reference cos^n (Giesen)" if lobe == "cos^n" else
+                label = ("reference f_b = cos^n (Giesen)" if lobe == registry.REFERENCE else
                          f"{lobe} ({'Giesen' if normalization == 'reference' else 'exact Blinn coef'})")
                 ax.set_title(f"{label}, {scene}", fontsize=9)
         fig.suptitle(f"n = {n:g}: Blinn form (t = N.H), normalization: {normalization}; Reinhard tone map, sRGB",
@@ -409,7 +411,7 @@ def render_errors(out, config, r):
     colour scale shared by the lobes and scenes of the figure."""
     s = r["render"]
     names = []
-    candidates = [l for l, lobe in enumerate(s["lobes"]) if lobe != "cos^n"]
+    candidates = [l for l, lobe in enumerate(s["lobes"]) if lobe != registry.REFERENCE]
     for j, n in enumerate(config["render.exponents"]):
         absolute = {(i, l): np.abs(s["luminance"][i, j, l].astype(np.float64) - s["luminance"][i, j, 0])
                     for i in range(len(s["scenes"])) for l in candidates}
@@ -462,7 +464,7 @@ def render_crops(out, config, r):
             ax = axes[i, -1]
             for l, lobe in enumerate(s["lobes"]):
                 ax.plot(np.arange(x0, x0 + crops.shape[2]) - x, crops[l, y - y0], label=lobe,
-                        lw=2.2 if lobe == "cos^n" else 1.2, ls="-" if lobe != "f_2" else "--")
+                        lw=2.2 if lobe == registry.REFERENCE else 1.2, ls="-" if lobe != "f_2" else "--")
             ax.set(xlabel="pixels from the peak", ylabel="linear luminance", title="profile through the peak")
             ax.title.set_fontsize(8)
             ax.legend(fontsize=7)
@@ -473,7 +475,8 @@ def render_crops(out, config, r):
     return names
 
 
-MITSUBA_PANELS = ("cos^n (reference)", "f_2", "f_Q2", "f_Q2, cosine-weighted sampling")
+MITSUBA_LOBES = (registry.REFERENCE, "f_2", "f_Q2")
+MITSUBA_PANELS = ("f_b = cos^n (reference)", "f_2", "f_Q2", "f_Q2, cosine-weighted sampling")
 
 
 def mitsuba_renders(out, config, r):
@@ -506,10 +509,10 @@ def mitsuba_crops(out, config, r):
         cy, cx = int(ys.mean()), int(xs.mean())
         half = max(8, int(1.5 * max(ys.max() - ys.min(), xs.max() - xs.min()) / 2) + 4)
         window = (slice(max(cy - half, 0), cy + half), slice(max(cx - half, 0), cx + half))
-        panels = [(s["display"][l][window], f"{name}", None) for l, name in enumerate(("cos^n", "f_2", "f_Q2"))]
+        panels = [(s["display"][l][window], f"{name}", None) for l, name in enumerate(MITSUBA_LOBES)]
         panels += [(s["flip_maps"][l][window].astype(np.float32),
                     f"FLIP {name}: {stats[(name, n)]['flip_highlight']:.3f} over the highlight", "magma")
-                   for l, name in enumerate(("f_2", "f_Q2"))]
+                   for l, name in enumerate(MITSUBA_LOBES[1:])]
         for ax, (image, title, cmap) in zip(axes[i], panels):
             if cmap:
                 ax.imshow(image, cmap=cmap, vmin=0.0, vmax=1.0, interpolation="nearest")

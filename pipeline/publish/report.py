@@ -11,6 +11,11 @@ from .results import HEADLINE, headline
 from .tables import front_markdown
 
 
+def _paper(config, result: str) -> str:
+    """The paper's value for a result, from the config's expectations ("not given" if none)."""
+    return next((checks_mod.fmt(e.paper) for e in config.expectations if e.result == result), "not given")
+
+
 def _choices(config, r) -> list[str]:
     z, q, lin, e, reg, h, f2 = (r[s] for s in ("zone", "q_scan", "linear_coefficient", "energy_dataset",
                                                  "sparse_regression", "hemispherical", "f2_errors"))
@@ -40,7 +45,7 @@ def _choices(config, r) -> list[str]:
         f"n = {config['derivation.n_min']} is {lin['intercept_at_bound']:.6f}. Downstream constants: "
         f"**{config['derivation.constants']}**, k = {lin['slope_used']:g} n + {lin['intercept_used']:g}.",
         f"- **f_Q at large n**: max d of f_Q (Q = {Q_used:g}) grows with n; at n = 10^6 it is "
-        f"{_pct(next(row['d'] for row in r['lobe_comparison']['large_n'] if row['lobe'] == f'f_Q, Q = {Q_used:g}' and row['n'] == 1e6))}"
+        f"{_pct(next(row['d'] for row in r['lobe_comparison']['large_n'] if row['lobe'] == 'f_Q' and row['n'] == 1e6))}"
         ", its supremum to 1e-6 (`lobe_comparison.large_n`).",
         f"- **Energy dataset**: Int(n) by {config['energy.quadrature_nodes']}-node Gauss-Legendre "
         f"quadrature over [0, gran(n)] for every n; the lobe's zero crossing lies past the horizon "
@@ -50,7 +55,8 @@ def _choices(config, r) -> list[str]:
         f"newenergy.txt): n = {ns(sample)}. This design (every n up to {config['sample.consecutive_to']}, then "
         f"{config['sample.spread_count']} evenly spaced from {config['sample.spread_from']}) is chosen so "
         f"that the sample's mean y and RMS spread match TuringBot's size-1 row: here "
-        f"{e['sample_mean_y']:.4f} and {e['sample_std_y']:.4f} (paper 48.259 and 66.453671).",
+        f"{e['sample_mean_y']:.4f} and {e['sample_std_y']:.4f} (paper "
+        f"{_paper(config, 'symbolic_regression.size1_constant')} and {_paper(config, 'symbolic_regression.size1_rms')}).",
         f"- **Sparse regression**: pysindy STLSQ over the library {', '.join(config['regression.library'])}, "
         f"{config['regression.threshold_count']} thresholds log-spaced in [{config['regression.threshold_min']:g}, "
         f"{config['regression.threshold_max']:g}]; two-term model {reg['coef_scale']:.8f} "
@@ -67,7 +73,7 @@ def _symbolic(config, r) -> list[str]:
         "## Symbolic regression: the paper's front, searched exhaustively", "",
         f"Every distinct expression in n built from fitted constants, n, {', '.join(config['symbolic.operations'])} "
         f"up to complexity {config['symbolic.max_complexity']} ({sr['forms_searched']} expressions; "
-        "`pipeline/symbolic.py` lists the rules that drop duplicates) is fitted to the sample by least squares: "
+        "`pipeline/symbolic/grammar.py` lists the rules that drop duplicates) is fitted to the sample by least squares: "
         f"{config['symbolic.starts']} random starts of {config['symbolic.iterations']} Levenberg-Marquardt steps "
         f"each, then the best {config['symbolic.refine']} of each complexity refitted to convergence with "
         f"optimistix's Levenberg-Marquardt from {config['symbolic.polish_starts']} starts. Complexity is "
@@ -108,7 +114,8 @@ def _symbolic(config, r) -> list[str]:
                   f"{sr['sr_exact_residue']:.6f}, pole {sr['sr_exact_pole']:.6f} against the exact "
                   f"{sr['exact_scale']:.6f}, {sr['exact_offset']:.6f}, {sr['exact_residue']:.6f}, "
                   f"{sr['exact_pole']:.6f}; it stays within {m['max_abs_to_exact']:.2g} of the exact coef."]
-    lines += ["", f"**What choosing size 5 cost.** The paper kept 0.214 (0.807 + n) (P15). Against the exact coef it "
+    lines += ["", f"**What choosing size 5 cost.** The paper kept {config['paper_model.coef_scale']:g} "
+              f"({config['paper_model.coef_offset']:g} + n) (P15). Against the exact coef it "
               f"reflects {_pct(-ex['paper_coef_max_abs_dev'])} at n = {ex['paper_coef_n_at_max_abs_dev']:g} and "
               f"creates up to {_pct(ex['paper_coef_max_excess'])} energy at n = {ex['paper_coef_n_at_max_excess']:g} "
               f"(`exact_normalization`); the size-12 row, or the exact coef itself, costs two more constants and "
@@ -150,6 +157,13 @@ def _sample_table(reg) -> list[str]:
     return rows
 
 
+def _value(v) -> str:
+    """A headline value in a table cell: numbers to 6 digits, a per-lobe dict as key value pairs."""
+    if isinstance(v, dict):
+        return ", ".join(f"{k} {_value(x)}" for k, x in v.items())
+    return f"{v:.6g}" if isinstance(v, float | int) and not isinstance(v, bool) else str(v)
+
+
 def _comparison(doc, baseline) -> list[str]:
     base = headline(baseline.results)
     changed = [f"`{k}`: {baseline.config[k]!r} -> {v!r}" for k, v in doc["config"].items()
@@ -157,8 +171,7 @@ def _comparison(doc, baseline) -> list[str]:
     rows = ["## Compared with the paper's run", "", "Changed from the paper's config: " + "; ".join(changed) + ".",
             "", "| quantity | paper's run | this run |", "|---|---|---|"]
     for key in HEADLINE:
-        a, b = base[key], doc["headline"][key]
-        rows.append(f"| {key} | {a:.6g} | {b:.6g} |" if isinstance(a, float | int) else f"| {key} | {a} | {b} |")
+        rows.append(f"| {key} | {_value(base[key])} | {_value(doc['headline'][key])} |")
     return rows + [""]
 
 

@@ -14,9 +14,8 @@ from pathlib import Path
 
 import sympy as sp
 
-from ..optics import integrals
+from ..optics import integrals, registry
 from ..engine.cache import digest
-from ..optics.spirv import QUADRATIC_BODY
 
 t, n = sp.symbols("t n", real=True)
 PREFIX = "cosquad_"
@@ -80,7 +79,7 @@ def header(comment: str, config, version_tag: str) -> list[str]:
             f"{comment}    or spec = {PREFIX}coef(n) * {PREFIX}lobe(max(dot(R, V), 0.0), n) (Phong form).", ""]
 
 
-# Importance sampling, as `pipeline.sampling` does it: the lobe's cosine to its axis from one uniform
+# Importance sampling, as `pipeline.optics.sampling` does it: the lobe's cosine to its axis from one uniform
 # number, the direction around the axis, and the solid-angle pdf. {v2}, {v3}: the vector types.
 SAMPLER = """// Importance sampling of the lobe around `axis` (R for the Phong form; N for the half vector of the
 // Blinn form, then reflect the view about it), from xi uniform in [0, 1)^2. The solid-angle pdf of
@@ -154,8 +153,8 @@ def render_sources(config, slope, intercept, coef_scale, coef_offset, version_ta
         py += [f"def {PREFIX}{name}({', '.join(str(a) for a in args)}):", f'    """{DOCS[name]}"""',
                f"    return {_python(expr)}", "", ""]
         if name == "k":
-            # The lobe, written by hand as a shader author would: no pow (see pipeline.shader_cost).
-            body = ["{", f"    float k = {PREFIX}k(n);", f"    {QUADRATIC_BODY}", "}", ""]
+            # The lobe: the registry's GLSL body of f_Q2, as a shader author writes it (no pow).
+            body = ["{", f"    float k = {PREFIX}k(n);", f"    {registry.LOBES['f_Q2'].glsl}", "}", ""]
             for lines in (glsl, hlsl):
                 lines += [f"// {DOCS['lobe']}", f"float {PREFIX}lobe(float t, float n)"] + body
             py += [f"def {PREFIX}lobe(t, n):", f'    """{DOCS["lobe"]}"""', f"    k = {PREFIX}k(n)",

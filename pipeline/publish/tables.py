@@ -4,13 +4,14 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from ..engine.exponents import n_range
 from ..symbolic.regress import write_front_csv
 
 
 def write(out: Path, config, results) -> None:
     """newenergy.csv, energy_all_n.csv, symbolic_front.csv and regression_front.csv."""
     data, reg = results["energy_dataset"], results["sparse_regression"]
-    n_all = range(config["derivation.n_min"], config["derivation.n_max"] + 1)
+    n_all = n_range(config)
     with open(out / "newenergy.csv", "w") as f:
         f.write("n, y\n")
         for n, y in zip(results["sample"]["sample_n"], data["sample_y"]):

@@ -9,8 +9,7 @@ import numpy as np
 
 from ..optics.numerics import jax
 from ..optics.lobes import f_b, k_2, k_Q, k_Q2, quadratic
-from .common import n_range
-from .f2_errors import quadratic_errors, summary
+from .common import n_range, quadratic_errors, summary
 
 FIG5_N = 20.0
 

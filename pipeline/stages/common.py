@@ -1,4 +1,5 @@
-"""Helpers shared by the stages: the exponent range and the vectorized error measures."""
+"""Helpers shared by the stages: the exponent range, the vectorized error measures of a quadratic
+lobe, and the regression sample and its alternatives."""
 
 
 from ..optics.numerics import jax
@@ -6,12 +7,8 @@ import jax.numpy as jnp
 import numpy as np
 
 from ..optics.error_measures import absolute_parts, relative_parts, rms_relative
+from ..engine.exponents import n_range  # noqa: F401  (the stages' one n range)
 from ..optics.roots import SolverError, SolverSettings
-
-
-def n_range(config) -> np.ndarray:
-    """Every integer exponent n in [n_min, n_max], as float64."""
-    return np.arange(config["derivation.n_min"], config["derivation.n_max"] + 1, dtype=np.float64)
 
 
 def lobe_measures(n, k, level, settings: SolverSettings):
@@ -55,3 +52,66 @@ def runs_of(mask, n):
             out.append([float(n[start]), float(n[end])])
             start = None
     return out
+
+
+def quadratic_errors(n, k, level, levels, rtol, atol, max_steps):
+    """Measures of the quadratic lobe with coefficients k over n: curves of d, D and rms, where D
+    is attained (u), and max d at each zone level of `levels`."""
+    settings = SolverSettings(rtol, atol, max_steps)
+    m = measures(n, k, level, settings)
+    require_converged(m["ok"], "max D", n=n)
+    return dict(d=np.asarray(m["d"]), D=np.asarray(m["D"]), rms=np.asarray(m["rms"]), D_u=np.asarray(m["D_u"]),
+                zone_d=np.array([float(np.max(measures(n, k, L, settings)["d"])) for L in levels]))
+
+
+def summary(name, n, m) -> dict:
+    """The stage fields of one lobe's measures: maxima, curves and where the maxima are attained."""
+    d, D = m["d"], m["D"]
+    return {f"d_{name}_curve": d, f"D_{name}_curve": D, f"d_{name}": float(d.max()), f"D_{name}": float(D.max()),
+            f"rms_{name}": float(m["rms"].max()), f"d_{name}_n_at_max": float(n[d.argmax()]),
+            f"D_{name}_n_at_max": float(n[D.argmax()]),
+            f"D_{name}_x_at_max": float(np.arccos(1.0 - m["D_u"][D.argmax()])), f"zone_d_{name}": m["zone_d"]}
+
+
+def sample_exponents(config) -> np.ndarray:
+    """The regression sample: n_min..consecutive_to, then spread_count evenly spaced n up to n_max."""
+    head = np.arange(config["derivation.n_min"], config["sample.consecutive_to"] + 1)
+    tail = np.round(np.linspace(config["sample.spread_from"], config["derivation.n_max"],
+                                config["sample.spread_count"]))
+    sample = np.unique(np.concatenate([head, tail]).astype(np.int64))
+    if len(sample) != len(head) + len(tail):
+        raise ValueError(f"sample.spread_count = {config['sample.spread_count']} makes repeated n "
+                         f"between {config['sample.spread_from']} and {config['derivation.n_max']}")
+    return sample
+
+
+def alternative_samples(config, n_s, y_s, y_all) -> dict:
+    """Other samples of the kind the paper's could be, each as (n, y) with y rounded as configured:
+    the configured one, it unrounded, every n, other splits between consecutive and spread n
+    (same size), and log-spaced n. Used to say how fitted constants depend on the unknown sample."""
+    n_min, n_max = config["derivation.n_min"], config["derivation.n_max"]
+    n_all = n_range(config)
+    decimals = config["sample.y_decimals"]
+
+    def at(ns, rounded=True):
+        y = y_all[np.asarray(ns, dtype=np.int64) - n_min]
+        return np.round(y, decimals) if rounded and decimals >= 0 else y
+
+    alternatives = {"configured sample": (n_s, y_s),
+                    "configured sample, y unrounded": (n_s, at(n_s, rounded=False)),
+                    "every n in range": (n_all, y_all)}
+    size = len(n_s)
+    for head_to in (11, 21, 41):
+        if n_min <= head_to < n_max and size - (head_to - n_min + 1) >= 2:
+            cfg = dict(config) | {"sample.consecutive_to": head_to, "sample.spread_from": head_to + 1,
+                                  "sample.spread_count": size - (head_to - n_min + 1)}
+            ns = sample_exponents(cfg).astype(np.float64)
+            alternatives[f"n_min..{head_to}, then {size - (head_to - n_min + 1)} evenly spaced"] = (ns, at(ns))
+    geo = np.unique(np.round(np.geomspace(n_min, n_max, size)))
+    alternatives[f"{len(geo)} log-spaced n"] = (geo, at(geo))
+    return alternatives
+
+
+def same_kind(label: str, size: int, configured_size: int) -> bool:
+    """Whether an alternative sample is of the configured sample's kind: its size, y rounded."""
+    return size == configured_size and "unrounded" not in label

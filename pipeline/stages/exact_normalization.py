@@ -1,7 +1,7 @@
 """Exact normalization (beyond the paper): coef(n) = 1 / (2 pi Int(n)) in closed form (sympy), set
 beside the paper's regressed 0.214 (0.807 + n), the run's own fit, and the quadrature dataset.
 
-- Int(k) and coef(k) come from `pipeline.exact` (upper hemisphere only, so for k < 1 they differ
+- Int(k) and coef(k) come from `pipeline.optics.integrals` (upper hemisphere only, so for k < 1 they differ
   from the paper's integral up to gran(n)); the stage evaluates sympy's generated jax code.
 - The energy a normalized lobe reflects at normal incidence, coef(n) 2 pi Int(n), is 1 exactly
   with the exact coef; with the run's coef it is 1 + coef/coef_exact - 1: positive means energy
@@ -41,7 +41,7 @@ def run(config, inputs, memo):
     energy_run = coef_run * 2.0 * np.pi * Int - 1.0
     excess = energy_run > 0.0
 
-    # Independent route: the hemisphere quadrature of `pipeline.albedo` at normal incidence.
+    # Independent route: the hemisphere quadrature of `pipeline.optics.albedo` at normal incidence.
     albedo0 = coef_exact * albedo_table("phong", "quadratic", n, k, 1.0 / k, np.zeros(1),
                                         config["albedo.quadrature_nodes"])[:, 0]
     exact_dev = np.asarray(albedo0) - 1.0
@@ -66,7 +66,7 @@ def run(config, inputs, memo):
         coef_exact=coef_exact, coef_blinn=coef_blinn, Int_hemisphere=Int, Int_gran=Int_gran,
         energy_run=energy_run,
         paper_coef_max_excess=float(energy_run[i_max]), paper_coef_n_at_max_excess=float(n_np[i_max]),
-        paper_coef_max_abs_dev=float(np.max(np.abs(energy_run))),
+        paper_coef_max_abs_dev=float(np.max(np.abs(energy_run))), paper_coef_max_deficit=float(np.min(energy_run)),
         paper_coef_n_at_max_abs_dev=float(n_np[np.argmax(np.abs(energy_run))]),
         excess_ranges=runs_of(excess, n_np), excess_count=int(excess.sum()),
         exact_coef_max_abs_dev=float(np.max(np.abs(exact_dev))),

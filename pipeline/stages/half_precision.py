@@ -43,12 +43,12 @@ def half_lobes(n: float, k: float, seed: int = 0) -> list[dict]:
     quad_u = np.maximum(one - k16 * u, zero)
     # GPUs evaluate pow through exp2(n log2(t)) at higher precision and round the result: so here.
     values = {
-        ("cos^n", "1 - N.H"): np.power(np.clip(t, 0, 1).astype(np.float32), np.float32(n)).astype(np.float16),
-        ("cos^n", "dot(c, c) / (1 + N.H), c = N x H"): np.power((one - u).astype(np.float32), np.float32(n)).astype(np.float16),
+        ("f_b", "1 - N.H"): np.power(np.clip(t, 0, 1).astype(np.float32), np.float32(n)).astype(np.float16),
+        ("f_b", "dot(c, c) / (1 + N.H), c = N x H"): np.power((one - u).astype(np.float32), np.float32(n)).astype(np.float16),
         ("f_Q2", "1 - N.H"): (quad_t * quad_t).astype(np.float16),
         ("f_Q2", "dot(c, c) / (1 + N.H), c = N x H"): (quad_u * quad_u).astype(np.float16),
     }
-    exact = {"cos^n": np.cos(x) ** n, "f_Q2": np.maximum(1.0 - k * (1.0 - np.cos(x)), 0.0) ** 2}
+    exact = {"f_b": np.cos(x) ** n, "f_Q2": np.maximum(1.0 - k * (1.0 - np.cos(x)), 0.0) ** 2}
     return [dict(n=float(n), lobe=lobe, route=route, distinct=int(len(np.unique(v))),
                  max_abs_error=float(np.max(np.abs(v.astype(np.float64) - exact[lobe]))))
             for (lobe, route), v in values.items()]

@@ -5,7 +5,7 @@ that the later stages use.
 
 import numpy as np
 
-from .common import runs_of
+from .common import n_range, runs_of
 
 
 def run(config, inputs, memo):
@@ -13,7 +13,7 @@ def run(config, inputs, memo):
         scale, offset = config["paper_model.coef_scale"], config["paper_model.coef_offset"]
     else:
         scale, offset = inputs["sparse_regression.coef_scale"], inputs["sparse_regression.coef_offset"]
-    n = np.arange(config["derivation.n_min"], config["derivation.n_max"] + 1, dtype=np.float64)
+    n = n_range(config)
     deviation = scale * (offset + n) * 2.0 * np.pi * inputs["energy_dataset.Int"] - 1.0
     i = int(np.argmax(np.abs(deviation)))
     return dict(deviation=deviation, coef_scale_used=float(scale), coef_offset_used=float(offset),

@@ -75,8 +75,8 @@ def run(config, inputs, memo):
                 dict(variant=f"every n from {n[0]:g} to {min(100, n_max)}", **ols(np.arange(n[0], min(100, n_max) + 1))),
                 dict(variant="the regression sample's n", **ols(np.asarray(inputs["sample.sample_n"]))),
                 dict(variant="relative error (weights 1/k^2), every n", **ols(n, lambda ks: 1.0 / ks**2))]
-    # The intercept that puts the paper's rounded slope exactly on its 0.5 % bound at the smallest n.
-    intercept_at_bound = float((1.0 - 0.005) * k[0] - paper_slope * n[0])
+    # The intercept that puts the paper's rounded slope exactly on its stated bound at the smallest n.
+    intercept_at_bound = float((1.0 - config["paper_model.line_max_rel_error"]) * k[0] - paper_slope * n[0])
     # The large-n asymptote of k_Q(n), a check on the fit: k_Q(n) = n (1 - sqrt Q) / (-ln Q)
     # + (1 - sqrt Q) / 2 + O(1/n).
     return dict(

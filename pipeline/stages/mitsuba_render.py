@@ -1,7 +1,7 @@
-"""Renders in Mitsuba 3 (beyond the paper): the lobes as BSDF plugins (`pipeline.mitsuba_bsdf`, Blinn
+"""Renders in Mitsuba 3 (beyond the paper): the lobes as BSDF plugins (`pipeline.mitsuba.bsdf`, Blinn
 form, each with its exact normalization at normal view) on three spheres of exponents
 `mitsuba.exponents` under a sky and a sun, path traced with indirect light
-(`pipeline.mitsuba_scene`); reference cos^n against f_2 and f_Q2, judged by FLIP.
+(`pipeline.mitsuba.scene`); reference cos^n against f_2 and f_Q2, judged by FLIP.
 
 - Every lobe is rendered twice, with seeds `mitsuba.seed` and `mitsuba.seed + 1`, at `mitsuba.spp`
   samples per pixel; the image is their mean, and (a - b)^2 / 4 estimates its noise variance per
@@ -16,7 +16,7 @@ form, each with its exact normalization at normal view) on three spheres of expo
 - Importance sampling: f_Q2 rendered also with cosine-weighted sampling at the same samples per
   pixel; the per-pixel variance of each over the highlights.
 
-Without a vectorized Mitsuba variant (no LLVM >= 15: `pipeline.mitsuba_bsdf.choose_variant`) the
+Without a vectorized Mitsuba variant (no LLVM >= 15: `pipeline.mitsuba.bsdf.choose_variant`) the
 scalar variant runs the Python plugins one sample at a time, so the stage renders at
 `mitsuba.fallback_spp` samples per pixel and says so.
 """
@@ -25,13 +25,14 @@ import time
 
 import numpy as np
 
-from ..mitsuba import bsdf
-from ..mitsuba import scene
-from ..optics.lobes import power_u, quadratic_u
-from ..optics.raytrace import display_and_luminance, luminance
-from .render import flip_map, visible
+from ..mitsuba import bsdf, scene
+from ..optics import registry
+from ..optics.images import display_and_luminance, flip_map, luminance, visible
+from ..optics.lobes import SHAPES
 
-LOBES = ("cos^n", "f_2", "f_Q2")
+# The rendered lobes (registry keys), the reference first.
+REFERENCE = registry.REFERENCE
+LOBES = (REFERENCE, "f_2", "f_Q2")
 
 
 def _display8(radiance) -> np.ndarray:
@@ -61,35 +62,33 @@ def run(config, inputs, memo):
     spp = config["mitsuba.spp"] if variant == bsdf.FAST_VARIANT else config["mitsuba.fallback_spp"]
     nodes = config["albedo.quadrature_nodes"]
 
-    def lobes(name, sampler="lobe"):
-        out = []
+    params = registry.Parameters(slope=a, intercept=b)
+
+    def lobes(key, sampler="lobe"):
+        """The plugin properties of the three spheres with the registry's lobe `key`."""
+        lobe, out = registry.LOBES[key], []
         for n in exponents:
-            if name == "cos^n":
-                shape, p = "cosn", n
-            else:
-                shape, p = "quadratic", (n / 2.0 if name == "f_2" else a * n + b)
-            coef = bsdf.normalization(shape, "blinn", n, p, nodes)
-            out.append(scene.lobe_dict(shape, n, p, coef, sampler))
+            p = float(lobe.parameter(np, n, params))
+            coef = bsdf.normalization(lobe.shape, "blinn", n, p, nodes)
+            out.append(scene.lobe_dict(lobe.shape, n, p, coef, sampler))
         return out
 
     def lobe_value(props, t):
-        """The sphere's lobe at N.H = t (`pipeline.lobes`, in u = 1 - t)."""
-        if props["shape"] == "cosn":
-            return np.asarray(power_u(1.0 - t, props["exponent"]))
-        return np.asarray(quadratic_u(1.0 - t, props["k"]))
+        """The sphere's lobe at N.H = t (`pipeline.optics.lobes`, in u = 1 - t)."""
+        return np.asarray(SHAPES[props["shape"]](1.0 - t, props["k"]))
 
     start = time.perf_counter()
     runs = {}
-    # Memoized per lobe: a Q refit renders f_Q2 again and reuses cos^n and f_2.
+    # Memoized per lobe: a Q refit renders f_Q2 again and reuses f_b and f_2.
     for name, sampler in [(lobe, "lobe") for lobe in LOBES] + [("f_Q2", "cosine")]:
         pair = memo("mitsuba_pair", render_pair, lobes=lobes(name, sampler), width=width, height=height, spp=spp,
                     seed=seed, variant=variant)
         runs[(name, sampler)] = [pair["first"], pair["second"]]
-    no_sun = memo("mitsuba_no_sun", render_no_sun, lobes=lobes("cos^n"), width=width, height=height, spp=spp,
+    no_sun = memo("mitsuba_no_sun", render_no_sun, lobes=lobes(REFERENCE), width=width, height=height, spp=spp,
                   seed=seed, variant=variant)["image"]
     seconds = time.perf_counter() - start
 
-    t, cos_light, sphere = scene.sun_geometry(width, height, lobes("cos^n"))
+    t, cos_light, sphere = scene.sun_geometry(width, height, lobes(REFERENCE))
     on = sphere >= 0
     mean = {key: 0.5 * (p[0] + p[1]) for key, p in runs.items()}
     lum = {key: np.asarray(luminance(m)) for key, m in mean.items()}
@@ -104,11 +103,11 @@ def run(config, inputs, memo):
             here = (sphere == i) & (cos_light > 0.0)
             value = props["coef"] * lobe_value(props, t) * np.maximum(cos_light, 0.0)
             direct[here] = (scene.SUN_IRRADIANCE * value[..., None])[here]
-            if name == "cos^n":
+            if name == REFERENCE:
                 epicenter |= (sphere == i) & (lobe_value(props, t) >= level)
         seen |= visible(_display8(no_sun + direct), base8)
     highlight = np.where(seen & on, sphere, -1).astype(np.int8)
-    reference = ("cos^n", "lobe")
+    reference = (REFERENCE, "lobe")
     statistics, flip_frame, maps = [], {}, []
     for name in LOBES[1:]:
         key = (name, "lobe")

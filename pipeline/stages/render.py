@@ -1,8 +1,8 @@
 """Rendered comparison (for shader authors): the reference Blinn-Phong lobe cos^n(N.H) with
-Giesen's exact normalization, against f_2 and f_Q2, on the scenes of `pipeline.render`, at the
+Giesen's exact normalization, against f_2 and f_Q2, on the scenes of `pipeline.optics.raytrace`, at the
 exponents of `render.exponents`. render.normalization = "reference" gives every lobe Giesen's
 factor (equal peaks: the images differ by shape alone); "exact" gives each its own exact
-Blinn-form normalization (`pipeline.exact`; equal energy at normal view).
+Blinn-form normalization (`pipeline.optics.integrals`; equal energy at normal view).
 
 Per scene, exponent and candidate lobe, against the reference:
 - the relative error of luminance in the epicenter zone, where the reference lobe cos^n(N.H) >= L
@@ -16,28 +16,15 @@ Per scene, exponent and candidate lobe, against the reference:
 """
 
 from ..optics.numerics import jax  # noqa: F401  (float64 before any array)
-import flip_evaluator
 import numpy as np
 
-from ..optics import integrals
-from ..optics.cheap_lobes import giesen
-from ..optics.raytrace import SCENES, display_and_luminance, epicenter_mask, image_statistics, shade
+from ..optics import integrals, registry
+from ..optics.images import display_and_luminance, flip_map, image_statistics, visible
+from ..optics.normalizations import giesen
+from ..optics.raytrace import SCENES, epicenter_mask, shade
 
-LOBES = ("cos^n", "f_2", "f_Q2")
-LUMINANCE = np.array([0.2126, 0.7152, 0.0722])
-
-
-def flip_map(reference8, test8) -> np.ndarray:
-    """FLIP error map (values in [0, 1]) of two 8-bit sRGB images, passed as floats (uint8 input would
-    be silently misread)."""
-    err, _, _ = flip_evaluator.evaluate(reference8.astype(np.float32) / 255.0, test8.astype(np.float32) / 255.0,
-                                        "LDR", applyMagma=False)
-    return np.asarray(err)[..., 0]
-
-
-def visible(image8, base8) -> np.ndarray:
-    """Pixels where an image is at least one 8-bit level brighter than the image without specular."""
-    return (image8.astype(np.float64) - base8.astype(np.float64)) @ LUMINANCE >= 1.0
+# The rendered lobes (registry keys), the reference first.
+LOBES = (registry.REFERENCE, "f_2", "f_Q2")
 
 
 def candidate(scene_index: int, resolution: int, n: float, shape: str, p: float, coef: float, reference_coef: float,
@@ -82,11 +69,24 @@ def run(config, inputs, memo):
     exponents = [float(v) for v in config["render.exponents"]]
     own = config["render.normalization"] == "exact"
 
+    params = registry.Parameters(slope=a, intercept=b)
+    d_curves = {"f_2": inputs["f2_errors.d_f_2_curve"], "f_Q2": inputs["accuracy.d_f_Q2_curve"]}
+
+    def d_bound(name, n):
+        """The lobe's d at exponent n (the bound of its epicenter error; NaN outside the n range)."""
+        i = int(round(n)) - config["derivation.n_min"]
+        return float(d_curves[name][i]) if n == round(n) and 0 <= i < len(d_curves[name]) else float("nan")
+
     def lobes(n):
-        """(shape, parameter, coef) of each lobe at exponent n."""
-        return {"cos^n": ("power", n, giesen(n)),
-                "f_2": ("quadratic", n / 2.0, float(blinn_coef(n, 0.5, 0.0)) if own else giesen(n)),
-                "f_Q2": ("quadratic", a * n + b, float(blinn_coef(n, a, b)) if own else giesen(n))}
+        """(shape, parameter, coef) of each lobe at exponent n: the reference with Giesen's factor, each
+        candidate with Giesen's or its own exact Blinn-form coef (of k: k = 1 k + 0)."""
+        out = {}
+        for key in LOBES:
+            lobe = registry.LOBES[key]
+            p = float(lobe.parameter(np, n, params))
+            own_coef = float(blinn_coef(p, 1.0, 0.0)) if own and key != registry.REFERENCE else giesen(n)
+            out[key] = (lobe.shape, p, own_coef)
+        return out
 
     shape = (len(SCENES), len(exponents))
     display = np.zeros(shape + (len(LOBES), res, res, 3), dtype=np.uint8)
@@ -96,7 +96,7 @@ def run(config, inputs, memo):
     for i, scene in enumerate(SCENES):
         for j, n in enumerate(exponents):
             spec = lobes(n)
-            ref_coef = float(spec["cos^n"][2])
+            ref_coef = float(spec[registry.REFERENCE][2])
             r = memo("render_reference", reference, scene_index=i, resolution=res, n=n, coef=ref_coef)
             display[i, j, 0], lum[i, j, 0] = r["display"], r["luminance"]
             area = dict(scene=scene.name, n=n)
@@ -106,8 +106,8 @@ def run(config, inputs, memo):
                          p=float(p), coef=float(coef), reference_coef=ref_coef, level=level)
                 display[i, j, l], lum[i, j, l], flip_maps[i, j, l - 1] = c["display"], c["luminance"], c["flip"]
                 st = dict(c["stats"])
-                area["cos^n"], area[name] = st.pop("reference_visible_pixels"), st.pop("visible_pixels")
-                stats.append(dict(scene=scene.name, n=n, lobe=name, coef=float(coef), **st))
+                area[registry.REFERENCE], area[name] = st.pop("reference_visible_pixels"), st.pop("visible_pixels")
+                stats.append(dict(scene=scene.name, n=n, lobe=name, coef=float(coef), d_bound=d_bound(name, n), **st))
             areas.append(area)
     return dict(lobes=list(LOBES), scenes=[s.name for s in SCENES], display=display, luminance=lum,
                 flip_maps=flip_maps, statistics=stats, visible_areas=areas,

@@ -1,13 +1,14 @@
 """Cost on a GPU (beyond the paper): each cheap lobe written in GLSL, compiled to SPIR-V and
-optimized by spirv-opt, its instructions counted by kind (`pipeline.shader_cost`). If the
+optimized by spirv-opt, its instructions counted by kind (`pipeline.optics.spirv`), for every lobe of
+the registry. If the
 compilers are not installed, the stage says so instead of counting.
 """
 
-from ..optics import spirv
+from ..optics import registry, spirv
 
 
 def run(config, inputs, memo):
     try:
-        return dict(available=True, tools=spirv.tool_versions(), lobes=spirv.lobe_costs())
+        return dict(available=True, tools=spirv.tool_versions(), lobes=spirv.lobe_costs(registry.LOBES.values()))
     except spirv.ToolMissing as e:
         return dict(available=False, tools=str(e), lobes=[])

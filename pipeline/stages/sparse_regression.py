@@ -14,7 +14,7 @@ import numpy as np
 import pysindy as ps
 
 from ..optics.roots import SolverError
-from .sample import alternative_samples, same_kind
+from .common import alternative_samples, n_range, same_kind
 
 TERMS = {
     "1": lambda n: np.ones_like(n), "n": lambda n: n, "1/n": lambda n: 1.0 / n,
@@ -66,8 +66,7 @@ def expression(model) -> str:
 def run(config, inputs, memo):
     n_s, y_s = inputs["sample.sample_n"], inputs["energy_dataset.sample_y"]
     y_all = inputs["energy_dataset.y"]
-    n_min, n_max = config["derivation.n_min"], config["derivation.n_max"]
-    n_all = np.arange(n_min, n_max + 1, dtype=np.float64)
+    n_all = n_range(config)
     terms = config["regression.library"]
     thresholds = np.geomspace(config["regression.threshold_min"], config["regression.threshold_max"],
                               config["regression.threshold_count"])

@@ -1,5 +1,5 @@
 """Symbolic regression (Fig. 9, P14): the complexity/error front of coef(n), found as the paper's
-TuringBot found it, by an exhaustive search (`pipeline.symbolic`).
+TuringBot found it, by an exhaustive search (`pipeline.symbolic.search`).
 
 Every expression in n of the grammar (fitted constants, n, +, -, *, /) up to
 `symbolic.max_complexity` is fitted to the sample by least squares; the front holds the best
@@ -19,8 +19,7 @@ import sympy as sp
 
 from ..symbolic import search
 from ..optics.roots import SolverError
-from .common import n_range
-from .sample import alternative_samples, same_kind
+from .common import alternative_samples, n_range, same_kind
 
 N = sp.Symbol("n", positive=True)
 # The paper's five rows (TuringBot's front, P14): size, form, and the names of its constants.

@@ -1,6 +1,6 @@
 """The expressions of the symbolic regression: built from fitted constants `c`, one variable `x`
 and the operations +, -, *, /; enumerated up to a complexity, parsed, printed, evaluated. No JAX
-here (`pipeline.symbolic` fits them), so that bad input is answered at once.
+here (`pipeline.symbolic.search` fits them), so that bad input is answered at once.
 
 Complexity is TuringBot's, as the paper's table implies it: every constant, the variable, +, -
 and * count 1 and / counts 2 (c x = 3, c (c + x) = 5, c x + c + c/x = 10,

@@ -1,4 +1,4 @@
-"""`pipeline regress`: the exhaustive symbolic regression of `pipeline.symbolic` on a researcher's
+"""`pipeline regress`: the exhaustive symbolic regression of `pipeline.symbolic.search` on a researcher's
 own two-column data, read from a CSV file with a header row.
 
 Writes `front.csv` (one front member per row) and `front.png` into the output folder, both at once

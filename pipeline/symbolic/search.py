@@ -1,6 +1,6 @@
 """Exhaustive symbolic regression in one variable (the method of Bartlett et al. 2022).
 
-Every distinct expression of `pipeline.expressions` (fitted constants, the variable, +, -, *, /)
+Every distinct expression of `pipeline.symbolic.grammar` (fitted constants, the variable, +, -, *, /)
 is enumerated up to a complexity; the constants of each are fitted by least squares, and the
 Pareto front of complexity against RMS error is read off. The front is complete under the stated
 complexity measure: no expression of the grammar at or below a complexity fits better than the

@@ -6,7 +6,7 @@ import pytest
 from pipeline.engine import paths
 from pipeline.engine.config import ConfigError, load_config, parse_override
 
-from .conftest import cli_env
+from ..helpers import cli_env
 
 BAD = [
     ("derivation.Q=1.5", r"'derivation.Q' = 1.5 is not allowed: expected a number in \(0, 1\), \"scan\" or \"optimize\""),

@@ -13,7 +13,7 @@ from pipeline.engine.checks import NOT_COMPARABLE, PASS
 from pipeline.engine.graph import PAPER_STAGES
 from pipeline.run import run_derivation, run_stages
 
-from .oracles import dense_max_errors, k_Q_np
+from ..oracles import dense_max_errors, k_Q_np
 
 # The paper's stages up to the hemispherical check: what these tests check (the symbolic
 # regression, which reads the exact normalization, is tested in test_symbolic and below).
@@ -101,7 +101,7 @@ def test_refit_writes_its_own_outputs_with_a_comparison(cache, tmp_path, paper_c
     out = run_derivation(config, cache_dir=cache.root, outputs=tmp_path, log=lambda s: None, baseline=base)
     report = (tmp_path / "q_0_5" / "report.md").read_text()
     assert "`derivation.Q`: 'scan' -> 0.5" in report
-    assert "| d_fQ2 | 0.0125671 | 0.0303" in report
+    assert "| accuracy.d_f_Q2 | 0.0125671 | 0.0303" in report
     assert not (tmp_path / "paper").exists()
     assert out.failed == [] and [c.verdict for c in out.checks] == [PASS]    # its own expectation
     assert "## Verdict on the paper's claims" in report and "## Beyond the paper: exact normalization" in report
@@ -162,46 +162,3 @@ def test_rms_metric_optimum_is_a_minimum(cache):
     assert rms_1000(Q - 0.002) > rms_1000(Q) < rms_1000(Q + 0.002)
 
 
-@pytest.fixture(scope="module")
-def paper_outputs(cache, paper_config, tmp_path_factory):
-    """The paper's run with its outputs (figures drawn into the module's cache), once per module."""
-    out = tmp_path_factory.mktemp("paper_outputs")
-    base = run_derivation(paper_config, cache_dir=cache.root, outputs=out, log=lambda s: None)
-    return out, base
-
-
-@pytest.mark.slow
-def test_a_figure_is_redrawn_only_when_what_it_shows_changes(cache, paper_outputs):
-    from pipeline.publish.figures import FIGURE_CACHE
-    out, _ = paper_outputs
-    folder = cache.root / FIGURE_CACHE
-    before = {p.name for p in folder.iterdir() if not p.name.startswith(".")}
-    config = pipeline.load_config(paths.PAPER_CONFIG, ("scan.curve_points=101",), name="curves")
-    run_derivation(config, cache_dir=cache.root, outputs=out, log=lambda s: None)
-    new = {p.name for p in folder.iterdir() if not p.name.startswith(".")} - before
-    drawn = {(folder / key / "files.txt").read_text() for key in new}
-    assert drawn == {"fig2_d_vs_Q.png", "fig3_D_vs_Q.png"}      # the two figures of the scan's curves
-    # The copied figures are the paper run's files, byte for byte.
-    for name in ("fig6_fQ2_errors.png", "render_n100.png"):
-        assert (out / "curves" / name).read_bytes() == (out / "paper" / name).read_bytes()
-
-
-@pytest.mark.slow
-def test_a_damaged_figure_entry_is_redrawn(cache, paper_outputs, paper_config):
-    from pipeline.publish.figures import FIGURE_CACHE, FIGURES, figure_key
-    out, base = paper_outputs
-    fig5 = next(f for f in FIGURES if f.file == "fig5_lobes_n20.png")
-    entry = cache.root / FIGURE_CACHE / figure_key(fig5, paper_config, base.keys)
-    (entry / "fig5_lobes_n20.png").unlink()
-    (out / "paper" / ".stamp").unlink()          # force the outputs to be written again
-    run_derivation(paper_config, cache_dir=cache.root, outputs=out, log=lambda s: None)
-    assert (out / "paper" / "fig5_lobes_n20.png").stat().st_size > 10_000
-    assert (entry / "fig5_lobes_n20.png").is_file()
-
-
-def test_a_figure_reading_an_undeclared_config_key_is_an_error(paper_config):
-    from pipeline.publish.figures import FigureConfig
-    view = FigureConfig(paper_config, ("render.*",))
-    assert view["render.resolution"] == 512
-    with pytest.raises(KeyError, match="figure read config key 'derivation.Q', which it does not declare"):
-        view["derivation.Q"]

@@ -16,14 +16,15 @@ from pipeline.engine import paths
 from pipeline.engine.cache import MEMO, Cache, code_modules, digest
 from pipeline.run import run_stages
 
-from .conftest import cli_env
+from ..conftest import LIGHT_CONFIG
+from ..helpers import cli_env
 
 
 @pytest.fixture()
-def warm_cache(paper_run, paper_cache, tmp_path):
-    """A private copy of the cache that already holds the paper's run."""
+def warm_cache(light_run, light_cache, tmp_path):
+    """A private copy of the cache that already holds the light run."""
     target = tmp_path / "cache"
-    shutil.copytree(paper_cache, target)
+    shutil.copytree(light_cache, target)
     return Cache(target)
 
 
@@ -39,8 +40,8 @@ def memo_entries(cache, name):
 
 
 @pytest.mark.slow
-def test_second_run_computes_nothing(paper_config, warm_cache):
-    _, computed, log = run(paper_config, warm_cache)
+def test_second_run_computes_nothing(light_config, warm_cache):
+    _, computed, log = run(light_config, warm_cache)
     assert computed == []
     assert log.count("cached") == len(graph.STAGES)
 
@@ -50,7 +51,7 @@ def test_second_run_computes_nothing(paper_config, warm_cache):
     # A figure setting: the scan reruns, its chosen Q comes out identical, and nothing below it reruns.
     ("scan.curve_points=200", ["q_scan"]),
     # More threshold samples find the same two-term model: the regression reruns, the rest stops there.
-    ("regression.threshold_count=81", ["sparse_regression"]),
+    ("regression.threshold_count=21", ["sparse_regression"]),
     # The solver cap: every stage that solves reruns and gets the same values; the render uses no solver.
     ("solver.max_steps=300", ["zone", "q_scan", "linear_coefficient", "f2_errors", "accuracy", "lobe_comparison"]),
     ("zone.sensitivity_levels=[0.6]", ["f2_errors", "accuracy"]),
@@ -58,42 +59,42 @@ def test_second_run_computes_nothing(paper_config, warm_cache):
     ("render.resolution=64", ["render"]),
 ])
 def test_a_change_recomputes_only_what_reads_it_and_stops_where_values_repeat(warm_cache, change, recomputed):
-    config = pipeline.load_config(paths.PAPER_CONFIG, (change,))
+    config = pipeline.load_config(LIGHT_CONFIG, (change,))
     assert run(config, warm_cache)[1] == recomputed
 
 
 @pytest.mark.slow
-def test_a_q_refit_reuses_the_work_that_does_not_depend_on_q(warm_cache, paper_run):
+def test_a_q_refit_reuses_the_work_that_does_not_depend_on_q(warm_cache, light_run):
     before = {name: memo_entries(warm_cache, name) for name in ("quadratic_errors", "shape_errors", "energy_table")}
-    config = pipeline.load_config(paths.PAPER_CONFIG, ("derivation.Q=0.7", "derivation.constants=fitted"))
+    config = pipeline.load_config(LIGHT_CONFIG, ("derivation.Q=0.7",))
     results, computed, _ = run(config, warm_cache)
     assert "zone" not in computed and "q_scan" not in computed and "render" in computed
     after = {name: memo_entries(warm_cache, name) for name in before}
     # f_Q2 and f_Q move with Q (accuracy); f_2's errors are a stage of their own, not rerun.
     assert "f2_errors" not in computed and after["quadratic_errors"] - before["quadratic_errors"] == 2
-    # Of the 8 compared lobes only f_Q (run's Q) and f_Q2 move; cos^n, f_2, Schlick, SG, SG (Lagarde)
+    # Of the 8 compared lobes only f_Q (run's Q) and f_Q2 move; f_b, f_2, Schlick, SG, SG_Lagarde
     # and f_Q at the optimal Q are reused.
     assert after["shape_errors"] - before["shape_errors"] == 2
     # Energy tables: f_Q (run's Q), f_Q2 Phong and f_Q2 Blinn.
     assert after["energy_table"] - before["energy_table"] == 3
-    # The reused f_2 measures are the paper run's, exactly.
-    np.testing.assert_array_equal(results["f2_errors"]["d_f_2_curve"], paper_run["f2_errors"]["d_f_2_curve"])
+    # The reused f_2 measures are the light run's, exactly.
+    np.testing.assert_array_equal(results["f2_errors"]["d_f_2_curve"], light_run["f2_errors"]["d_f_2_curve"])
 
 
 @pytest.mark.slow
-def test_a_damaged_entry_is_reported_and_recomputed(paper_config, paper_run, warm_cache):
+def test_a_damaged_entry_is_reported_and_recomputed(light_config, light_run, warm_cache):
     entry = next(p for p in (warm_cache.root / "linear_coefficient").iterdir() if not p.name.startswith("."))
     text = (entry / "values.json").read_text()
     (entry / "values.json").write_text(text.replace("0.448", "0.449", 1))
-    results, computed, log = run(paper_config, warm_cache)
+    results, computed, log = run(light_config, warm_cache)
     assert "damaged (values.json does not match its checksum); recomputing" in log
     assert computed == ["linear_coefficient"]
-    assert results["linear_coefficient"]["lin_slope"] == paper_run["linear_coefficient"]["lin_slope"]
+    assert results["linear_coefficient"]["lin_slope"] == light_run["linear_coefficient"]["lin_slope"]
 
 
 @pytest.mark.slow
 @pytest.mark.parametrize("damage", ["manifest", "truncate_arrays", "delete_values", "swap_manifest", "empty_folder"])
-def test_every_kind_of_damage_is_detected_and_recomputed(paper_config, warm_cache, damage):
+def test_every_kind_of_damage_is_detected_and_recomputed(light_config, warm_cache, damage):
     folder = warm_cache.root / "zone"
     entry = next(p for p in folder.iterdir() if not p.name.startswith("."))
     if damage == "manifest":
@@ -109,7 +110,7 @@ def test_every_kind_of_damage_is_detected_and_recomputed(paper_config, warm_cach
     else:
         for f in entry.iterdir():
             f.unlink()
-    results, computed, log = run(paper_config, warm_cache, stages=("zone",))
+    results, computed, log = run(light_config, warm_cache, stages=("zone",))
     assert computed == ["zone"] and "damaged" in log
     assert 0.5936 < results["zone"]["level"] < 0.5937
 
@@ -156,7 +157,9 @@ def test_code_key_covers_the_helpers_a_stage_imports():
     mods = code_modules("pipeline.stages.q_scan")
     assert {"pipeline.optics.lobes", "pipeline.optics.error_measures", "pipeline.optics.roots", "pipeline.stages.common"} <= set(mods)
     assert "pipeline.stages.sparse_regression" not in mods
-    assert "pipeline.stages.sample" in code_modules("pipeline.stages.sparse_regression")
+    assert "pipeline.stages.common" in code_modules("pipeline.stages.sparse_regression")
+    # The lobe comparison's key covers the registry it iterates.
+    assert "pipeline.optics.registry" in code_modules("pipeline.stages.lobe_comparison")
 
 
 def test_prune_removes_what_no_run_used_recently(tmp_path):
@@ -176,10 +179,9 @@ def test_prune_removes_what_no_run_used_recently(tmp_path):
 
 
 @pytest.mark.slow
-def test_two_identical_refits_at_once_leave_one_complete_output(paper_run, paper_cache, tmp_path):
-    shutil.copytree(paper_cache, tmp_path / "cache")
-    args = [sys.executable, "-m", "pipeline", "refit", "--config", "configs/paper.toml",
-            "--set", "render.resolution=96", "--out", "same"]
+def test_two_identical_refits_at_once_leave_one_complete_output(refit_cache, tmp_path):
+    args = [sys.executable, "-m", "pipeline", "refit", "--config", str(LIGHT_CONFIG),
+            "--set", "render.resolution=40", "--out", "same"]
     procs = [subprocess.Popen(args, cwd=paths.ROOT, env=cli_env(tmp_path), stdout=subprocess.PIPE,
                               stderr=subprocess.STDOUT, text=True) for _ in range(2)]
     outs = [p.communicate(timeout=300)[0] for p in procs]

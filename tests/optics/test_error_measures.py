@@ -6,7 +6,7 @@ from scipy.integrate import quad
 from pipeline.optics.error_measures import absolute_parts, relative_parts, rms_relative, zone_u
 from pipeline.optics.roots import SolverSettings
 
-from .oracles import dense_max_errors, k_Q_np, quadratic_np
+from ..oracles import dense_max_errors, k_Q_np, quadratic_np
 
 SETTINGS = SolverSettings(1e-12, 1e-12, 256)
 CASES = [(n, k) for n in (2.0, 3.0, 10.0, 57.0, 400.0, 1000.0)

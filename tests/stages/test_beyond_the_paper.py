@@ -4,70 +4,13 @@ Each number is compared with an independent computation: scipy quadrature over t
 at high precision, a closed form, or a dense numpy grid.
 """
 
-import jax.numpy as jnp
-import mpmath
 import numpy as np
 import pytest
-import sympy as sp
 from scipy import integrate
 
-from pipeline.optics import cheap_lobes
-from pipeline.optics import integrals as exact
-from pipeline.optics.albedo import directional_albedo
-from pipeline.optics.lobes import quadratic_u
-
-from .oracles import quadratic_np
-
-NODES = np.polynomial.legendre.leggauss(96)
-
-
-def _scipy_albedo(form, k, theta_i, coef=1.0):
-    """a(theta_i) of coef (k (t - 1) + 1)^2 by scipy's adaptive 2-D quadrature over the hemisphere."""
-    L = np.array([np.sin(theta_i), 0.0, np.cos(theta_i)])
-    R = np.array([-L[0], 0.0, L[2]])
-
-    def f(phi, theta):
-        V = np.array([np.sin(theta) * np.cos(phi), np.sin(theta) * np.sin(phi), np.cos(theta)])
-        t = R @ V if form == "phong" else (L + V)[2] / np.linalg.norm(L + V)
-        return coef * float(quadratic_np(1.0 - t, k)) * np.cos(theta) * np.sin(theta)
-    return integrate.dblquad(f, 0, np.pi / 2, 0, 2 * np.pi, epsabs=1e-12, epsrel=1e-12)[0]
 
 
 # ---- exact normalization ----------------------------------------------------------------------
-
-@pytest.mark.parametrize("k", [0.5, 0.995, 1.0, 3.7, 448.1])
-def test_exact_integral_matches_scipy(k):
-    Int = float(exact.phong_integral().subs(exact.k, k))
-    c0 = max(1.0 - 1.0 / k, 0.0)
-    expected = integrate.quad(lambda c: (k * (c - 1) + 1) ** 2 * c, c0, 1.0, epsabs=1e-14, epsrel=1e-14)[0]
-    assert Int == pytest.approx(expected, rel=1e-12)
-    # The paper's integral up to gran runs below the horizon for k < 1 only.
-    gran = float(exact.phong_integral_gran().subs(exact.k, k))
-    below = integrate.quad(lambda c: (k * (c - 1) + 1) ** 2 * c, 1.0 - 1.0 / k, 1.0, epsabs=1e-14)[0]
-    assert gran == pytest.approx(below, rel=1e-12)
-    assert (gran < Int) == (k < 1.0)
-
-
-@pytest.mark.parametrize("k", [2.0, 2 + np.sqrt(2) + 0.01, 50.0])
-def test_exact_blinn_coef_normalizes_the_blinn_form_at_normal_incidence(k):
-    coef = float(exact.coef_of_k(exact.blinn_integral()).subs(exact.k, k))
-    assert _scipy_albedo("blinn", k, 0.0, coef) == pytest.approx(1.0, abs=1e-9)
-
-
-def test_large_k_expansion_matches_mpmath():
-    # coef(k) - (3k/(2 pi) + 3/(8 pi)) -> 3 / (32 pi k): checked at k = 10^6 with 50 digits.
-    mpmath.mp.dps = 50
-    k = mpmath.mpf(10) ** 6
-    coef = 6 * k**2 / (mpmath.pi * (4 * k - 1))
-    remainder = (coef - 3 * k / (2 * mpmath.pi) - 3 / (8 * mpmath.pi)) * k
-    assert float(remainder) == pytest.approx(3 / (32 * np.pi), rel=1e-5)
-    expansion = exact.large_k_expansion("phong")
-    assert sp.simplify(expansion - (3 * exact.k / (2 * sp.pi) + 3 / (8 * sp.pi) + 3 / (32 * sp.pi * exact.k))) == 0
-    blinn = exact.large_k_expansion("blinn")
-    assert sp.simplify(blinn.coeff(exact.k, 1) - 3 / (8 * sp.pi)) == 0          # a quarter of the Phong slope
-    constant = blinn - blinn.coeff(exact.k, 1) * exact.k - blinn.coeff(exact.k, -1) / exact.k
-    assert sp.simplify(constant - 15 / (32 * sp.pi)) == 0                          # (3/(8 pi)) (k + 5/4)
-
 
 def test_paper_coef_energy_against_scipy(paper_run, n_all):
     e = paper_run["exact_normalization"]
@@ -99,24 +42,14 @@ def test_expansion_against_regression(paper_run):
 
 # ---- directional albedo -----------------------------------------------------------------------
 
-@pytest.mark.parametrize("form", ["phong", "blinn"])
-@pytest.mark.parametrize("n, theta_deg", [(2.0, 17.0), (10.0, 0.0), (10.0, 57.0), (30.0, 80.0), (5.0, 86.0)])
-def test_directional_albedo_matches_scipy(form, n, theta_deg):
-    k = 0.448 * n + 0.099
-    theta = np.radians(theta_deg)
-    ours = float(directional_albedo(form, lambda u, n_: quadratic_u(u, k), n, 1 / k, 1.0, theta, *NODES))
-    # The pipeline's measured quadrature error is ~1e-7 at worst; scipy's to 1e-12.
-    assert ours == pytest.approx(_scipy_albedo(form, k, theta), abs=2e-7)
-
-
 def test_albedo_of_normalized_cos_n_is_one_at_normal_incidence(paper_run, n_all):
-    rows = {r["label"]: r for r in paper_run["lobe_comparison"]["rows"]}
+    rows = {(r["lobe"], r["form"], r["normalization"]): r for r in paper_run["lobe_comparison"]["rows"]}
     # (n + 2)/(2 pi) and Giesen's factor are exact at normal incidence (closed forms).
-    assert rows["cos^n"]["albedo_normal_max_abs_dev"] < 1e-9
-    assert rows["Blinn: cos^n, Giesen"]["albedo_normal_max_abs_dev"] < 1e-9
+    assert rows[("f_b", "phong", "phong_cos_n")]["albedo_normal_max_abs_dev"] < 1e-9
+    assert rows[("f_b", "blinn", "giesen")]["albedo_normal_max_abs_dev"] < 1e-9
     n = n_all
     blinn8 = (n + 8) / (8 * np.pi) * 8 * np.pi * (2 ** (-n / 2) + n) / ((n + 2) * (n + 4)) - 1
-    assert rows["Blinn: cos^n, (n+8)/(8pi)"]["albedo_normal_max_abs_dev"] == pytest.approx(
+    assert rows[("f_b", "blinn", "blinn_approximate")]["albedo_normal_max_abs_dev"] == pytest.approx(
         np.max(np.abs(blinn8)), abs=1e-9)
 
 
@@ -138,20 +71,23 @@ def test_energy_conservation_and_cross_checks(paper_run):
 
 # ---- other cheap lobes ------------------------------------------------------------------------
 
-def curves(c, tag):
-    """(d per n, D per n) of the lobe with this tag in the comparison."""
-    i = [lobe["tag"] for lobe in c["lobes"]].index(tag)
+def curves(c, key):
+    """(d per n, D per n) of the compared lobe `key` (a registry key, or f_Q's second instance)."""
+    i = [lobe["lobe"] for lobe in c["lobes"]].index(key)
     return c["d_curves"][i], c["D_curves"][i]
 
 
 def test_generic_extrema_agree_with_closed_forms(paper_run):
     c, a = paper_run["lobe_comparison"], paper_run["accuracy"] | paper_run["f2_errors"]
-    for tag, name in (("f_q2", "f_Q2"), ("f_2", "f_2"), ("f_q_used", "f_Q")):
-        d, D = curves(c, tag)
+    for name in ("f_Q2", "f_2", "f_Q"):
+        d, D = curves(c, name)
         np.testing.assert_allclose(d, a[f"d_{name}_curve"], rtol=0, atol=1e-11)
         np.testing.assert_allclose(D, a[f"D_{name}_curve"], rtol=0, atol=1e-11)
-    # cos^n against itself: zero up to the rounding of two evaluations of t^n, ~n eps (n <= 1000).
-    assert c["d_cosn"] < 1000 * np.finfo(float).eps and c["D_cosn"] < 1e-15
+    # f_b = cos^n against itself: zero up to the rounding of two evaluations of t^n, ~n eps (n <= 1000).
+    assert c["d_max"]["f_b"] < 1000 * np.finfo(float).eps and c["D_max"]["f_b"] < 1e-15
+    # The maxima are those of the curves.
+    for i, lobe in enumerate(c["lobes"]):
+        assert c["d_max"][lobe["lobe"]] == c["d_curves"][i].max() and c["D_max"][lobe["lobe"]] == c["D_curves"][i].max()
 
 
 def test_spherical_gaussian_d_closed_form(paper_run, n_all):
@@ -160,15 +96,15 @@ def test_spherical_gaussian_d_closed_form(paper_run, n_all):
     n, L = n_all, paper_run["zone"]["level"]
     u = -np.expm1(np.log(L) / n)
     d = np.expm1(n * (-u - np.log1p(-u)))
-    assert c["d_sg"] == pytest.approx(d.max(), rel=1e-12)
+    assert c["d_max"]["SG"] == pytest.approx(d.max(), rel=1e-12)
 
 
-@pytest.mark.parametrize("lobe", ["schlick", "sg", "sg_lagarde"])
+@pytest.mark.parametrize("lobe", ["Schlick", "SG", "SG_Lagarde"])
 def test_cheap_lobe_errors_against_dense_grid(paper_run, lobe):
     c, level = paper_run["lobe_comparison"], paper_run["zone"]["level"]
     d_curve, D_curve = curves(c, lobe)
-    fn = {"schlick": lambda u, n: (1 - u) / (n * u + 1 - u), "sg": lambda u, n: np.exp(-n * u),
-          "sg_lagarde": lambda u, n: np.exp(-(n + 0.775) * u)}[lobe]
+    fn = {"Schlick": lambda u, n: (1 - u) / (n * u + 1 - u), "SG": lambda u, n: np.exp(-n * u),
+          "SG_Lagarde": lambda u, n: np.exp(-(n + 0.775) * u)}[lobe]
     for n in (2.0, 3.0, 17.0, 100.0, 1000.0):
         i = int(n - 2)
         x = np.linspace(0, np.pi / 2, 400_001)
@@ -183,37 +119,17 @@ def test_cheap_lobe_errors_against_dense_grid(paper_run, lobe):
         assert d_curve[i] == pytest.approx(d, abs=1e-7) and d_curve[i] >= d - 1e-13
 
 
-def test_operation_counts():
-    lobes = {lobe.name: lobe for lobe in cheap_lobes.shape_lobes(0.64, 0.65, 0.448, 0.099)}
-    count = {name: cheap_lobes.count_operations(lobe.expr)[0] for name, lobe in lobes.items()}
-    assert count["cos^n"] == dict(pow=1, **{"exp/log": 0}, div=0, sqrt=0, madd=0)
-    # max(k t + (1 - k), 0)^2: multiply, add, max, square.
-    assert count["f_Q2"] == dict(pow=0, **{"exp/log": 0}, div=0, sqrt=0, madd=4)
-    assert count["Schlick"]["div"] == 1 and count["Schlick"]["pow"] == 0
-    assert count["SG"]["exp/log"] == 1
-    # k_Q(n) needs exp and divisions, but per material only.
-    pixel, material = cheap_lobes.count_operations(lobes["f_Q, Q = 0.64"].expr)
-    assert pixel["exp/log"] == 0 and material["exp/log"] == 1 and material["div"] >= 1
-
-
-def test_headline_has_the_new_keys(paper_run):
-    from pipeline.publish.results import headline
+def test_the_headline_names_each_field_by_its_one_name(paper_run):
+    from pipeline.engine.graph import output_paths
+    from pipeline.publish.results import HEADLINE, headline
     h = headline(paper_run)
-    for key in ("paper_coef_max_excess", "exact_coef_max_abs_dev", "schlick_d", "schlick_D", "sg_d", "sg_D",
-                "blinn_albedo_max"):
-        assert np.isfinite(h[key])
-    assert h["paper_coef_max_excess"] > 0          # the paper's coef does create energy
-    assert h["sg_d"] == paper_run["lobe_comparison"]["d_sg"]
-
-
-def test_exact_coef_jax_code_matches_sympy():
-    fn, source = exact.exact_coef_code("phong")
-    assert "select" in source
-    n = jnp.array([2.0, 3.0, 100.0])
-    expr = exact.coef_of_n(exact.phong_integral())
-    for v, got in zip(np.asarray(n), np.asarray(fn(n, 0.448, 0.099))):
-        want = float(expr.subs({exact.n: v, exact.slope: 0.448, exact.intercept: 0.099}))
-        assert got == pytest.approx(want, rel=1e-14)
+    # Each headline entry is a declared stage field, under its own `stage.field` name, with its value.
+    assert set(HEADLINE) <= set(output_paths()) and len(set(HEADLINE)) == len(HEADLINE)
+    for path, value in h.items():
+        stage, field = path.split(".", 1)
+        assert value is paper_run[stage][field]
+    assert h["exact_normalization.paper_coef_max_excess"] > 0          # the paper's coef does create energy
+    assert h["lobe_comparison.d_max"]["SG"] < h["lobe_comparison.d_max"]["Schlick"]
 
 
 def test_monte_carlo_worst_point_is_a_tail_event_not_a_bias(paper_run):
@@ -228,7 +144,7 @@ def test_monte_carlo_worst_point_is_a_tail_event_not_a_bias(paper_run):
 
 def test_per_n_ranges_against_the_curves(paper_run, n_all):
     c = paper_run["lobe_comparison"]
-    names = [lobe["name"] for lobe in c["lobes"]]
+    names = [lobe["lobe"] for lobe in c["lobes"]]
     for row in c["per_n"]:
         i, j = names.index(row["lobe_a"]), names.index(row["lobe_b"])
         curves = c["d_curves"] if row["measure"] == "d" else c["D_curves"]

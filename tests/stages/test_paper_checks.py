@@ -5,7 +5,7 @@ import pytest
 
 from pipeline.engine import checks
 
-from .oracles import dense_max_errors, k_Q_np
+from ..oracles import dense_max_errors, k_Q_np
 
 
 def test_every_paper_value_is_reproduced_or_its_difference_documented(paper_config, paper_run):

@@ -1,0 +1,90 @@
+"""What a run writes: every figure the figure registry names is written, readable and embedded in the
+report once; every number the report states with decimals is a value of results.json."""
+
+import json
+import math
+import re
+
+import numpy as np
+from PIL import Image
+
+from pipeline.publish.figures import FIGURES
+
+# A decimal number as the report prints it: 0.448142, 1.2567 %, 6.3e-05, -0.0532 (integers are counts,
+# exponents n, figure and section numbers, and are not checked here).
+NUMBER = re.compile(r"(?<![\w.^/])([-+]?\d+\.\d+(?:e[-+]?\d+)?)( %)?(?![\w.])")
+
+
+def figure_files(config):
+    for f in FIGURES:
+        if "{n}" in f.file:
+            yield from (f.file.format(n=f"{n:g}") for n in config["render.exponents"])
+        else:
+            yield f.file
+
+
+def test_every_figure_is_written_readable_and_embedded_once(paper_outputs, paper_config):
+    out = paper_outputs[0] / "paper"
+    report = (out / "report.md").read_text()
+    names = list(figure_files(paper_config))
+    per_n = sum("{n}" in f.file for f in FIGURES)
+    assert per_n == 3 and len(names) == len(FIGURES) + per_n * (len(paper_config["render.exponents"]) - 1)
+    for name in names:
+        with Image.open(out / name) as image:
+            image.verify()
+        with Image.open(out / name) as image:
+            assert image.size[0] >= 400 and image.size[1] >= 200, name
+            pixels = np.asarray(image.convert("L"))
+        assert pixels.std() > 1.0, name             # not a blank image
+        assert report.count(f"]({name})") == 1, name
+    assert sorted(p.name for p in out.glob("*.png")) == sorted(names)
+
+
+def leaves(value):
+    """Every number in a results.json value, recursively; and every number written in its strings
+    (formulas, canonical forms, the config's reasons), which the report quotes."""
+    if isinstance(value, bool) or value is None:
+        return
+    if isinstance(value, str):
+        for match in NUMBER.finditer(value):
+            yield float(match.group(1)) / (100.0 if match.group(2) else 1.0)
+    elif isinstance(value, int | float):
+        yield float(value)
+    elif isinstance(value, dict):
+        for v in value.values():
+            yield from leaves(v)
+    elif isinstance(value, list):
+        for v in value:
+            yield from leaves(v)
+
+
+def shown(text: str, value: float, percent: bool) -> bool:
+    """Whether `value` (a fraction if percent) printed at the precision of `text` reads `text`."""
+    v = 100.0 * value if percent else value
+    target = float(text)
+    if "e" in text:
+        mantissa = text.split("e")[0]
+        digits = len(mantissa.replace("-", "").replace("+", "").replace(".", "").lstrip("0")) or 1
+        return math.isclose(float(f"{v:.{digits - 1}e}"), target, rel_tol=1e-9)
+    decimals = len(text.split(".")[1])
+    return any(math.isclose(round(x, decimals), target, abs_tol=0.6 * 10.0 ** -decimals)
+               for x in (v, abs(v) if target >= 0 else -abs(v)))
+
+
+def test_every_decimal_number_in_the_report_is_a_value_of_results_json(paper_outputs):
+    out = paper_outputs[0] / "paper"
+    doc = json.loads((out / "results.json").read_text())
+    values = np.array(sorted(set(leaves(doc))))
+    # Code and formulas the report quotes (generated jax code, sympy forms, shader bodies) are not
+    # reported numbers: their lines are left out.
+    text = "\n".join(line for line in (out / "report.md").read_text().splitlines()
+                     if not line.startswith(("    ", "def ", "return ", "`", "![")) and "`" not in line)
+    missing = []
+    for match in NUMBER.finditer(text):
+        number, percent = match.group(1), bool(match.group(2))
+        target = float(number) / (100.0 if percent else 1.0)
+        near = values[np.abs(values - target) <= max(abs(target) * 0.05, 1e-12)]
+        near = np.concatenate([near, -near])
+        if not any(shown(number, v, percent) for v in near):
+            missing.append(match.group(0))
+    assert missing == []
