@@ -32,6 +32,15 @@ def paper_cache(tmp_path_factory):
     return tmp_path_factory.mktemp("cache")
 
 
+@pytest.fixture(scope="session", autouse=True)
+def shared_compilation_cache(tmp_path_factory):
+    """One folder of compiled XLA programs for the session: the runs in this process and the CLI
+    subprocesses (`helpers.cli_env`) compile each program once."""
+    folder = tmp_path_factory.getbasetemp() / "xla"
+    paths.XLA_CACHE = str(folder)
+    return folder
+
+
 @pytest.fixture(scope="session")
 def paper_run(paper_config, paper_cache):
     """Every stage of the paper's configuration, computed once into a fresh cache."""
@@ -55,10 +64,14 @@ def light_cache(tmp_path_factory):
 
 
 @pytest.fixture(scope="session")
-def light_run(light_config, light_cache):
-    """Every stage of the light configuration, computed once into a fresh cache."""
-    results, keys, computed = run_stages(light_config, Cache(light_cache), log=lambda s: None)
-    return results
+def light_run(light_config, light_cache, paper_run, tmp_path_factory):
+    """Every stage of the light configuration and its figures, computed once into a fresh cache (after
+    the paper's run, whose compiled programs it mostly shares)."""
+    from pipeline.run import run_derivation
+
+    outcome = run_derivation(light_config, cache_dir=light_cache, outputs=tmp_path_factory.mktemp("light_out"),
+                             log=lambda s: None)
+    return outcome.results
 
 
 @pytest.fixture()

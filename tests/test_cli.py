@@ -109,7 +109,7 @@ def test_runs_killed_at_random_moments_recover_with_identical_results(refit_cach
     for _ in range(2):
         proc = subprocess.Popen([sys.executable, "-m", "pipeline", *args], env=cli_env(tmp_path), cwd=paths.ROOT,
                                 stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-        time.sleep(rng.uniform(1.0, 5.0))    # startup, stages, or writing the outputs
+        time.sleep(rng.uniform(1.0, 4.0))    # startup, stages, or writing the outputs
         proc.send_signal(signal.SIGKILL)
         proc.wait()
     done = run_cli(args, tmp_path)
