@@ -1,6 +1,7 @@
 """Independent reference computations (plain numpy / scipy), never the pipeline's own functions."""
 
 import numpy as np
+from scipy import integrate
 
 
 def quadratic_np(u, k):
@@ -21,3 +22,15 @@ def dense_max_errors(n, k, level, points=200_001):
 
 def k_Q_np(n, Q):
     return (np.sqrt(Q) - 1.0) / np.expm1(np.log(Q) / n)
+
+
+def scipy_albedo(form, k, theta_i, coef=1.0):
+    """a(theta_i) of coef (k (t - 1) + 1)^2 by scipy's adaptive 2-D quadrature over the hemisphere."""
+    L = np.array([np.sin(theta_i), 0.0, np.cos(theta_i)])
+    R = np.array([-L[0], 0.0, L[2]])
+
+    def f(phi, theta):
+        V = np.array([np.sin(theta) * np.cos(phi), np.sin(theta) * np.sin(phi), np.cos(theta)])
+        t = R @ V if form == "phong" else (L + V)[2] / np.linalg.norm(L + V)
+        return coef * float(quadratic_np(1.0 - t, k)) * np.cos(theta) * np.sin(theta)
+    return integrate.dblquad(f, 0, np.pi / 2, 0, 2 * np.pi, epsabs=1e-12, epsrel=1e-12)[0]
