@@ -1,6 +1,6 @@
 # The two commands a user needs: `make reproduce` and `make test`. The first run of either creates
 # .venv and installs the project with the pinned versions of constraints.txt; `make test` adds the
-# test dependencies (pytest). Mitsuba's fast variant (llvm_ad_rgb) needs a shared LLVM >= 15, and
+# test dependencies (pytest, and pytest-xdist: the tests run in two processes). Mitsuba's fast variant (llvm_ad_rgb) needs a shared LLVM >= 15, and
 # the LLVM 15 of Debian 12 aborts every render: as root on Debian, Debian's libllvm19 is installed
 # and selected (DRJIT_LIBLLVM_PATH); elsewhere, or if that fails, the pipeline uses scalar_rgb.
 PYTHON ?= python3
@@ -51,7 +51,7 @@ refit: $(INSTALLED) $(LLVM_READY)
 	$(WITH_LLVM) $(BIN)/pipeline refit --config $(CONFIG) $(foreach s,$(SET),--set $(s))
 
 test: $(TEST_INSTALLED) $(LLVM_READY)
-	$(WITH_LLVM) $(BIN)/python -m pytest -q
+	$(WITH_LLVM) $(BIN)/python -m pytest -q -n 2 --dist loadfile
 
 bench: $(TEST_INSTALLED) $(LLVM_READY)
 	$(WITH_LLVM) $(BIN)/python bench/bench.py

@@ -12,7 +12,7 @@ less than a time. Measured, each in a fresh cache and outputs folder:
   its time as the run log states it; target 10 s, absolute, for the 50-point sample up to
   complexity 12);
 - `pipeline keys` and a run with a bad config (answered without importing JAX);
-- `make test` (`python -m pytest -q`), unless BENCH_TESTS=0;
+- `make test` (`python -m pytest -q -n 2 --dist loadfile`), unless BENCH_TESTS=0;
 - the throughput of each cheap lobe compiled by XLA (evaluations per second over 2^24 values of t in
   float32, as a shader would use; median of 9 repeats and the range), on the CPU and, where JAX sees
   one, on a GPU.
@@ -115,7 +115,8 @@ def main() -> int:
                             "derivation.Q=2", "--out", "bad"], env, expect=2)
         rows.append(("bad config (exit 2)", seconds, None, "target < 1 s"))
     if os.environ.get("BENCH_TESTS", "1") != "0":
-        seconds, out = timed([py, "-m", "pytest", "-q", "-p", "no:cacheprovider"], dict(os.environ))
+        seconds, out = timed([py, "-m", "pytest", "-q", "-n", "2", "--dist", "loadfile", "-p", "no:cacheprovider"],
+                             dict(os.environ))
         rows.append(("make test", seconds, None, out.strip().splitlines()[-1] + "; target < 120 s"))
 
     import jax

@@ -1,8 +1,17 @@
 """Fixtures sized to what a test needs: the paper's full run is computed once, for the tests that
 compare with the paper's numbers; every other test that needs a whole derivation uses the light
-configuration (`tests/light.toml`: the paper's settings and n range with small renders, few Monte
-Carlo samples and a low symbolic complexity), also computed once."""
+configuration (`tests/light.toml`: the paper's settings with a low symbolic complexity, two rendered
+exponents and small Mitsuba renders), also computed once.
 
+`make test` runs the tests in two worker processes (pytest-xdist, whole files per worker). The runs
+are computed once for the session, not once per worker: the first worker to need one computes it
+into a stage cache shared by the workers, under a file lock, and the other finds every stage there.
+Compiled XLA programs are shared the same way, with the CLI subprocesses too."""
+
+import contextlib
+import fcntl
+import os
+import shutil
 from pathlib import Path
 
 import pytest
@@ -11,7 +20,7 @@ import pipeline
 from pipeline.engine import paths
 from pipeline.engine.cache import Cache
 from pipeline.engine.exponents import n_range
-from pipeline.run import run_stages
+from pipeline.run import run_derivation, run_stages
 
 LIGHT_CONFIG = Path(__file__).parent / "light.toml"
 
@@ -23,28 +32,47 @@ def pytest_sessionstart(session):
 
 
 @pytest.fixture(scope="session")
+def shared_root(tmp_path_factory) -> Path:
+    """A folder shared by the session's worker processes (each worker's own base folder otherwise)."""
+    base = tmp_path_factory.getbasetemp()
+    root = base.parent / "shared" if os.environ.get("PYTEST_XDIST_WORKER") else base / "shared"
+    root.mkdir(parents=True, exist_ok=True)
+    return root
+
+
+@contextlib.contextmanager
+def locked(root: Path, name: str):
+    """An exclusive lock on `root/<name>.lock`, held across worker processes."""
+    with open(root / f"{name}.lock", "a") as handle:
+        fcntl.flock(handle, fcntl.LOCK_EX)
+        yield
+
+
+@pytest.fixture(scope="session", autouse=True)
+def shared_compilation_cache(shared_root):
+    """One folder of compiled XLA programs for the session: the runs in the workers and the CLI
+    subprocesses (`helpers.cli_env`) compile each program once."""
+    paths.XLA_CACHE = str(shared_root / "xla")
+    return shared_root / "xla"
+
+
+@pytest.fixture(scope="session")
 def paper_config():
     return pipeline.load_config(paths.PAPER_CONFIG)
 
 
 @pytest.fixture(scope="session")
-def paper_cache(tmp_path_factory):
-    return tmp_path_factory.mktemp("cache")
-
-
-@pytest.fixture(scope="session", autouse=True)
-def shared_compilation_cache(tmp_path_factory):
-    """One folder of compiled XLA programs for the session: the runs in this process and the CLI
-    subprocesses (`helpers.cli_env`) compile each program once."""
-    folder = tmp_path_factory.getbasetemp() / "xla"
-    paths.XLA_CACHE = str(folder)
-    return folder
+def paper_cache(shared_root):
+    """The session's stage cache: it holds the paper's run and the light run. Tests that change it
+    work on a copy."""
+    return shared_root / "cache"
 
 
 @pytest.fixture(scope="session")
-def paper_run(paper_config, paper_cache):
-    """Every stage of the paper's configuration, computed once into a fresh cache."""
-    results, keys, computed = run_stages(paper_config, Cache(paper_cache), log=lambda s: None)
+def paper_run(paper_config, paper_cache, shared_root):
+    """Every stage of the paper's configuration, computed once into the session's cache."""
+    with locked(shared_root, "paper_run"):
+        results, keys, computed = run_stages(paper_config, Cache(paper_cache), log=lambda s: None)
     return results
 
 
@@ -59,37 +87,36 @@ def light_config():
 
 
 @pytest.fixture(scope="session")
-def light_cache(tmp_path_factory):
-    return tmp_path_factory.mktemp("light_cache")
+def light_cache(paper_cache):
+    """The light run's stage cache: the paper's, so that the light run reuses the work the two share
+    (the zone, the shader costs, the Q-independent memoized lobes and renders). It holds both runs."""
+    return paper_cache
 
 
 @pytest.fixture(scope="session")
-def light_run(light_config, light_cache, paper_run, tmp_path_factory):
-    """Every stage of the light configuration and its figures, computed once into a fresh cache (after
-    the paper's run, whose compiled programs it mostly shares)."""
-    from pipeline.run import run_derivation
-
-    outcome = run_derivation(light_config, cache_dir=light_cache, outputs=tmp_path_factory.mktemp("light_out"),
-                             log=lambda s: None)
+def light_run(light_config, light_cache, paper_run, shared_root):
+    """Every stage of the light configuration and its figures, computed once into the session's cache
+    (after the paper's run, whose compiled programs and work it mostly shares)."""
+    with locked(shared_root, "light_run"):
+        outcome = run_derivation(light_config, cache_dir=light_cache, outputs=shared_root / "light_out",
+                                 log=lambda s: None)
     return outcome.results
 
 
 @pytest.fixture()
-def refit_cache(paper_run, paper_cache, light_run, light_cache, tmp_path):
-    """`tmp_path / "cache"`, holding the paper's and the light run (what a CLI refit of the light config reads)."""
-    from .helpers import copy_caches
-    return copy_caches(tmp_path / "cache", paper_cache, light_cache)
+def refit_cache(paper_run, light_run, light_cache, tmp_path):
+    """`tmp_path / "cache"`, a copy of the cache holding the paper's and the light run (what a CLI refit of
+    the light config reads: it computes the paper's run too, for its comparison)."""
+    shutil.copytree(light_cache, tmp_path / "cache")
+    return tmp_path / "cache"
 
 
-@pytest.fixture(scope="session")
+@pytest.fixture(scope="module")
 def paper_outputs(paper_config, paper_run, paper_cache, tmp_path_factory):
     """The paper's run with its outputs written (figures, report, results.json), into a private copy of
-    the paper's cache: (outputs folder, run outcome, cache root)."""
-    import shutil
-
-    from pipeline.run import run_derivation
-
+    the session's cache, once per test module: (outputs folder, run outcome, cache root)."""
     root = tmp_path_factory.mktemp("paper_outputs")
     shutil.copytree(paper_cache, root / "cache")
     outcome = run_derivation(paper_config, cache_dir=root / "cache", outputs=root / "out", log=lambda s: None)
     return root / "out", outcome, root / "cache"
+

@@ -1,7 +1,6 @@
 """Helpers shared by the tests."""
 
 import os
-import shutil
 
 
 def cli_env(tmp_path, **extra):
@@ -13,10 +12,3 @@ def cli_env(tmp_path, **extra):
     return dict(os.environ, PIPELINE_CACHE_DIR=str(tmp_path / "cache"), PIPELINE_OUTPUTS_DIR=str(tmp_path / "out"),
                 PIPELINE_XLA_CACHE_DIR=xla, **extra)
 
-
-def copy_caches(target, *caches):
-    """One stage cache holding the entries of all `caches` (a refit of the light config also computes the
-    paper's run, for its comparison, so its CLI tests need both)."""
-    for cache in caches:
-        shutil.copytree(cache, target, dirs_exist_ok=True)
-    return target

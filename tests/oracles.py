@@ -24,8 +24,9 @@ def k_Q_np(n, Q):
     return (np.sqrt(Q) - 1.0) / np.expm1(np.log(Q) / n)
 
 
-def scipy_albedo(form, k, theta_i, coef=1.0):
-    """a(theta_i) of coef (k (t - 1) + 1)^2 by scipy's adaptive 2-D quadrature over the hemisphere."""
+def scipy_albedo(form, k, theta_i, coef=1.0, tolerance=1e-12):
+    """a(theta_i) of coef (k (t - 1) + 1)^2 by scipy's adaptive 2-D quadrature over the hemisphere, to
+    `tolerance` (absolute and relative)."""
     L = np.array([np.sin(theta_i), 0.0, np.cos(theta_i)])
     R = np.array([-L[0], 0.0, L[2]])
 
@@ -33,4 +34,4 @@ def scipy_albedo(form, k, theta_i, coef=1.0):
         V = np.array([np.sin(theta) * np.cos(phi), np.sin(theta) * np.sin(phi), np.cos(theta)])
         t = R @ V if form == "phong" else (L + V)[2] / np.linalg.norm(L + V)
         return coef * float(quadratic_np(1.0 - t, k)) * np.cos(theta) * np.sin(theta)
-    return integrate.dblquad(f, 0, np.pi / 2, 0, 2 * np.pi, epsabs=1e-12, epsrel=1e-12)[0]
+    return integrate.dblquad(f, 0, np.pi / 2, 0, 2 * np.pi, epsabs=tolerance, epsrel=tolerance)[0]

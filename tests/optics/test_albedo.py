@@ -24,6 +24,7 @@ def test_directional_albedo_matches_scipy(form, n, theta_deg):
     theta = np.radians(theta_deg)
     ours = float(directional_albedo(form, lambda u, n_: quadratic_u(u, k), n, 1 / k, 1.0, theta, *NODES))
     # The pipeline's measured quadrature error is ~1e-7 at worst; scipy's to 1e-12.
-    assert ours == pytest.approx(scipy_albedo(form, k, theta), abs=2e-7)
+    # The oracle to 1e-10, far inside the 2e-7 this test allows.
+    assert ours == pytest.approx(scipy_albedo(form, k, theta, tolerance=1e-10), abs=2e-7)
 
 

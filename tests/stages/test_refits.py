@@ -95,9 +95,10 @@ def test_minimax_line_is_the_smallest_worst_case(cache, paper_run):
 
 @pytest.mark.slow
 def test_refit_writes_its_own_outputs_with_a_comparison(cache, tmp_path, paper_config):
-    # Small renders: what this test checks is the refit's derivation and its report, not the images.
+    # Small renders and few albedo angles: what this test checks is the refit's derivation and its report, not the images.
     config = pipeline.load_config(paths.CONFIGS / "q_0_5.toml", ("render.resolution=48", "mitsuba.width=64",
-                                                                 "mitsuba.height=32", "mitsuba.spp=8"))
+                                                                 "mitsuba.height=32", "mitsuba.spp=8",
+                                                                 "albedo.angles=7"))
     base = run_derivation(paper_config, cache_dir=cache.root, outputs=tmp_path, log=lambda s: None,
                           write_outputs=False)
     out = run_derivation(config, cache_dir=cache.root, outputs=tmp_path, log=lambda s: None, baseline=base)
@@ -127,7 +128,8 @@ def test_refit_writes_its_own_outputs_with_a_comparison(cache, tmp_path, paper_c
 
 @pytest.mark.slow
 def test_paper_expectations_are_not_comparable_where_a_refit_changes_their_settings(cache, paper_run):
-    config = pipeline.load_config(paths.PAPER_CONFIG, ("derivation.Q=0.7", "derivation.constants=fitted"))
+    # Q = 0.5: the symbolic search of test_refit_writes_its_own_outputs_with_a_comparison is reused.
+    config = pipeline.load_config(paths.PAPER_CONFIG, ("derivation.Q=0.5", "derivation.constants=fitted"))
     results = run_stages(config, cache, log=lambda s: None, stages=PAPER_STAGES)[0]
     from pipeline.engine import checks
     verdicts = {c.expectation.id: c for c in checks.evaluate(config, results)}
