@@ -104,7 +104,7 @@ def test_explain_says_what_a_change_recomputes_without_computing(paper_run, pape
 
 @pytest.mark.slow
 def test_runs_killed_at_random_moments_recover_with_identical_results(refit_cache, light_cache, light_run, tmp_path):
-    args = ["refit", "--config", str(LIGHT_CONFIG), "--set", "render.resolution=40",
+    args = ["refit", "--config", str(LIGHT_CONFIG), "--set", "scan.curve_points=25",
             "--set", "regression.threshold_count=21", "--out", "killed"]
     rng = random.Random(0)
     for _ in range(2):
@@ -119,7 +119,7 @@ def test_runs_killed_at_random_moments_recover_with_identical_results(refit_cach
     # The same run, never interrupted (here, in this process), in a fresh copy of the cache.
     clean = tmp_path / "clean"
     shutil.copytree(light_cache, clean / "cache")
-    config = load_config(str(LIGHT_CONFIG), ("render.resolution=40", "regression.threshold_count=21"), name="killed")
+    config = load_config(str(LIGHT_CONFIG), ("scan.curve_points=25", "regression.threshold_count=21"), name="killed")
     run_derivation(config, cache_dir=clean / "cache", outputs=clean / "out", log=lambda s: None)
     assert recovered == (clean / "out" / "killed" / "results.json").read_bytes()
     doc = json.loads(recovered)

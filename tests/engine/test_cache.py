@@ -182,7 +182,7 @@ def test_prune_removes_what_no_run_used_recently(tmp_path):
 @pytest.mark.slow
 def test_two_identical_refits_at_once_leave_one_complete_output(refit_cache, tmp_path):
     args = [sys.executable, "-m", "pipeline", "refit", "--config", str(LIGHT_CONFIG),
-            "--set", "render.resolution=40", "--out", "same"]
+            "--set", "scan.curve_points=25", "--out", "same"]
     procs = [subprocess.Popen(args, cwd=paths.ROOT, env=cli_env(tmp_path), stdout=subprocess.PIPE,
                               stderr=subprocess.STDOUT, text=True) for _ in range(2)]
     outs = [p.communicate(timeout=300)[0] for p in procs]
