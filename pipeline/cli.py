@@ -12,9 +12,7 @@ import sys
 import time
 from pathlib import Path
 
-from .engine import checks as checks_mod
-from .engine import graph
-from .engine import paths
+from .engine import checks as checks_mod, graph, paths
 from .engine.config import ConfigError, key_table, load_config
 from .symbolic.regress import RegressError
 

@@ -22,12 +22,10 @@ from concurrent.futures import FIRST_COMPLETED, ThreadPoolExecutor, wait
 from pathlib import Path
 from typing import Any
 
-from .engine import checks as checks_mod
-from .engine import graph
-from .engine import paths
-from .engine.publishing import publish
+from .engine import checks as checks_mod, graph, paths
 from .engine.cache import XLA, Cache, DamagedEntry, Memo, code_hash, digest, direct_imports, stage_key
 from .engine.config import Config
+from .engine.publishing import publish
 
 
 class StageContractError(RuntimeError):

@@ -5,7 +5,8 @@ exponent n it stands in for. Each entry says:
 
 - `key`: its one name (the paper's where it has one: f_b = cos^n, f_2, f_Q, f_Q2). Results fields,
   tables, figure legends and code call it by this name alone;
-- `formula`: the lobe in t and n, as text;
+- `formula`: the lobe in t and n, as text, with the run's parameters as `{slope:g}`-style fields
+  (`formula_of` fills them in);
 - `shape` and `parameter`: the family of `pipeline.optics.lobes.SHAPES` that evaluates it (one
   compiled program per family) and that family's parameter per n, written once for numpy, JAX and
   sympy (`parameter(m, n, p)`, m the math module: `np`, `jax.numpy` or `SYMPY`, p the run's
@@ -110,6 +111,10 @@ class Lobe:
             return f"{self.key}, Q = {p.Q:.4g}"
         return self.key
 
+    def formula_of(self, p: Parameters) -> str:
+        """The formula with the run's parameters filled in."""
+        return self.formula.format(**p._asdict())
+
     def expression(self, p: Parameters):
         """The lobe as a sympy expression in t and n (symbols of `symbols()`), written as a shader
         computes it: per-material constants (functions of n) marked as units, so that their
@@ -185,7 +190,7 @@ register(Lobe("f_2", "((n/2)(t - 1) + 1)^2", "quadratic", lambda m, n, p: k_2(n)
 register(Lobe("f_Q", "(k_Q(n)(t - 1) + 1)^2, k_Q(n) = (sqrt(Q) - 1) / (Q^(1/n) - 1)", "quadratic",
               lambda m, n, p: k_Q(n, p.Q, m), QUADRATIC_GLSL, dict(color="C0", ls=":", lw=1.2), depends_on=("Q",),
               energy=(("phong", PHONG_COS_N),), sampler="quadratic"))
-register(Lobe("f_Q2", "((a n + b)(t - 1) + 1)^2", "quadratic", lambda m, n, p: k_Q2(n, p.slope, p.intercept),
+register(Lobe("f_Q2", "(({slope:g} n + {intercept:g})(t - 1) + 1)^2", "quadratic", lambda m, n, p: k_Q2(n, p.slope, p.intercept),
               QUADRATIC_GLSL, dict(color="C0", ls="-", lw=2.2), depends_on=("line",),
               energy=(("phong", "run_coef"), ("phong", "exact_phong"), ("phong", "asymptotic_phong"),
                       ("blinn", "exact_blinn"), ("blinn", "asymptotic_blinn")),

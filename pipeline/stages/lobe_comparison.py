@@ -86,7 +86,7 @@ def run(config, inputs, memo):
         pixel, material = operations.count_operations(lobe.expression(p))
         shapes[key] = dict(d=float(m["d"].max()), D=float(m["D"].max()), d_curve=m["d"], D_curve=m["D"],
                            ops_pixel=pixel, ops_material=material)
-        lobe_rows.append(dict(lobe=key, registry_key=lobe.key, label=lobe.label(p), formula=lobe.formula,
+        lobe_rows.append(dict(lobe=key, registry_key=lobe.key, label=lobe.label(p), formula=lobe.formula_of(p),
                               d_n_at_max=float(n[m["d"].argmax()]), D_n_at_max=float(n[m["D"].argmax()]),
                               ops_pixel=pixel, ops_material=material))
 
@@ -115,7 +115,8 @@ def run(config, inputs, memo):
         shape = shapes[key]
         per_pixel_n = {op: shape["ops_pixel"][op] + shape["ops_material"][op] + norm_ops[op]
                        for op in operations.OPERATIONS}
-        rows.append(dict(lobe=key, form=form, normalization=norm_key, formula=lobe.formula, normalization_formula=norm.formula, d=shape["d"], D=shape["D"],
+        rows.append(dict(lobe=key, form=form, normalization=norm_key, formula=lobe.formula_of(p),
+                         normalization_formula=norm.formula, d=shape["d"], D=shape["D"],
                          albedo_normal_max_abs_dev=float(np.max(np.abs(normal - 1.0))),
                          albedo_normal_n_at_max=float(n[np.argmax(np.abs(normal - 1.0))]),
                          albedo_max=float(table[i, j]), albedo_max_n=float(n[i]),
