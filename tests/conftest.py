@@ -6,7 +6,7 @@ exponents and small Mitsuba renders), also computed once.
 `make test` runs the tests in two worker processes (pytest-xdist, whole files per worker). The runs
 are computed once for the session, not once per worker: the first worker to need one computes it
 into a stage cache shared by the workers, under a file lock, and the other finds every stage there.
-Compiled XLA programs are shared the same way, with the CLI subprocesses too."""
+Compiled XLA programs are shared the same way, by every test and the CLI subprocesses too."""
 
 import contextlib
 import fcntl
@@ -53,6 +53,9 @@ def shared_compilation_cache(shared_root):
     """One folder of compiled XLA programs for the session: the runs in the workers and the CLI
     subprocesses (`helpers.cli_env`) compile each program once."""
     paths.XLA_CACHE = str(shared_root / "xla")
+    # The tests that call the library directly compile into it too, from the first test on.
+    from pipeline.optics.numerics import use_compilation_cache
+    use_compilation_cache(paths.XLA_CACHE)
     return shared_root / "xla"
 
 

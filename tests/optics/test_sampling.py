@@ -10,6 +10,11 @@ from pipeline.optics import sampling
 from pipeline.optics.albedo import albedo_table
 from pipeline.optics.numerics import jax
 
+# The sampler's functions compiled once each (as the pipeline's importance_albedo compiles them),
+# rather than run one operation at a time.
+SAMPLE = {"phong": jax.jit(sampling.sample_phong), "blinn": jax.jit(sampling.sample_blinn)}
+PDF = {"phong": jax.jit(sampling.pdf_phong), "blinn": jax.jit(sampling.pdf_blinn)}
+
 K = {2.0: 0.448 * 2 + 0.099, 10.0: 0.448 * 10 + 0.099, 100.0: 0.448 * 100 + 0.099, 1000.0: 0.448 * 1000 + 0.099}
 
 
@@ -44,8 +49,7 @@ def _albedo_estimate(form, k, theta, pdf_scale=1.0, samples=100_000, seed=0):
     """(mean, standard error) of int f cos(theta_o) dw_o with the lobe's own sampler (coef = 1)."""
     xi = jax.random.uniform(jax.random.PRNGKey(seed), (samples, 2))
     wi = np.broadcast_to([np.sin(theta), 0.0, np.cos(theta)], (samples, 3))
-    sample = sampling.sample_phong if form == "phong" else sampling.sample_blinn
-    wo, pdf = (np.asarray(v) for v in sample(xi, wi, k))
+    wo, pdf = (np.asarray(v) for v in SAMPLE[form](xi, wi, k))
     if form == "phong":
         t = np.sum(np.asarray(sampling.reflect(wi, sampling.NORMAL)) * wo, axis=-1)
     else:
@@ -75,8 +79,7 @@ def test_sampled_pdf_is_the_pdf_function():
     theta = np.radians(60.0)
     wi = np.broadcast_to([np.sin(theta), 0.0, np.cos(theta)], (1000, 3))
     for k in (0.7, K[10.0]):
-        wo, pdf = sampling.sample_phong(xi, wi, k)
-        np.testing.assert_allclose(pdf, sampling.pdf_phong(wi, wo, k), rtol=1e-9)
-        wo, pdf = sampling.sample_blinn(xi, wi, k)
-        np.testing.assert_allclose(pdf, sampling.pdf_blinn(wi, wo, k), rtol=1e-9)
-        np.testing.assert_allclose(np.linalg.norm(np.asarray(wo), axis=-1), 1.0, rtol=1e-12)
+        for form in ("phong", "blinn"):
+            wo, pdf = SAMPLE[form](xi, wi, k)
+            np.testing.assert_allclose(pdf, PDF[form](wi, wo, k), rtol=1e-9)
+            np.testing.assert_allclose(np.linalg.norm(np.asarray(wo), axis=-1), 1.0, rtol=1e-12)
