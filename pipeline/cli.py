@@ -1,18 +1,24 @@
 """Command line: `pipeline reproduce`, `refit`, `explain`, `graph`, `keys`, `cache`, `regress`.
 
-Exit codes: 0 every check passes, differs with a documented cause or is not comparable; 1 a check
-failed or a solver did not converge; 2 bad config or arguments (nothing computed, nothing written).
-`keys`, `graph`, `explain` and config errors answer without importing JAX, sympy or pysindy.
+Exit codes (`pipeline.engine.faults`): 0 every check passes, differs with a documented cause or is
+not comparable; 1 a check failed or a solver did not converge; 2 bad config, arguments or CSV
+(nothing computed, nothing written); 3 an environment fault (a full disk, a file size limit, a path
+that is a file, no permission); 130 interrupted by Ctrl-C or SIGTERM. Each ends with one line
+naming the cause, never a traceback. `keys`, `graph`, `explain` and config errors answer without
+importing JAX, sympy or pysindy.
 """
 
 from __future__ import annotations
 
 import argparse
+import multiprocessing.util
+import os
 import sys
 import time
+from concurrent.futures.process import BrokenProcessPool
 from pathlib import Path
 
-from .engine import checks as checks_mod, graph, paths
+from .engine import checks as checks_mod, faults, graph, paths
 from .engine.config import ConfigError, key_table, load_config
 from .symbolic.regress import RegressError
 
@@ -56,7 +62,7 @@ def _explain(config) -> int:
 
 
 def _cache(args) -> int:
-    from .engine.cache import Cache
+    from .engine.cache import Cache, leftovers
 
     cache = Cache(paths.CACHE)
     if args.prune:
@@ -74,6 +80,10 @@ def _cache(args) -> int:
         newest = min(now - e.last_used for e in items) / 86400.0
         print(f"  {kind:<28} {len(items):>4} entries {sum(e.bytes for e in items) / 1e6:8.1f} MB, "
               f"last used {newest:.1f} days ago")
+    left = leftovers(cache.root)
+    size = sum(f.stat().st_size for folder in left for f in folder.rglob("*") if f.is_file())
+    print(f"  {len(left)} temporary folders of interrupted writes ({size / 1e6:.1f} MB)"
+          + (": the next run or `pipeline cache --prune` removes them" if left else ""))
     return 0
 
 
@@ -92,6 +102,35 @@ def _regress(args) -> int:
 
 
 def main(argv: list[str] | None = None) -> int:
+    """Runs one command; every way it can end is an exit code and at most one line on stderr."""
+    faults.stop_on_signals()
+    try:
+        code = _main(argv)
+        faults.check_interrupted()
+        return code
+    except (faults.Interrupted, KeyboardInterrupt) as e:
+        name = e.signal_name if isinstance(e, faults.Interrupted) else "SIGINT"
+        print(f"\ninterrupted ({name}): stopped; finished stages stay in the cache, nothing half written was kept",
+              file=sys.stderr)
+        sys.stdout.flush()
+        sys.stderr.flush()
+        # Stages still running in threads cannot be stopped from Python: end the process now rather
+        # than wait for them (their unfinished cache entries are temporary folders, swept later),
+        # after multiprocessing's own exit handler (the figure worker's queues are released, so its
+        # resource tracker has nothing to warn about).
+        multiprocessing.util._exit_function()
+        os._exit(faults.EXIT_INTERRUPTED)
+    except faults.EnvironmentFault as e:
+        print(f"error: {e}", file=sys.stderr)
+    except BrokenProcessPool:
+        print("error: the figure worker process died (killed, or out of memory): rerun; the cache keeps every "
+              "finished stage", file=sys.stderr)
+    except OSError as e:
+        print(f"error: {faults.describe(e)}", file=sys.stderr)
+    return faults.EXIT_ENVIRONMENT
+
+
+def _main(argv: list[str] | None) -> int:
     parser = argparse.ArgumentParser(prog="pipeline", description=__doc__.splitlines()[0])
     sub = parser.add_subparsers(dest="command", required=True)
     rep = sub.add_parser("reproduce", help="run the paper's derivation (configs/paper.toml)")
@@ -129,8 +168,10 @@ def main(argv: list[str] | None = None) -> int:
             print(graph.describe())
             return 0
         if args.command == "cache":
+            faults.check_folder(paths.CACHE, "the cache folder (PIPELINE_CACHE_DIR)")
             return _cache(args)
         if args.command == "regress":
+            faults.raise_on_signals()       # its search runs in this thread
             return _regress(args)
         if args.command == "explain":
             return _explain(load_config(args.config, tuple(args.changes), name="explain"))
@@ -143,7 +184,10 @@ def main(argv: list[str] | None = None) -> int:
             baseline_config = load_config(paths.PAPER_CONFIG)
     except (ConfigError, RegressError) as e:
         print(f"error: {e}", file=sys.stderr)
-        return 2
+        return faults.EXIT_BAD_INPUT
+    # Both folders are checked before anything is computed.
+    faults.check_folder(paths.CACHE, "the cache folder (PIPELINE_CACHE_DIR)")
+    faults.check_folder(paths.OUTPUTS, "the outputs folder (PIPELINE_OUTPUTS_DIR)")
 
     from .optics.roots import SolverError
     from .run import run_derivation
@@ -159,11 +203,11 @@ def main(argv: list[str] | None = None) -> int:
         outcome = run_derivation(config, baseline=baseline)
     except SolverError as e:
         print(f"error: {e}", file=sys.stderr)
-        return 1
+        return faults.EXIT_FAILED
     _print_checks(outcome)
     print(f"\n{'recomputed: ' + ', '.join(outcome.computed) if outcome.computed else 'nothing recomputed'}; "
           f"report: {Path(outcome.out_dir) / 'report.md'}; {time.perf_counter() - start:.1f} s")
-    return 1 if outcome.failed else 0
+    return faults.EXIT_FAILED if outcome.failed else faults.EXIT_DONE
 
 
 if __name__ == "__main__":

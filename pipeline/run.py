@@ -12,6 +12,7 @@ left behind.
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import importlib
 import json
@@ -22,10 +23,10 @@ from concurrent.futures import FIRST_COMPLETED, ThreadPoolExecutor, wait
 from pathlib import Path
 from typing import Any
 
-from .engine import checks as checks_mod, graph, paths
+from .engine import checks as checks_mod, faults, graph, paths
 from .engine.cache import XLA, Cache, DamagedEntry, Memo, code_hash, digest, direct_imports, stage_key
 from .engine.config import Config
-from .engine.publishing import publish
+from .engine.publishing import output_lock, publish
 
 
 class StageContractError(RuntimeError):
@@ -75,7 +76,7 @@ _setup_lock = threading.Lock()
 _compile_cache_on = False
 
 
-def _compute(stage: graph.Stage, values, inputs, cache: Cache) -> dict[str, Any]:
+def _compute(stage: graph.Stage, values, inputs, cache: Cache, log=None) -> dict[str, Any]:
     global _compile_cache_on
     module = importlib.import_module(stage.module)      # imports JAX only when something is computed
     with _setup_lock:
@@ -83,7 +84,7 @@ def _compute(stage: graph.Stage, values, inputs, cache: Cache) -> dict[str, Any]
             from .optics.numerics import use_compilation_cache
             use_compilation_cache(paths.XLA_CACHE or cache.root / XLA)
             _compile_cache_on = True
-    memo = Memo(cache)
+    memo = Memo(cache, log)
     result = module.run(values, inputs, memo)
     declared, returned = set(stage.outputs), set(result)
     if declared != returned:
@@ -96,7 +97,7 @@ def _compute(stage: graph.Stage, values, inputs, cache: Cache) -> dict[str, Any]
 def _compute_and_store(stage, values, inputs, cache, key, label, log) -> dict[str, Any]:
     log(f"{label} computing ...")
     start = time.perf_counter()
-    cache.store(stage.name, key, _compute(stage, values, inputs, cache))
+    cache.store(stage.name, key, _compute(stage, values, inputs, cache, lambda text: log(f"{label} {text}")))
     # Read back what was stored, so a computed run and a cached run see identical values.
     result = cache.load(stage.name, key)
     log(f"{label} computed in {time.perf_counter() - start:.1f} s ({key[:12]})")
@@ -115,11 +116,21 @@ def run_stages(config: Config, cache: Cache, log: Callable[[str], None] = print,
     `on_result(results, keys)` is called after each stage is done (the figures start from it).
     """
     chosen = [s for s in graph.STAGES if stages is None or s.name in stages]
+    with cache.in_use():            # `cache --prune` waits for no run: it refuses while one holds this
+        swept = cache.sweep()
+        if swept:
+            log(f"removed {swept} temporary folder(s) that killed runs left in the cache")
+        results, keys, computed = _run_graph(chosen, config, cache, log, workers, on_result)
+    return {s.name: results[s.name] for s in chosen}, {s.name: keys[s.name] for s in chosen}, computed
+
+
+def _run_graph(chosen, config, cache, log, workers, on_result):
     order = {s.name: i for i, s in enumerate(chosen, 1)}
     width = max(len(s.name) for s in chosen)
     results, keys, computed = {}, {}, []
     pending = list(chosen)
-    with ThreadPoolExecutor(workers) as pool:
+    pool = ThreadPoolExecutor(workers)
+    try:
         running = {}
         while pending or running:
             progress = True
@@ -149,15 +160,23 @@ def run_stages(config: Config, cache: Cache, log: Callable[[str], None] = print,
                         future = pool.submit(_compute_and_store, stage, values, inputs, cache, key, label, log)
                         running[future] = stage
             if running:
-                done, _ = wait(running, return_when=FIRST_COMPLETED)
+                done = ()
+                while not done:         # woken twice a second, to act on a signal whose exception was lost
+                    done, _ = wait(running, timeout=0.5, return_when=FIRST_COMPLETED)
+                    faults.check_interrupted()
                 for future in done:
                     stage = running.pop(future)
                     results[stage.name] = future.result()      # a stage's error propagates here
                     computed.append(stage.name)
                     if on_result is not None:
                         on_result(results, keys)
+    except BaseException:
+        # An error or an interrupt: stages not started are dropped, and running ones are not waited for.
+        pool.shutdown(wait=False, cancel_futures=True)
+        raise
+    pool.shutdown()
     computed.sort(key=order.get)
-    return {s.name: results[s.name] for s in chosen}, {s.name: keys[s.name] for s in chosen}, computed
+    return results, keys, computed
 
 
 def explain(config: Config, cache: Cache) -> list[tuple[str, str]]:
@@ -212,14 +231,22 @@ def run_derivation(config: Config, cache_dir: Path = paths.CACHE, outputs: Path 
     if out_dir is not None:
         from .publish.figures import FigureDrawer
         # Figures are drawn in a second process while later stages compute.
-        drawer = FigureDrawer(config, cache.root)
+        drawer = FigureDrawer(config, cache.root, log)
     try:
-        results, keys, computed = run_stages(config, cache, log, on_result=drawer.update if drawer else None)
-        checks = checks_mod.evaluate(config, results)
-        if out_dir is not None:
-            publish(out_dir, _outputs_key(config, keys, baseline), log,
-                    lambda tmp: _write_outputs(tmp, config, results, keys, checks, baseline, drawer))
-    finally:
+        # One run at a time writes a folder: a second one waits here, and says so.
+        with output_lock(out_dir, log) if out_dir is not None else contextlib.nullcontext():
+            results, keys, computed = run_stages(config, cache, log, on_result=drawer.update if drawer else None)
+            checks = checks_mod.evaluate(config, results)
+            faults.check_interrupted()
+            if out_dir is not None:
+                publish(out_dir, _outputs_key(config, keys, baseline), log,
+                        lambda tmp: _write_outputs(tmp, config, results, keys, checks, baseline, drawer),
+                        locked=True)
+    except BaseException:
+        if drawer is not None:
+            drawer.close(now=True)      # the figure being drawn is not waited for
+        raise
+    else:
         if drawer is not None:
             drawer.close()
     return RunOutcome(results, keys, computed, checks, out_dir, config)

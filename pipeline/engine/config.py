@@ -50,6 +50,28 @@ def _positive(v: Any) -> bool:
     return _is_number(v) and v > 0
 
 
+def _int_in(lo: int, hi: int) -> Callable[[Any], bool]:
+    return lambda v: _is_int(v) and lo <= v <= hi
+
+
+def _number_list(v: Any, lo: float, hi: float, longest: int) -> bool:
+    return isinstance(v, list) and 1 <= len(v) <= longest and all(_is_number(x) and lo <= x <= hi for x in v)
+
+
+# Seeds: a stage derives seed + 1 (Mitsuba's second render) and seed + 2 (the albedo's third stream)
+# from its seed, so the largest allowed seed leaves room for them in what the library takes:
+# Mitsuba's sampler seed is a 32-bit unsigned integer, JAX's PRNGKey a 64-bit signed one.
+MITSUBA_SEED_MAX = 2**32 - 1 - 1
+JAX_SEED_MAX = 2**63 - 1 - 2
+SEED_MAX = 2**63 - 1
+# Mitsuba counts a render's samples (width x height x spp) in 32 bits.
+MITSUBA_SAMPLES_MAX = 2**31
+# Largest powers of 4 for mitsuba.spp: the multijitter sampler takes exactly a square count, and a
+# power of two keeps each pixel's samples in one of Dr.Jit's thread blocks, so a render repeats bit
+# for bit (other counts are rounded up by the sampler and summed across threads in varying order).
+SPP_CHOICES = tuple(4**i for i in range(7))
+
+
 LIBRARY_TERMS = ("1", "n", "1/n", "1/n^2", "n^2", "sqrt(n)", "log(n)")
 METRICS = ("relative_epicenter", "absolute", "rms")
 FITS = ("least_squares", "minimax")
@@ -78,15 +100,19 @@ SCHEMA: tuple[Key, ...] = (
     Key("derivation.constants", "fitted", '"paper" or "fitted"', lambda v: v in ("paper", "fitted"),
         'constants used downstream: the paper\'s rounded ones (only with the paper\'s settings) or '
         "this run's full-precision fits"),
-    Key("paper_model.slope", 0.448, "a number > 0", _positive, "the paper's rounded slope of k_Q2(n)"),
-    Key("paper_model.intercept", 0.099, "a number", _is_number, "the paper's rounded intercept of k_Q2(n)"),
-    Key("paper_model.coef_scale", 0.214, "a number > 0", _positive, "the paper's coef(n) = scale (offset + n)"),
-    Key("paper_model.coef_offset", 0.807, "a number", _is_number, "the paper's coef(n) offset"),
+    Key("paper_model.slope", 0.448, "a number in (0, 10]", lambda v: _positive(v) and v <= 10,
+        "the paper's rounded slope of k_Q2(n)"),
+    Key("paper_model.intercept", 0.099, "a number in [-10, 10], with slope n_min + intercept > 0",
+        lambda v: _is_number(v) and -10 <= v <= 10, "the paper's rounded intercept of k_Q2(n)"),
+    Key("paper_model.coef_scale", 0.214, "a number in (0, 10]", lambda v: _positive(v) and v <= 10,
+        "the paper's coef(n) = scale (offset + n)"),
+    Key("paper_model.coef_offset", 0.807, "a number in (-n_min, 1000]", lambda v: _is_number(v) and abs(v) <= 1000,
+        "the paper's coef(n) offset"),
     Key("paper_model.line_max_rel_error", 0.005, "a number in (0, 1)", _open_unit,
         "the paper's stated bound on the relative error of its line against k_Q(n) (P6: 0.5 %)"),
     Key("paper_model.turingbot_size12", [0.213904, 0.779213, 0.308609, 0.326302],
-        "a list of 4 numbers [scale, offset, residue, pole]",
-        lambda v: isinstance(v, list) and len(v) == 4 and all(_is_number(x) for x in v),
+        "a list of 4 numbers in [-1000, 1000]: [scale, offset, residue, pole]",
+        lambda v: _number_list(v, -1000, 1000, 4) and len(v) == 4,
         "the paper's size-12 row scale (offset + residue/(n - pole) + n), compared with the exact coef"),
     Key("zone.level", "calibrate", 'a number in (0, 1) or "calibrate"',
         lambda v: _open_unit(v) or v == "calibrate",
@@ -94,28 +120,29 @@ SCHEMA: tuple[Key, ...] = (
         "of f_2 equals zone.calibration_target"),
     Key("zone.calibration_target", 0.07924, "a number in (0, 1)", _open_unit,
         "max relative error of f_2 in the zone that calibrates the level (paper P9: 7.924 %)"),
-    Key("zone.sensitivity_levels", [0.5, 0.55, 0.6, 0.65, 0.7], "a list of numbers in (0, 1)",
-        lambda v: isinstance(v, list) and len(v) >= 1 and all(_open_unit(x) for x in v),
+    Key("zone.sensitivity_levels", [0.5, 0.55, 0.6, 0.65, 0.7], "a list of 1 to 32 numbers in (0, 1)",
+        lambda v: isinstance(v, list) and 1 <= len(v) <= 32 and all(_open_unit(x) for x in v),
         "zone levels at which the report shows how the epicenter figures move"),
-    Key("scan.coarse_step", 0.1, "a number in (0, 0.5]", lambda v: _is_number(v) and 0 < v <= 0.5,
+    Key("scan.coarse_step", 0.1, "a number in [0.001, 0.5]", lambda v: _is_number(v) and 0.001 <= v <= 0.5,
         "step of the coarse Q grid (paper: 0.1)"),
-    Key("scan.fine_step", 0.01, "a number in (0, coarse_step)", lambda v: _is_number(v) and 0 < v < 0.5,
+    Key("scan.fine_step", 0.01, "a number in [coarse_step / 1000, coarse_step)",
+        lambda v: _is_number(v) and 1e-6 <= v < 0.5,
         "step of the refined Q grid around the coarse optimum (paper: 0.01)"),
     Key("scan.curve_points", 161, "an integer in [11, 2001]", lambda v: _is_int(v) and 11 <= v <= 2001,
         "Q values on the curves of Figs. 2 and 3"),
-    Key("solver.rtol", 1e-12, "a number in (0, 1e-3]", lambda v: _is_number(v) and 0 < v <= 1e-3,
+    Key("solver.rtol", 1e-12, "a number in [1e-15, 1e-3]", lambda v: _is_number(v) and 1e-15 <= v <= 1e-3,
         "relative tolerance of every root find"),
-    Key("solver.atol", 1e-12, "a number in (0, 1e-3]", lambda v: _is_number(v) and 0 < v <= 1e-3,
+    Key("solver.atol", 1e-12, "a number in [1e-15, 1e-3]", lambda v: _is_number(v) and 1e-15 <= v <= 1e-3,
         "absolute tolerance of every root find"),
     Key("solver.max_steps", 256, "an integer in [8, 100000]", lambda v: _is_int(v) and 8 <= v <= 100_000,
         "iteration cap of every solver; hitting it is an error"),
     Key("energy.quadrature_nodes", 64, "an integer in [4, 4096]", lambda v: _is_int(v) and 4 <= v <= 4096,
         "Gauss-Legendre nodes over [0, gran(n)] for Int(n)"),
-    Key("sample.consecutive_to", 31, "an integer >= n_min", _is_int,
+    Key("sample.consecutive_to", 31, "an integer in [n_min, spread_from)", _is_int,
         "the 50-point sample takes every n from n_min to this value ..."),
-    Key("sample.spread_from", 74, "an integer > consecutive_to", _is_int,
+    Key("sample.spread_from", 74, "an integer in (consecutive_to, n_max)", _is_int,
         "... then spread_count values evenly spaced (rounded) from this value to n_max"),
-    Key("sample.spread_count", 20, "an integer >= 2", lambda v: _is_int(v) and v >= 2,
+    Key("sample.spread_count", 20, "an integer in [2, n_max - spread_from + 1]", lambda v: _is_int(v) and v >= 2,
         "number of evenly spaced large n in the sample"),
     Key("sample.y_decimals", 3, "an integer in [-1, 15] (-1: no rounding)",
         lambda v: _is_int(v) and -1 <= v <= 15,
@@ -125,8 +152,9 @@ SCHEMA: tuple[Key, ...] = (
         lambda v: isinstance(v, list) and len(set(v)) == len(v) and {"1", "n"} <= set(v)
         and all(t in LIBRARY_TERMS for t in v),
         "candidate terms of coef(n) for the sparse regression"),
-    Key("regression.threshold_min", 1e-5, "a number > 0", _positive, "smallest STLSQ threshold of the sweep"),
-    Key("regression.threshold_max", 1.0, "a number > threshold_min", _positive,
+    Key("regression.threshold_min", 1e-5, "a number in [1e-12, 1e6]", lambda v: _is_number(v) and 1e-12 <= v <= 1e6,
+        "smallest STLSQ threshold of the sweep"),
+    Key("regression.threshold_max", 1.0, "a number in (threshold_min, 1e6]", lambda v: _positive(v) and v <= 1e6,
         "largest STLSQ threshold of the sweep"),
     Key("regression.threshold_count", 80, "an integer in [2, 10000]",
         lambda v: _is_int(v) and 2 <= v <= 10_000, "thresholds in the (log-spaced) sweep"),
@@ -143,18 +171,19 @@ SCHEMA: tuple[Key, ...] = (
         "best screened expressions per complexity refitted to convergence with optimistix"),
     Key("symbolic.polish_starts", 4, "an integer in [1, 64]", lambda v: _is_int(v) and 1 <= v <= 64,
         "starts of that refit: the screened constants and this many minus one random ones"),
-    Key("symbolic.seed", 0, "an integer >= 0", lambda v: _is_int(v) and v >= 0,
+    Key("symbolic.seed", 0, "an integer in [0, 2^63 - 1]", _int_in(0, SEED_MAX),
         "seed of the random starts"),
     Key("albedo.angles", 91, "an integer in [2, 1801]", lambda v: _is_int(v) and 2 <= v <= 1801,
         "incidence angles, evenly spaced over [0, 90] degrees, at which the directional albedo is computed"),
     Key("albedo.quadrature_nodes", 96, "an integer in [8, 4096]", lambda v: _is_int(v) and 8 <= v <= 4096,
         "Gauss-Legendre nodes per piece of the albedo integral (its error is measured against twice as many)"),
-    Key("albedo.curve_n", [2, 5, 10, 50, 100, 1000], "a list of integers, one at least in [n_min, n_max]",
-        lambda v: isinstance(v, list) and len(v) >= 1 and all(_is_int(x) for x in v),
+    Key("albedo.curve_n", [2, 5, 10, 50, 100, 1000],
+        "a list of 1 to 64 integers in [1, 100000], one at least in [n_min, n_max]",
+        lambda v: isinstance(v, list) and 1 <= len(v) <= 64 and all(_is_int(x) and 1 <= x <= 100_000 for x in v),
         "exponents whose albedo curves are drawn and cross-checked by Monte Carlo (those in range)"),
     Key("albedo.mc_samples", 200_000, "an integer in [1000, 10000000]",
         lambda v: _is_int(v) and 1000 <= v <= 10_000_000, "Monte Carlo samples per (n, angle) cross-check"),
-    Key("albedo.mc_seed", 0, "an integer >= 0", lambda v: _is_int(v) and v >= 0,
+    Key("albedo.mc_seed", 0, "an integer in [0, 2^63 - 3]", _int_in(0, JAX_SEED_MAX),
         "seed of the Monte Carlo cross-check"),
     Key("comparison.grid_cells", 512, "an integer in [32, 100000]", lambda v: _is_int(v) and 32 <= v <= 100_000,
         "cells of the log(1 + n u) grid that brackets each extremum of a lobe without a closed form"),
@@ -162,21 +191,24 @@ SCHEMA: tuple[Key, ...] = (
         "incidence angles over [0, 90] degrees for the comparison's largest albedo"),
     Key("render.resolution", 512, "an integer in [16, 4096]", lambda v: _is_int(v) and 16 <= v <= 4096,
         "width and height of each rendered image, in pixels"),
-    Key("render.exponents", [10, 100, 1000], "a list of 1 to 8 numbers >= 1",
-        lambda v: isinstance(v, list) and 1 <= len(v) <= 8 and all(_is_number(x) and x >= 1 for x in v),
+    Key("render.exponents", [10, 100, 1000], "a list of 1 to 8 numbers in [1, 100000]",
+        lambda v: _number_list(v, 1, 100_000, 8),
         "specular exponents n of the rendered comparison"),
-    Key("mitsuba.exponents", [10, 100, 1000], "a list of 3 numbers >= 1",
-        lambda v: isinstance(v, list) and len(v) == 3 and all(_is_number(x) and x >= 1 for x in v),
+    Key("mitsuba.exponents", [10, 100, 1000], "a list of 3 numbers in [1, 100000]",
+        lambda v: _number_list(v, 1, 100_000, 3) and len(v) == 3,
         "exponents n of the three spheres of the Mitsuba renders"),
     Key("mitsuba.width", 320, "an integer in [16, 4096]", lambda v: _is_int(v) and 16 <= v <= 4096,
         "width of the Mitsuba renders, in pixels"),
     Key("mitsuba.height", 160, "an integer in [16, 4096]", lambda v: _is_int(v) and 16 <= v <= 4096,
         "height of the Mitsuba renders, in pixels"),
-    Key("mitsuba.spp", 128, "an integer in [1, 65536]", lambda v: _is_int(v) and 1 <= v <= 65536,
-        "samples per pixel of each Mitsuba render (each lobe is rendered twice, two seeds)"),
-    Key("mitsuba.fallback_spp", 4, "an integer in [1, 65536]", lambda v: _is_int(v) and 1 <= v <= 65536,
+    Key("mitsuba.spp", 64, "a power of 4 from 1 to 4096, with width x height x spp <= 2^31",
+        lambda v: _is_int(v) and v in SPP_CHOICES,
+        "samples per pixel of each Mitsuba render (each lobe is rendered twice, two seeds); a power of 4, so "
+        "that the multijitter sampler takes it exactly and a render repeats bit for bit"),
+    Key("mitsuba.fallback_spp", 4, "a power of 4 from 1 to 4096", lambda v: _is_int(v) and v in SPP_CHOICES,
         "samples per pixel where only the scalar variant runs (Python plugins, one sample at a time)"),
-    Key("mitsuba.seed", 0, "an integer >= 0", lambda v: _is_int(v) and v >= 0, "seed of the first render of each lobe"),
+    Key("mitsuba.seed", 0, "an integer in [0, 2^32 - 2]", _int_in(0, MITSUBA_SEED_MAX),
+        "seed of the first render of each lobe (the second uses seed + 1)"),
     Key("mitsuba.variant", "auto", '"auto", "llvm_ad_rgb" or "scalar_rgb"',
         lambda v: v in ("auto", "llvm_ad_rgb", "scalar_rgb"),
         "Mitsuba variant: auto takes llvm_ad_rgb where its LLVM back end runs, else scalar_rgb"),
@@ -355,19 +387,40 @@ def validate(values: Mapping[str, Any], raw_expectations: Mapping[str, Any], sou
     if full["regression.threshold_max"] <= full["regression.threshold_min"]:
         raise _fail("regression.threshold_max", full["regression.threshold_max"],
                     f"a number > regression.threshold_min = {full['regression.threshold_min']}")
+    if full["scan.fine_step"] * 1000 < full["scan.coarse_step"]:
+        raise _fail("scan.fine_step", full["scan.fine_step"],
+                    f"a number >= scan.coarse_step / 1000 = {full['scan.coarse_step'] / 1000:g} "
+                    "(at most 2000 points in the refined grid)")
     lo, hi = full["derivation.n_min"], full["derivation.n_max"]
     if not lo <= full["sample.consecutive_to"] < full["sample.spread_from"] < hi:
         raise _fail("sample.consecutive_to/spread_from",
                     (full["sample.consecutive_to"], full["sample.spread_from"]),
                     f"n_min = {lo} <= consecutive_to < spread_from < n_max = {hi}")
-    spread = [round(full["sample.spread_from"] + i * (hi - full["sample.spread_from"])
-                    / (full["sample.spread_count"] - 1)) for i in range(full["sample.spread_count"])]
+    # More evenly spaced integers than the span holds must repeat: checked by arithmetic first, so
+    # that the list built below has at most n_max (<= 100000) members.
+    count, start = full["sample.spread_count"], full["sample.spread_from"]
+    if count > hi - start + 1:
+        raise _fail("sample.spread_count", count,
+                    f"at most n_max - spread_from + 1 = {hi - start + 1}: more evenly spaced integers from "
+                    f"{start} to {hi} than that repeat")
+    spread = [round(start + i * (hi - start) / (count - 1)) for i in range(count)]
     if len(set(spread)) != len(spread):
         raise _fail("sample.spread_count", full["sample.spread_count"],
                     f"a count whose evenly spaced n from {full['sample.spread_from']} to {hi} do not repeat")
     if not any(lo <= m <= hi for m in full["albedo.curve_n"]):
         raise _fail("albedo.curve_n", full["albedo.curve_n"],
                     f"a list with at least one integer in [n_min, n_max] = [{lo}, {hi}]")
+    if full["paper_model.slope"] * lo + full["paper_model.intercept"] <= 0:
+        raise _fail("paper_model.intercept", full["paper_model.intercept"],
+                    f"a number > -paper_model.slope * n_min = {-full['paper_model.slope'] * lo:g} (k(n) > 0)")
+    if full["paper_model.coef_offset"] <= -lo:
+        raise _fail("paper_model.coef_offset", full["paper_model.coef_offset"],
+                    f"a number > -n_min = {-lo} (coef(n) > 0)")
+    samples = full["mitsuba.width"] * full["mitsuba.height"] * max(full["mitsuba.spp"], full["mitsuba.fallback_spp"])
+    if samples > MITSUBA_SAMPLES_MAX:
+        raise _fail("mitsuba.spp", full["mitsuba.spp"],
+                    f"a count with width x height x spp <= 2^31 (Mitsuba counts a render's samples in 32 bits); "
+                    f"{full['mitsuba.width']} x {full['mitsuba.height']} x spp = {samples}")
     own = {k.name: (file_values or values).get(k.name, k.default) for k in SCHEMA}
     config = Config(MappingProxyType(full), _check_expectations(raw_expectations), source, MappingProxyType(own))
     if full["derivation.constants"] == "paper" and not config.uses_paper_settings():

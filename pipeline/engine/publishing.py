@@ -1,27 +1,43 @@
 """Publishing an output folder whole: written into a temporary folder beside it and swapped in by
 one rename, under a lock per folder, so that a failed or killed write leaves the previous folder as
-it was, two writers leave one complete copy, and a later write sweeps what a killed one left.
+it was, a second writer waits for the first (and says so), and a later write sweeps what a killed
+one left.
 """
 
 from __future__ import annotations
 
+import contextlib
 import fcntl
 import shutil
-import tempfile
 import time
 from collections.abc import Callable
 from pathlib import Path
 
+from .cache import temporary_folder
 
-def publish(out_dir: Path, stamp_key: str, log, write: Callable[[Path], str]) -> None:
-    """Writes `out_dir` through `write(tmp)` unless its stamp already equals `stamp_key`.
 
-    Holds an exclusive lock on `.<name>.lock` beside it meanwhile; any hidden `.<name>.*` folder
-    found under the lock was left by a killed run, and is removed.
-    """
+@contextlib.contextmanager
+def output_lock(out_dir: Path, log):
+    """An exclusive lock on `.<name>.lock` beside `out_dir`, held by the one run that writes it. A
+    second run asking for it is told that it waits, and for what."""
     out_dir.parent.mkdir(parents=True, exist_ok=True)
     with open(out_dir.parent / f".{out_dir.name}.lock", "a") as lock:
-        fcntl.flock(lock, fcntl.LOCK_EX)
+        try:
+            fcntl.flock(lock, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            log(f"{out_dir} is being written by another run: waiting for it to finish")
+            fcntl.flock(lock, fcntl.LOCK_EX)
+            log(f"the other run has finished; this run goes on into {out_dir}")
+        yield
+
+
+def publish(out_dir: Path, stamp_key: str, log, write: Callable[[Path], str], locked: bool = False) -> None:
+    """Writes `out_dir` through `write(tmp)` unless its stamp already equals `stamp_key`.
+
+    Holds `output_lock(out_dir)` meanwhile (`locked`: the caller holds it already); any hidden
+    `.<name>.*` folder found under the lock was left by a killed run, and is removed.
+    """
+    with contextlib.nullcontext() if locked else output_lock(out_dir, log):
         for stale in out_dir.parent.glob(f".{out_dir.name}.*"):
             if stale.is_dir():
                 shutil.rmtree(stale, ignore_errors=True)
@@ -30,7 +46,7 @@ def publish(out_dir: Path, stamp_key: str, log, write: Callable[[Path], str]) ->
             log(f"outputs in {out_dir} are up to date")
             return
         start = time.perf_counter()
-        tmp = Path(tempfile.mkdtemp(prefix=f".{out_dir.name}.tmp.", dir=out_dir.parent))
+        tmp = temporary_folder(out_dir.parent, out_dir.name)
         try:
             summary = write(tmp)
             (tmp / ".stamp").write_text(stamp_key)

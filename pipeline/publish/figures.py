@@ -11,15 +11,19 @@ drawn while later stages compute. This module imports neither matplotlib nor JAX
 
 from __future__ import annotations
 
+import ctypes
 import dataclasses
 import multiprocessing
 import os
 import shutil
-import tempfile
-from concurrent.futures import ProcessPoolExecutor
+import signal
+import threading
+import time
+from concurrent.futures import ProcessPoolExecutor, wait
 from pathlib import Path
 
-from ..engine.cache import code_hash, digest
+from ..engine.cache import code_hash, digest, discard, sha256, temporary_folder
+from ..engine.faults import check_interrupted
 from ..engine.graph import RANGE
 
 FIGURE_CACHE = "_figures"       # under the stage cache's root
@@ -109,11 +113,12 @@ def draw_into_cache(figure: Figure, folder: Path, key: str, config: FigureConfig
     from . import plots     # matplotlib, only where figures are drawn
 
     folder.mkdir(parents=True, exist_ok=True)
-    tmp = Path(tempfile.mkdtemp(prefix=f".{key}.tmp.", dir=folder))
+    tmp = temporary_folder(folder, key)
     try:
         files = getattr(plots, figure.draw)(tmp, config, results)
         files = [files] if isinstance(files, str) else list(files)
-        (tmp / "files.txt").write_text("\n".join(files))
+        # Each file with its SHA-256: every later read verifies it.
+        (tmp / "files.txt").write_text("\n".join(f"{name} {sha256(tmp / name)}" for name in files))
         try:
             os.rename(tmp, folder / key)
         except OSError:
@@ -121,6 +126,46 @@ def draw_into_cache(figure: Figure, folder: Path, key: str, config: FigureConfig
         return files
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
+
+
+PR_SET_PDEATHSIG = 1     # Linux prctl: a signal the kernel sends when the parent dies
+
+
+def _watch_parent(parent: int) -> None:
+    while True:
+        time.sleep(0.5)
+        if os.getppid() != parent:
+            os._exit(1)
+
+
+def worker_start(parent: int) -> None:
+    """The figure worker's first act: it ends with the run, whatever ends the run.
+
+    An interrupt is the parent's to handle (Ctrl-C reaches the whole process group), so the worker
+    ignores SIGINT; the parent's death, SIGKILL included, ends the worker: by the kernel's death
+    signal on Linux, and, everywhere, by a thread that notices the worker has been reparented."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        ctypes.CDLL(None, use_errno=True).prctl(PR_SET_PDEATHSIG, signal.SIGKILL)
+    except (OSError, AttributeError):
+        pass
+    if os.getppid() != parent:
+        os._exit(1)
+    threading.Thread(target=_watch_parent, args=(parent,), daemon=True).start()
+
+
+def _ignoring_sigint(start):
+    """`start()` with SIGINT ignored meanwhile: a worker process started in it is born ignoring
+    SIGINT (an ignored signal stays ignored across exec), so a Ctrl-C during its start-up, before
+    `worker_start` runs, cannot end it with a traceback. Only the main thread may change signals."""
+    try:
+        previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    except ValueError:
+        return start()
+    try:
+        return start()
+    finally:
+        signal.signal(signal.SIGINT, previous)
 
 
 class FigureDrawer:
@@ -131,23 +176,36 @@ class FigureDrawer:
     the cache holds it already; `collect(out)` waits for them and copies every figure into `out`.
     """
 
-    def __init__(self, config, cache_root: Path):
+    def __init__(self, config, cache_root: Path, log=print):
         self.config = config
+        self.log = log
         self.folder = Path(cache_root) / FIGURE_CACHE
         self.keys: dict[str, str] = {}
         self.pending = {}
         self.pool: ProcessPoolExecutor | None = None
 
-    def _stored(self, key: str) -> list[str] | None:
-        """The files of a complete cache entry, or None (an incomplete one is removed, to be redrawn)."""
+    def _stored(self, key: str, file: str) -> list[str] | None:
+        """The files of a complete, verified cache entry, or None: a damaged one (a file missing or
+        not matching its checksum) is reported and removed, to be redrawn."""
         folder = self.folder / key
-        try:
-            files = (folder / "files.txt").read_text().split()
-        except OSError:
+        if not folder.is_dir():
             return None
-        if files and all((folder / name).is_file() for name in files):
-            return files
-        shutil.rmtree(folder, ignore_errors=True)
+        try:
+            listed = [line.split() for line in (folder / "files.txt").read_text().splitlines()]
+            damage = None if listed and all(len(entry) == 2 for entry in listed) else "files.txt is malformed"
+            for name, checksum in listed if damage is None else ():
+                if not (folder / name).is_file():
+                    damage = f"{name} is missing"
+                elif sha256(folder / name) != checksum:
+                    damage = f"{name} does not match its checksum"
+                if damage:
+                    break
+        except (OSError, UnicodeDecodeError) as e:
+            damage = f"{type(e).__name__}: {e}"
+        if damage is None:
+            return [name for name, _ in listed]
+        self.log(f"figure {file}: cache entry {key[:12]} is damaged ({damage}); redrawing")
+        discard(folder)
         return None
 
     def update(self, results, stage_keys) -> None:
@@ -155,24 +213,28 @@ class FigureDrawer:
             if f.file in self.keys or not all(s in results for s in f.stages):
                 continue
             key = self.keys[f.file] = figure_key(f, self.config, stage_keys)
-            if self._stored(key) is not None:
+            if self._stored(key, f.file) is not None:
                 continue
             if self.pool is None:
-                self.pool = ProcessPoolExecutor(1, mp_context=multiprocessing.get_context("spawn"))
-            self.pending[f.file] = self.pool.submit(draw_into_cache, f, self.folder, key,
-                                                    FigureConfig(self.config, f.config),
-                                                    {stage: results[stage] for stage in f.stages})
+                self.pool = ProcessPoolExecutor(1, mp_context=multiprocessing.get_context("spawn"),
+                                                initializer=worker_start, initargs=(os.getpid(),))
+            self.pending[f.file] = _ignoring_sigint(lambda: self.pool.submit(
+                draw_into_cache, f, self.folder, key, FigureConfig(self.config, f.config),
+                {stage: results[stage] for stage in f.stages}))
 
     def collect(self, out: Path, results, stage_keys) -> dict[str, list[tuple[str, str]]]:
         """Copies every figure into `out` (drawing what is missing); returns, per report section,
         the (file, caption) of each."""
         self.update(results, stage_keys)
         for future in self.pending.values():
+            while not future.done():
+                wait([future], timeout=0.5)
+                check_interrupted()
             future.result()         # a drawing error surfaces here
         sections: dict[str, list[tuple[str, str]]] = {}
         for f in FIGURES:
             stored = self.folder / self.keys[f.file]
-            files = self._stored(self.keys[f.file])
+            files = self._stored(self.keys[f.file], f.file)
             if files is None:       # removed meanwhile (a prune, a damaged entry): draw it here
                 files = draw_into_cache(f, self.folder, self.keys[f.file], FigureConfig(self.config, f.config),
                                         {stage: results[stage] for stage in f.stages})
@@ -183,6 +245,12 @@ class FigureDrawer:
                 sections.setdefault(f.section, []).append((name, f.caption.format(n=n)))
         return sections
 
-    def close(self) -> None:
-        if self.pool is not None:
-            self.pool.shutdown(cancel_futures=True)
+    def close(self, now: bool = False) -> None:
+        """Ends the worker: after its last figure, or (`now`, on an error or an interrupt) at once."""
+        if self.pool is None:
+            return
+        if now:
+            for process in list(getattr(self.pool, "_processes", {}).values()):
+                process.kill()
+        self.pool.shutdown(wait=not now, cancel_futures=True)
+        self.pool = None

@@ -28,6 +28,11 @@ HEADLINE = (
 )
 
 
+# Wall-clock times: the one kind of field that differs between two runs of the same config on one
+# machine (everything else repeats bit for bit). results.json keeps them apart, under "timings".
+TIMINGS = ("mitsuba_render.render_seconds",)
+
+
 def headline(results: dict[str, dict[str, Any]]) -> dict[str, Any]:
     """The headline fields of a run's results, by `stage.field`."""
     out = {}
@@ -53,9 +58,12 @@ def _plain(value):
 
 def write(path: Path, config, stage_keys, results, checks) -> dict:
     """Writes results.json: config, stage keys, the headline fields, every stage's scalars and small
-    arrays, the checks."""
-    scalars = {stage: {k: v for k, v in r.items() if not (isinstance(v, np.ndarray) and v.size > 16)}
+    arrays, the checks, and (apart) the timings."""
+    timed = {tuple(path.split(".", 1)) for path in TIMINGS}
+    scalars = {stage: {k: v for k, v in r.items()
+                       if not (isinstance(v, np.ndarray) and v.size > 16) and (stage, k) not in timed}
                for stage, r in results.items()}
+    timings = {f"{stage}.{k}": results[stage][k] for stage, k in sorted(timed) if stage in results}
     doc = dict(
         name=config.name, config_file=config.source, config=dict(config.values),
         headline=headline(results), stages=scalars, stage_keys=stage_keys,
@@ -65,6 +73,7 @@ def write(path: Path, config, stage_keys, results, checks) -> dict:
                      agreement=c.expectation.agreement,
                      settings_differ=list(c.settings_differ))
                 for c in checks],
+        timings=timings,
     )
     doc = _plain(doc)
     path.write_text(json.dumps(doc, indent=1, allow_nan=False))

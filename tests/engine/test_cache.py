@@ -193,3 +193,47 @@ def test_two_identical_refits_at_once_leave_one_complete_output(refit_cache, tmp
     # No leftovers of either writer, in the outputs or the cache.
     assert [p.name for p in (tmp_path / "out").iterdir() if p.name.startswith(".") and p.is_dir()] == []
     assert list((tmp_path / "cache").rglob(".*.tmp.*")) == []
+    # One of them waited for the other, and said so: neither result silently replaced the other.
+    assert sum("is being written by another run: waiting for it to finish" in o for o in outs) == 1, outs
+
+
+@pytest.mark.slow
+def test_a_damaged_memo_entry_is_reported_by_name_and_recomputed(light_config, warm_cache):
+    keys = run_stages(light_config, warm_cache, log=lambda s: None)[1]
+    folder = warm_cache.root / MEMO / "energy_table"
+    entries = [p for p in folder.iterdir() if not p.name.startswith(".")]
+    for entry in entries:
+        (entry / "values.json").write_text((entry / "values.json").read_text() + " ")
+    warm_cache.discard("lobe_comparison", keys["lobe_comparison"])
+    results, computed, log = run(light_config, warm_cache)
+    assert computed == ["lobe_comparison"]
+    said = [line for line in log.splitlines() if "memoized energy_table" in line]
+    assert said and all(line.startswith("[14/18] lobe_comparison") and line.endswith(
+        "is damaged (values.json does not match its checksum); recomputing") for line in said)
+    # Each named entry was rebuilt, and reads back verified.
+    for line in said:
+        key = line.split("memoized energy_table ")[1].split()[0]
+        rebuilt = next(p for p in folder.iterdir() if p.name.startswith(key))
+        assert warm_cache.load(f"{MEMO}/energy_table", rebuilt.name) is not None
+
+
+def test_temporary_folders_of_killed_writes_are_swept_and_a_live_writers_are_kept(tmp_path):
+    """A killed writer's temporary folder (its process gone) is removed by the next run's sweep and
+    by prune; a live writer's is never touched; prune refuses while a run holds the cache."""
+    from pipeline.engine.cache import CacheInUse, leftovers
+    cache = Cache(tmp_path / "cache")
+    cache.store("zone", "k1", {"x": 1.0})
+    dead = subprocess.run([sys.executable, "-c", "import os; print(os.getpid())"], capture_output=True,
+                          text=True).stdout.strip()
+    killed = cache.root / "zone" / f".k2.tmp.{dead}.abc"
+    live = cache.root / "zone" / f".k3.tmp.{os.getpid()}.abc"
+    for folder in (killed, live):
+        folder.mkdir()
+        (folder / "values.json").write_text("{")
+    assert leftovers(cache.root) == [killed]
+    assert cache.sweep() == 1 and not killed.exists() and live.exists()
+    with cache.in_use():
+        with pytest.raises(CacheInUse, match="is in use by a running pipeline"):
+            cache.prune(0.0)
+    assert cache.load("zone", "k1") == {"x": 1.0}
+    assert cache.prune(-1.0)[0] == 1 and live.exists()

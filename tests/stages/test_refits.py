@@ -97,7 +97,7 @@ def test_minimax_line_is_the_smallest_worst_case(cache, paper_run):
 def test_refit_writes_its_own_outputs_with_a_comparison(cache, tmp_path, paper_config):
     # Small renders and few albedo angles: what this test checks is the refit's derivation and its report, not the images.
     config = pipeline.load_config(paths.CONFIGS / "q_0_5.toml", ("render.resolution=48", "mitsuba.width=64",
-                                                                 "mitsuba.height=32", "mitsuba.spp=8",
+                                                                 "mitsuba.height=32", "mitsuba.spp=16",
                                                                  "albedo.angles=7"))
     base = run_derivation(paper_config, cache_dir=cache.root, outputs=tmp_path, log=lambda s: None,
                           write_outputs=False)

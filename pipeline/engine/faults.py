@@ -1,0 +1,91 @@
+"""What a run that cannot finish says, and the exit code it ends with (the README's table).
+
+0 done; 1 a check failed or a solver did not converge; 2 bad input (config, arguments, a CSV);
+3 an environment fault (a full disk, a file size limit, a path that is a file, no permission);
+130 interrupted (Ctrl-C or SIGTERM). Each is one line naming the cause and the remedy.
+"""
+
+from __future__ import annotations
+
+import errno
+import os
+import signal
+from pathlib import Path
+
+EXIT_DONE, EXIT_FAILED, EXIT_BAD_INPUT, EXIT_ENVIRONMENT, EXIT_INTERRUPTED = 0, 1, 2, 3, 130
+
+
+class EnvironmentFault(Exception):
+    """The machine, not the input: a path that cannot be used, a full disk. The CLI exits with 3."""
+
+
+class Interrupted(BaseException):
+    """SIGINT or SIGTERM, raised in the main thread by `check_interrupted`. The CLI exits with 130."""
+
+    def __init__(self, signal_name: str):
+        super().__init__(signal_name)
+        self.signal_name = signal_name
+
+
+_received: list[str] = []
+
+
+def _record(signum, frame):
+    _received.append(signal.Signals(signum).name)
+
+
+def stop_on_signals() -> None:
+    """SIGINT and SIGTERM are recorded, and `check_interrupted` raises `Interrupted` at the next
+    point the run passes (the main thread passes one at least twice a second while stages compute).
+
+    The handler does not raise itself: it runs wherever the main thread is, and where that is a
+    callback whose exceptions are ignored (JAX's garbage-collection hook), the exception would be
+    lost, with a traceback printed."""
+    for sig in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(sig, _record)
+
+
+def _raise(signum, frame):
+    raise Interrupted(signal.Signals(signum).name)
+
+
+def raise_on_signals() -> None:
+    """SIGINT and SIGTERM raise `Interrupted` at once: for a command that computes in the main
+    thread (`regress`), where no check point would be passed."""
+    for sig in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(sig, _raise)
+
+
+def check_interrupted() -> None:
+    """Raises `Interrupted` if SIGINT or SIGTERM has arrived."""
+    if _received:
+        raise Interrupted(_received[-1])
+
+
+def describe(e: OSError) -> str:
+    """One line for an operating-system error: what failed, where, and what to do."""
+    where = f" ({e.filename})" if e.filename else ""
+    if e.errno in (errno.ENOSPC, errno.EDQUOT):
+        return (f"no space left on the device{where}: free some, or point PIPELINE_CACHE_DIR and "
+                "PIPELINE_OUTPUTS_DIR at a disk with room (`pipeline cache --prune` frees cache entries)")
+    if e.errno == errno.EFBIG:
+        return f"a file reached the size limit{where} (`ulimit -f`): raise the limit and rerun"
+    if e.errno in (errno.EACCES, errno.EPERM, errno.EROFS):
+        return (f"permission denied{where}: make the folder writable, or point PIPELINE_CACHE_DIR and "
+                "PIPELINE_OUTPUTS_DIR at folders you can write")
+    if e.errno in (errno.ENOTDIR, errno.EEXIST, errno.EISDIR):
+        return f"a path is a file where a folder is needed, or the reverse{where}: move it aside and rerun"
+    return f"{e.strerror or e}{where}"
+
+
+def check_folder(path: Path, what: str) -> None:
+    """Raises `EnvironmentFault` unless `path` is a writable folder or can be created as one."""
+    path = Path(path)
+    existing = path
+    while not existing.exists() and existing != existing.parent:
+        existing = existing.parent
+    if not existing.is_dir():
+        blocker = "is a file" if existing == path else f"cannot be created: '{existing}' is a file"
+        raise EnvironmentFault(f"{what} '{path}' {blocker}, not a folder: point it at a folder")
+    if not os.access(existing, os.W_OK | os.X_OK):
+        raise EnvironmentFault(f"{what} '{path}' is not writable ('{existing}'): point it at a folder you can write")
