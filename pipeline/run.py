@@ -127,6 +127,10 @@ def run_stages(config: Config, cache: Cache, log: Callable[[str], None] = print,
 def _run_graph(chosen, config, cache, log, workers, on_result):
     order = {s.name: i for i, s in enumerate(chosen, 1)}
     width = max(len(s.name) for s in chosen)
+    # Every stage's code hash before any stage runs: hashing parses source (`ast`), and CPython
+    # 3.11 can fail ("AST constructor recursion depth mismatch") when that overlaps Dr.Jit parsing
+    # Mitsuba's integrators in a stage thread.
+    codes = {stage.name: stage_code(stage) for stage in chosen}
     results, keys, computed = {}, {}, []
     pending = list(chosen)
     pool = ThreadPoolExecutor(workers)
@@ -142,7 +146,7 @@ def _run_graph(chosen, config, cache, log, workers, on_result):
                     pending.remove(stage)
                     progress = True
                     values, inputs = stage_inputs(stage, config, results)
-                    key = stage_key(stage.name, values, inputs, stage_code(stage))
+                    key = stage_key(stage.name, values, inputs, codes[stage.name])
                     keys[stage.name] = key
                     label = f"[{order[stage.name]:>2}/{len(chosen)}] {stage.name:<{width}}"
                     try:

@@ -179,6 +179,7 @@ class FigureDrawer:
     def __init__(self, config, cache_root: Path, log=print):
         self.config = config
         self.log = log
+        code_hash("pipeline.publish.plots")     # parsed now, before any stage thread runs (see run_stages)
         self.folder = Path(cache_root) / FIGURE_CACHE
         self.keys: dict[str, str] = {}
         self.pending = {}
