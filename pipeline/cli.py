@@ -205,8 +205,10 @@ def _main(argv: list[str] | None) -> int:
         print(f"error: {e}", file=sys.stderr)
         return faults.EXIT_FAILED
     _print_checks(outcome)
-    print(f"\n{'recomputed: ' + ', '.join(outcome.computed) if outcome.computed else 'nothing recomputed'}; "
-          f"report: {Path(outcome.out_dir) / 'report.md'}; {time.perf_counter() - start:.1f} s")
+    print(f"\n{'recomputed: ' + ', '.join(outcome.computed) if outcome.computed else 'nothing recomputed'}")
+    # The closing line: the checks by how they hold, where the outputs are, and the time.
+    print(f"{checks_mod.tally(outcome.checks)}; outputs in {outcome.out_dir} (report.md); "
+          f"{time.perf_counter() - start:.1f} s")
     return faults.EXIT_FAILED if outcome.failed else faults.EXIT_DONE
 
 

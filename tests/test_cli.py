@@ -139,15 +139,17 @@ def test_runs_killed_or_interrupted_at_random_moments_recover_with_identical_res
     args = ["refit", "--config", str(LIGHT_CONFIG), "--set", "scan.curve_points=25",
             "--set", "regression.threshold_count=21", "--out", "killed"]
     rng = random.Random(0)
-    # Each signal hits a run with work to do: its own scan.curve_points, so its scan and the stages
-    # and figures below it compute (the first, killed, is the one the final run recovers).
-    for points, sig in ((25, signal.SIGKILL), (26, signal.SIGINT), (27, signal.SIGTERM)):
-        proc = subprocess.Popen([sys.executable, "-m", "pipeline", *args, "--set", f"scan.curve_points={points}"],
+    # Each signal hits a run with work to do. The killed one is the run the final one recovers; the
+    # interrupted ones change Q, so that most stages (renders, albedo, search) compute for seconds
+    # after the first "computing" line, and the signal always comes before the run could finish.
+    for change, sig in (("scan.curve_points=25", signal.SIGKILL), ("derivation.Q=0.62", signal.SIGINT),
+                        ("derivation.Q=0.66", signal.SIGTERM)):
+        proc = subprocess.Popen([sys.executable, "-m", "pipeline", *args, "--set", change],
                                 env=cli_env(tmp_path, PYTHONUNBUFFERED="1"), cwd=paths.ROOT,
                                 stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True)
         while "computing" not in (proc.stdout.readline() or "computing"):
             pass                                 # until a stage computes
-        time.sleep(rng.uniform(0.0, 1.5))        # stages, figures, or writing the outputs
+        time.sleep(rng.uniform(0.0, 1.5))        # while stages compute
         os.killpg(proc.pid, sig) if sig == signal.SIGINT else proc.send_signal(sig)
         sent = time.monotonic()
         _, err = proc.communicate(timeout=60)
@@ -161,6 +163,9 @@ def test_runs_killed_or_interrupted_at_random_moments_recover_with_identical_res
                           capture_output=True, text=True, env=cli_env(tmp_path), cwd=paths.ROOT)
     assert done.returncode == 0, done.stderr
     folder = tmp_path / "out" / "killed"
+    # It ends on one line: the checks by how they hold, the outputs, the time.
+    last = done.stdout.strip().splitlines()[-1]
+    assert last.startswith("0 checks: 0 pass independently") and f"outputs in {folder} (report.md); " in last
     recovered = (folder / "results.json").read_bytes()
     # The same run, never interrupted (here, in this process), in a fresh copy of the cache.
     clean = tmp_path / "clean"

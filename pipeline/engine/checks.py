@@ -103,3 +103,16 @@ def table(checks: list[Check]) -> str:
         rows.append(f"| {e.id} | {e.quantity} | {fmt(e.paper)} | {fmt(c.reproduced)} | {tol} | {c.verdict_text} | "
                     f"{e.agreement} |")
     return "\n".join(rows)
+
+
+def tally(checks) -> str:
+    """One line: how many checks pass independently, pass by calibration or by design (agreements
+    that hold by construction), differ with a documented cause, are not comparable, fail."""
+    passed = [c for c in checks if c.verdict == PASS]
+    independent = sum(c.expectation.agreement == "independent" for c in passed)
+    parts = [f"{independent} pass independently",
+             f"{len(passed) - independent} pass by construction (calibrated or designed to match)",
+             f"{sum(c.verdict == DIFFERS for c in checks)} differ with a documented cause",
+             f"{sum(c.verdict == NOT_COMPARABLE for c in checks)} not comparable",
+             f"{sum(c.verdict == FAIL for c in checks)} failed"]
+    return f"{len(checks)} checks: " + ", ".join(parts)

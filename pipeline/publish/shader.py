@@ -45,8 +45,9 @@ def functions(slope: float, intercept: float, coef_scale: float, coef_offset: fl
 DOCS = {
     "k": "k(n) = slope n + intercept, the lobe's coefficient",
     "lobe": "the lobe ((k (t - 1) + 1)^2, 0 past its zero crossing); t = cos x",
-    "lobe_u": "the same lobe of u = 1 - cos x, for half precision: vec3 c = cross(N, H); "
-              "float u = dot(c, c) / (1.0 + dot(N, H)); (k t + 1 - k cancels in float16 at large n)",
+    "lobe_u": "the same lobe of u = 1 - cos x (u from cosquad_u), for half precision: k t + 1 - k cancels "
+              "in float16 at large n, 1 - k u does not",
+    "u": "u = 1 - dot(N, H) without cancellation, |N x H|^2 / (1 + N.H); 1 (the lobe's edge) for a back-facing H",
     "coef": "the run's normalization scale (offset + n) (the paper's 0.214 (0.807 + n))",
     "coef_exact": "exact Phong-form normalization 1 / (2 pi Int(n)): albedo 1 at normal incidence",
     "coef_blinn": "exact Blinn-form normalization (t = dot(N, H)), at normal view",
@@ -72,11 +73,18 @@ def _relative(source: str) -> str:
     return str(path.relative_to(ROOT)) if path.is_relative_to(ROOT) else str(path)
 
 
-def header(comment: str, config, version_tag: str) -> list[str]:
-    return [f"{comment} Modified cosine-quadratic specular lobe, exported by cosquad-pipeline {version_tag}",
-            f"{comment} from run '{config.name}' (config {_relative(config.source)}).",
-            f"{comment} Usage: spec = {PREFIX}coef_blinn(n) * {PREFIX}lobe(max(dot(N, H), 0.0), n) (Blinn form),",
-            f"{comment}    or spec = {PREFIX}coef(n) * {PREFIX}lobe(max(dot(R, V), 0.0), n) (Phong form).", ""]
+def header(comment: str, config, version_tag: str, coef_note: str) -> list[str]:
+    c, p = comment, PREFIX
+    return [f"{c} Modified cosine-quadratic specular lobe, exported by cosquad-pipeline {version_tag}",
+            f"{c} from run '{config.name}' (config {_relative(config.source)}).",
+            f"{c} Usage, with the exact normalizations (albedo 1 at normal incidence):",
+            f"{c}   Blinn form: spec = {p}coef_blinn(n) * {p}lobe(max(dot(N, H), 0.0), n) * max(dot(N, L), 0.0) * light",
+            f"{c}   Phong form: spec = {p}coef_exact(n) * {p}lobe(max(dot(R, V), 0.0), n) * max(dot(N, L), 0.0) * light",
+            f"{c} (The run's {coef_note}.)",
+            f"{c} n is a material's: compute {p}k(n) and the coef once per material (on the CPU, or in a uniform),",
+            f"{c} not per pixel. {p}sample can return directions below the surface (Phong form, grazing light):",
+            f"{c} give those weight 0 (reject dot(N, L) <= 0). Half precision (mediump, mobile): t = dot(N, H) near 1",
+            f"{c} loses the lobe at large n; use {p}lobe_u({p}u(N, H), n) there.", ""]
 
 
 # Importance sampling, as `pipeline.optics.sampling` does it: the lobe's cosine to its axis from one uniform
@@ -140,11 +148,14 @@ def {p}pdf(c, n):
 """
 
 
-def render_sources(config, slope, intercept, coef_scale, coef_offset, version_tag: str) -> dict[str, str]:
-    """The three files: GLSL, HLSL and the Python twin, as text."""
+def render_sources(config, slope, intercept, coef_scale, coef_offset, version_tag: str,
+                   coef_note: str) -> dict[str, str]:
+    """The three files: GLSL, HLSL and the Python twin, as text. `coef_note` says, in a few words,
+    how far the run's coef(n) is from the exact one."""
     fns = functions(slope, intercept, coef_scale, coef_offset)
-    glsl, hlsl = header("//", config, version_tag), header("//", config, version_tag)
-    py = ['"""' + header("", config, version_tag)[0].strip() + '"""', ""] + header("#", config, version_tag)
+    glsl, hlsl = header("//", config, version_tag, coef_note), header("//", config, version_tag, coef_note)
+    py = (['"""' + header("", config, version_tag, coef_note)[0].strip() + '"""', ""]
+          + header("#", config, version_tag, coef_note))
     py += ["import math", "", ""]
     for name, (args, expr) in fns.items():
         c_args = ", ".join(f"float {a}" for a in args)
@@ -164,11 +175,32 @@ def render_sources(config, slope, intercept, coef_scale, coef_offset, version_ta
                 lines += [f"// {DOCS['lobe_u']}", f"float {PREFIX}lobe_u(float u, float n)"] + body_u
             py += [f"def {PREFIX}lobe_u(u, n):", f'    """{DOCS["lobe_u"]}"""', f"    k = {PREFIX}k(n)",
                    "    b = max(1.0 - k * u, 0.0)", "    return b * b", "", ""]
+            for lines, v3 in ((glsl, "vec3"), (hlsl, "float3")):
+                lines += [f"// {DOCS['u']}", f"float {PREFIX}u({v3} N, {v3} H)", "{", "    float t = dot(N, H);",
+                          "    if (t <= 0.0) return 1.0;", f"    {v3} c = cross(N, H);",
+                          "    return dot(c, c) / (1.0 + t);", "}", ""]
+            py += [f"def {PREFIX}u(N, H):", f'    """{DOCS["u"]}"""', "    t = sum(a * b for a, b in zip(N, H))",
+                   "    if t <= 0.0:", "        return 1.0",
+                   "    c = (N[1] * H[2] - N[2] * H[1], N[2] * H[0] - N[0] * H[2], N[0] * H[1] - N[1] * H[0])",
+                   "    return sum(x * x for x in c) / (1.0 + t)", "", ""]
     glsl.append(SAMPLER.format(p=PREFIX, v2="vec2", v3="vec3"))
     hlsl.append(SAMPLER.format(p=PREFIX, v2="float2", v3="float3"))
     py.append(SAMPLER_PY.format(p=PREFIX))
     return {"cosquad.glsl": "\n".join(glsl), "cosquad.hlsl": "\n".join(hlsl),
             "cosquad_twin.py": "\n".join(py).rstrip() + "\n"}
+
+
+def coef_note(hemispherical, exact) -> str:
+    """How the run's coef(n) compares with the exact one at normal incidence, from the run's numbers."""
+    excess, deficit = exact["paper_coef_max_excess"], exact["paper_coef_max_deficit"]
+    parts = []
+    if excess > 0:
+        parts.append(f"up to {excess:.2%} more than arrives (n = {exact['paper_coef_n_at_max_excess']:g})")
+    if deficit < 0:
+        at = f" (n = {exact['paper_coef_n_at_max_abs_dev']:g})" if -deficit >= excess else ""
+        parts.append(f"up to {-deficit:.2%} less{at}")
+    return (f"{PREFIX}coef, {hemispherical['coef_scale_used']:.6g} ({hemispherical['coef_offset_used']:.6g} + n), "
+            + ("reflects " + " and ".join(parts) if parts else "matches them"))
 
 
 def write(out: Path, config, results, stage_keys) -> list[str]:
@@ -178,7 +210,8 @@ def write(out: Path, config, results, stage_keys) -> list[str]:
     version = importlib.metadata.version("cosquad-pipeline")
     tag = digest(stage_keys["linear_coefficient"], stage_keys["hemispherical"])[:12]
     files = render_sources(config, lin["slope_used"], lin["intercept_used"], h["coef_scale_used"],
-                           h["coef_offset_used"], f"{version} (results {tag})")
+                           h["coef_offset_used"], f"{version} (results {tag})",
+                           coef_note(h, results["exact_normalization"]))
     folder = out / "shader"
     folder.mkdir(exist_ok=True)
     for name, text in files.items():

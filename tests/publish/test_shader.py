@@ -65,6 +65,19 @@ void main() {
 """)
     done = subprocess.run([validator, str(frag)], capture_output=True, text=True)
     assert done.returncode == 0, done.stdout + done.stderr
+    # The same file as GLSL ES 3.00 (mobile), in high precision.
+    es = tmp_path / "check_es.frag"
+    es.write_text("#version 300 es\nprecision highp float;\n" + source + """
+out vec4 color;
+void main() {
+    float n = 100.0;
+    vec3 N = vec3(0.0, 0.0, 1.0), H = normalize(vec3(0.1, 0.0, 1.0));
+    color = vec4(cosquad_coef_blinn(n) * cosquad_lobe_u(cosquad_u(N, H), n), cosquad_coef_exact(n),
+                 cosquad_pdf(0.99, n), cosquad_sample(vec2(0.3, 0.7), N, n).x);
+}
+""")
+    done = subprocess.run([validator, str(es)], capture_output=True, text=True)
+    assert done.returncode == 0, done.stdout + done.stderr
 
 
 def _main_instructions(source):
@@ -119,3 +132,28 @@ def test_exported_sampler_matches_the_pipelines(exported):
             ours = np.asarray(sampling.around(axis, np.array(c), np.array(2 * np.pi * xi[1])))
             np.testing.assert_allclose(twin.cosquad_sample(tuple(xi), tuple(axis), n), ours, atol=1e-12)
             assert twin.cosquad_pdf(c, n) == pytest.approx(float(sampling.lobe_pdf(c, k)), rel=1e-12)
+
+
+def test_the_usage_header_recommends_the_exact_coefs_with_the_runs_numbers(exported, paper_run):
+    text = (exported / "cosquad.glsl").read_text()
+    head = text[: text.index("\nfloat ")]
+    assert "spec = cosquad_coef_blinn(n) * cosquad_lobe(max(dot(N, H), 0.0), n) * max(dot(N, L), 0.0)" in head
+    assert "spec = cosquad_coef_exact(n) * cosquad_lobe(max(dot(R, V), 0.0), n) * max(dot(N, L), 0.0)" in head
+    assert "once per material" in head and "reject dot(N, L) <= 0" in head and "cosquad_lobe_u(cosquad_u(N, H), n)" in head
+    e = paper_run["exact_normalization"]
+    # The paper's coef at these numbers: 0.10 % too much at n = 23, 5.33 % too little at n = 2.
+    assert f"up to {e['paper_coef_max_excess']:.2%} more than arrives (n = 23)" in head
+    assert f"up to {-e['paper_coef_max_deficit']:.2%} less (n = 2)" in head
+
+
+def test_twin_u_is_one_minus_t_and_the_edge_for_a_back_facing_half_vector(exported):
+    spec = importlib.util.spec_from_file_location("cosquad_twin_uh", exported / "cosquad_twin.py")
+    twin = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(twin)
+    N = (0.0, 0.0, 1.0)
+    for theta in np.linspace(0.0, 0.5 * np.pi, 19):
+        H = (np.sin(theta), 0.0, np.cos(theta))
+        assert twin.cosquad_u(N, H) == pytest.approx(1.0 - np.cos(theta), rel=1e-12, abs=1e-15)
+    # Back-facing, and exactly opposite (where |N x H|^2 / (1 + N.H) would divide 0 by 0): the edge.
+    assert twin.cosquad_u(N, (0.6, 0.0, -0.8)) == 1.0 and twin.cosquad_u(N, (0.0, 0.0, -1.0)) == 1.0
+    assert twin.cosquad_lobe_u(twin.cosquad_u(N, (0.0, 0.0, -1.0)), 100.0) == 0.0

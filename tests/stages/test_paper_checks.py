@@ -23,6 +23,20 @@ def test_documented_differences_are_the_expected_ones(paper_config, paper_run):
     assert sorted(k for k, v in results.items() if v == checks.DIFFERS) == ["P14_front", "P3", "P5_intercept", "P7"]
 
 
+def test_the_tally_sets_agreements_by_construction_apart(paper_config, paper_run):
+    """The closing line of a run: the paper's P9 (calibrated), P11, P13 (a sample size fixed by the
+    config), P14_const, P14_const_rms and P14_n_rms (by design) are counted apart from the
+    independent passes; the four documented differences and nothing failed."""
+    results = checks.evaluate(paper_config, paper_run)
+    by_construction = sorted(c.expectation.id for c in results
+                             if c.verdict == checks.PASS and c.expectation.agreement != "independent")
+    assert by_construction == ["P11", "P13", "P14_const", "P14_const_rms", "P14_n_rms", "P9"]
+    independent = sum(c.verdict == checks.PASS for c in results) - len(by_construction)
+    assert checks.tally(results) == (
+        f"{len(results)} checks: {independent} pass independently, 6 pass by construction (calibrated or designed "
+        "to match), 4 differ with a documented cause, 0 not comparable, 0 failed")
+
+
 def test_a_wrong_value_fails_its_check(paper_config, paper_run):
     broken = {stage: dict(r) for stage, r in paper_run.items()}
     broken["accuracy"]["D_f_Q2"] = 0.13
