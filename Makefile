@@ -15,6 +15,7 @@ WITH_LLVM = lib=$$(ls /usr/lib/*/libLLVM.so.19* /usr/lib/llvm-19/lib/libLLVM.so*
 	if [ -n "$$lib" ]; then export DRJIT_LIBLLVM_PATH=$$lib; fi;
 CONFIG ?= configs/paper.toml
 SET ?=
+ONLY ?=
 
 export JAX_ENABLE_X64 := 1
 export JAX_PLATFORMS := cpu
@@ -48,7 +49,7 @@ reproduce: $(INSTALLED) $(LLVM_READY)
 	$(WITH_LLVM) $(BIN)/pipeline reproduce
 
 refit: $(INSTALLED) $(LLVM_READY)
-	$(WITH_LLVM) $(BIN)/pipeline refit --config $(CONFIG) $(foreach s,$(SET),--set $(s))
+	$(WITH_LLVM) $(BIN)/pipeline refit --config $(CONFIG) $(foreach s,$(SET),--set $(s)) $(if $(ONLY),--only $(ONLY))
 
 test: $(TEST_INSTALLED) $(LLVM_READY)
 	$(WITH_LLVM) $(BIN)/python -m pytest -q -n 2 --dist loadfile

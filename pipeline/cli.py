@@ -46,11 +46,23 @@ def _refit_config(args):
     return config
 
 
-def _explain(config) -> int:
+def _only(text: str | None) -> tuple[str, ...] | None:
+    """`--only STAGE[,STAGE...]`: the stage names, checked against the graph."""
+    if text is None:
+        return None
+    names = tuple(t for t in (part.strip() for part in text.split(",")) if t)
+    unknown = [t for t in names if t not in graph.BY_NAME]
+    if unknown or not names:
+        raise ConfigError(f"--only {text!r}: {'unknown stage ' + repr(unknown[0]) if unknown else 'no stage named'}; "
+                          "the stages are " + ", ".join(graph.BY_NAME))
+    return names
+
+
+def _explain(config, only=None) -> int:
     from .engine.cache import Cache
     from .run import explain
 
-    rows = explain(config, Cache(paths.CACHE))
+    rows = explain(config, Cache(paths.CACHE), only)
     changed = config.changed_from_file(config.values)
     print(f"config {config.source}" + (f", with {', '.join(changed)} changed" if changed else "") + ":")
     width = max(len(name) for name, _ in rows)
@@ -135,14 +147,18 @@ def _main(argv: list[str] | None) -> int:
     sub = parser.add_subparsers(dest="command", required=True)
     rep = sub.add_parser("reproduce", help="run the paper's derivation (configs/paper.toml)")
     rep.add_argument("--config", default=str(paths.PAPER_CONFIG))
+    only_help = "run only these stages (comma-separated) and the stages they read"
+    rep.add_argument("--only", default=None, metavar="STAGE[,STAGE...]", help=only_help)
     ref = sub.add_parser("refit", help="rerun the derivation with another config and --set overrides")
     ref.add_argument("--config", required=True)
     ref.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE")
     ref.add_argument("--out", default=None, metavar="NAME", help="output folder name under outputs/")
     ref.add_argument("--dry-run", action="store_true", help="say which stages would recompute; compute nothing")
+    ref.add_argument("--only", default=None, metavar="STAGE[,STAGE...]", help=only_help)
     exp = sub.add_parser("explain", help="which stages a change would recompute (nothing is computed)")
     exp.add_argument("changes", nargs="*", metavar="KEY=VALUE")
     exp.add_argument("--config", default=str(paths.PAPER_CONFIG))
+    exp.add_argument("--only", default=None, metavar="STAGE[,STAGE...]", help=only_help)
     sub.add_parser("keys", help="print every config key with its default and allowed values")
     sub.add_parser("graph", help="print the stage graph: what each stage reads and returns")
     reg = sub.add_parser("regress", help="exhaustive symbolic regression of one CSV column against another")
@@ -173,14 +189,15 @@ def _main(argv: list[str] | None) -> int:
         if args.command == "regress":
             faults.raise_on_signals()       # its search runs in this thread
             return _regress(args)
+        only = _only(args.only) if args.command in ("explain", "reproduce", "refit") else None
         if args.command == "explain":
-            return _explain(load_config(args.config, tuple(args.changes), name="explain"))
+            return _explain(load_config(args.config, tuple(args.changes), name="explain"), only)
         if args.command == "reproduce":
             config, baseline_config = load_config(args.config), None
         else:
             config = _refit_config(args)
             if args.dry_run:
-                return _explain(config)
+                return _explain(config, only)
             baseline_config = load_config(paths.PAPER_CONFIG)
     except (ConfigError, RegressError) as e:
         print(f"error: {e}", file=sys.stderr)
@@ -198,9 +215,9 @@ def _main(argv: list[str] | None) -> int:
         baseline = None
         if baseline_config is not None:
             print("paper's run (for the comparison):")
-            baseline = run_derivation(baseline_config, write_outputs=False)
+            baseline = run_derivation(baseline_config, write_outputs=False, only=only)
             print(f"run '{config.name}':")
-        outcome = run_derivation(config, baseline=baseline)
+        outcome = run_derivation(config, baseline=baseline, only=only)
     except SolverError as e:
         print(f"error: {e}", file=sys.stderr)
         return faults.EXIT_FAILED

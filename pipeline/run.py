@@ -183,17 +183,19 @@ def _run_graph(chosen, config, cache, log, workers, on_result):
     return results, keys, computed
 
 
-def explain(config: Config, cache: Cache) -> list[tuple[str, str]]:
+def explain(config: Config, cache: Cache, only: tuple[str, ...] | None = None) -> list[tuple[str, str]]:
     """What a run of `config` would do, stage by stage, without computing: (stage, what).
 
     A stage whose key is in the cache is "cached"; a stage whose inputs are all known but whose key
     is not, "recomputes"; below a recomputed stage the inputs are not known until it runs, so the
     stage "recomputes if <fields> change" (early cutoff stops there when they come out identical).
+    With `only` (stage names), the plan of `--only`: those stages and what they read.
     """
+    chosen = graph.closure(only) if only else tuple(s.name for s in graph.STAGES)
     results: dict[str, dict[str, Any]] = {}
     unknown: set[str] = set()
     out = []
-    for stage in graph.STAGES:
+    for stage in (s for s in graph.STAGES if s.name in chosen):
         pending = [p for p in stage.inputs if p.split(".", 1)[0] in unknown]
         if pending:
             unknown.add(stage.name)
@@ -227,8 +229,10 @@ def _outputs_key(config: Config, keys: dict[str, str], baseline: RunOutcome | No
 
 def run_derivation(config: Config, cache_dir: Path = paths.CACHE, outputs: Path = paths.OUTPUTS,
                    log: Callable[[str], None] = print, write_outputs: bool = True,
-                   baseline: RunOutcome | None = None) -> RunOutcome:
-    """Runs every stage, evaluates the checks and (re)writes `outputs/<name>/` if anything changed."""
+                   baseline: RunOutcome | None = None, only: tuple[str, ...] | None = None) -> RunOutcome:
+    """Runs every stage (with `only`, those stages and what they read), evaluates the checks and
+    (re)writes `outputs/<name>/` if anything changed."""
+    stages = graph.closure(only) if only else None
     cache = Cache(cache_dir)
     out_dir = paths.output_dir(config.name, outputs) if write_outputs else None
     drawer = None
@@ -239,7 +243,8 @@ def run_derivation(config: Config, cache_dir: Path = paths.CACHE, outputs: Path 
     try:
         # One run at a time writes a folder: a second one waits here, and says so.
         with output_lock(out_dir, log) if out_dir is not None else contextlib.nullcontext():
-            results, keys, computed = run_stages(config, cache, log, on_result=drawer.update if drawer else None)
+            results, keys, computed = run_stages(config, cache, log, stages=stages,
+                                                 on_result=drawer.update if drawer else None)
             checks = checks_mod.evaluate(config, results)
             faults.check_interrupted()
             if out_dir is not None:
@@ -260,8 +265,12 @@ def _write_outputs(tmp: Path, config, results, keys, checks, baseline, drawer) -
     from .publish import report, results as results_mod, shader, tables
 
     doc = results_mod.write(tmp / "results.json", config, keys, results, checks)
-    tables.write(tmp, config, results)
     drawn = drawer.collect(tmp, results, keys)
-    shader.write(tmp, config, results, keys)
-    report.write(tmp / "report.md", config, doc, results, checks, drawn, baseline)
+    if len(results) < len(graph.STAGES):
+        # A targeted run (`--only`): what it computed, and a short report that says what it did not.
+        report.write_targeted(tmp / "report.md", config, doc, checks, drawn)
+    else:
+        tables.write(tmp, config, results)
+        shader.write(tmp, config, results, keys)
+        report.write(tmp / "report.md", config, doc, results, checks, drawn, baseline)
     return f"{sum(len(v) for v in drawn.values())} figures, report.md, results.json"

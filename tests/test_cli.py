@@ -213,3 +213,14 @@ def test_a_file_size_limit_exits_3_with_one_line_and_leaves_no_output(refit_cach
     assert done.stderr.strip().count("\n") == 0 and "Traceback" not in done.stderr, done.stderr
     assert "a file reached the size limit" in done.stderr and "ulimit -f" in done.stderr
     assert [p.name for p in (tmp_path / "out").iterdir() if p.is_dir()] == []
+
+
+def test_only_naming_an_unknown_stage_exits_2_listing_the_stages(tmp_path):
+    done = run_cli(["refit", "--config", str(LIGHT_CONFIG), "--only", "accuracy,acuracy", "--out", "x"], tmp_path)
+    assert done.returncode == 2 and done.stderr.count("\n") == 1
+    assert "--only 'accuracy,acuracy': unknown stage 'acuracy'; the stages are zone, q_scan" in done.stderr
+    assert not (tmp_path / "out").exists()
+    plan = run_cli(["explain", "derivation.Q=0.7", "derivation.constants=fitted", "--only", "accuracy"], tmp_path)
+    assert plan.returncode == 0, plan.stderr
+    listed = [line.split()[0] for line in plan.stdout.splitlines() if line.startswith("  ")]
+    assert listed[-1] == "accuracy" and "render" not in listed and "zone" in listed

@@ -24,6 +24,7 @@ from .config import Expectation
 
 PASS, DIFFERS, FAIL = "pass", "differs (documented)", "FAIL"
 NOT_COMPARABLE = "not comparable"
+NOT_RUN = "not run"          # a targeted run (`--only`) did not compute the stage the check reads
 
 
 @dataclasses.dataclass(frozen=True)
@@ -62,6 +63,9 @@ def evaluate(config, results) -> list[Check]:
     """The checks of `config`'s expectations on the run's results."""
     out = []
     for e in config.expectations:
+        if e.result.split(".", 1)[0] not in results:
+            out.append(Check(e, None, math.nan, NOT_RUN))
+            continue
         value = lookup(results, e.result)
         differ = tuple(config.changed_from_file(graph.config_dependencies(e.result, config.values)))
         if differ:
@@ -88,6 +92,8 @@ def fmt(value: Any) -> str:
         return "yes" if value else "no"
     if isinstance(value, list):
         return "[" + ", ".join(fmt(v) for v in value) + "]"
+    if value is None:
+        return "-"
     if isinstance(value, float | int):
         return f"{value:.6g}"
     return str(value)
@@ -115,4 +121,7 @@ def tally(checks) -> str:
              f"{sum(c.verdict == DIFFERS for c in checks)} differ with a documented cause",
              f"{sum(c.verdict == NOT_COMPARABLE for c in checks)} not comparable",
              f"{sum(c.verdict == FAIL for c in checks)} failed"]
+    not_run = sum(c.verdict == NOT_RUN for c in checks)
+    if not_run:
+        parts.append(f"{not_run} not run (their stages were not asked for)")
     return f"{len(checks)} checks: " + ", ".join(parts)

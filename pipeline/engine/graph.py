@@ -396,6 +396,17 @@ def config_dependencies(path: str, keys) -> set[str]:
     return found
 
 
+def closure(names) -> tuple[str, ...]:
+    """The named stages and every stage they read, transitively, in graph order (`--only`)."""
+    wanted, pending = set(), list(names)
+    while pending:
+        name = pending.pop()
+        if name not in wanted:
+            wanted.add(name)
+            pending += BY_NAME[name].upstream
+    return tuple(s.name for s in STAGES if s.name in wanted)
+
+
 def downstream(stages: set[str]) -> list[str]:
     """The stages that read, directly or transitively, a field of `stages` (in order, excluding them)."""
     hit, out = set(stages), []

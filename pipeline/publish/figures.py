@@ -234,6 +234,8 @@ class FigureDrawer:
             future.result()         # a drawing error surfaces here
         sections: dict[str, list[tuple[str, str]]] = {}
         for f in FIGURES:
+            if f.file not in self.keys:
+                continue            # a targeted run did not compute what it shows: not drawn
             stored = self.folder / self.keys[f.file]
             files = self._stored(self.keys[f.file], f.file)
             if files is None:       # removed meanwhile (a prune, a damaged entry): draw it here

@@ -175,6 +175,32 @@ def _comparison(doc, baseline) -> list[str]:
     return rows + [""]
 
 
+def write_targeted(path: Path, config, doc, checks, figures) -> None:
+    """report.md of a targeted run (`--only`): what it computed, what it did not, its checks (those
+    of stages it did not compute "not run"), the headline fields it has, and its figures."""
+    ran = [stage for stage in doc["stages"]]
+    lines = [f"# Targeted run `{config.name}`", ""]
+    if config["run.question"]:
+        lines += [f"**Question.** {config['run.question']}", ""]
+    changed = [k for k in config.changed_from_file(config.values) if not k.startswith("run.")]
+    if changed:
+        lines += ["Settings changed from the config file: "
+                  + ", ".join(f"`{k}` = {checks_mod.fmt(config[k])}" for k in changed) + ".", ""]
+    lines += [f"Computed (`--only` and what it reads): {', '.join(ran)}.", "",
+              f"Not run: {', '.join(doc['not_run'])}. Their fields, figures and tables are not in this "
+              "folder, and the checks that read them are \"not run\". Run without `--only` for the whole "
+              "derivation and its full report.", "",
+              "## Checks", "", checks_mod.tally(checks) + ".", "", checks_mod.table(checks), "",
+              "## Headline fields computed", "", "| field | value |", "|---|---|"]
+    lines += [f"| `{path}` | {checks_mod.fmt(value)} |" for path, value in doc["headline"].items()
+              if not isinstance(value, dict)]
+    lines.append("")
+    drawn = [item for items in figures.values() for item in items]
+    if drawn:
+        lines += ["## Figures", ""] + [f"![{caption}]({name})\n" for name, caption in drawn]
+    path.write_text("\n".join(lines))
+
+
 def write(path: Path, config, doc, r, checks, figures, baseline=None) -> None:
     """Writes report.md; `figures` maps report sections to the (file, caption) drawn for them."""
     a = r["accuracy"]

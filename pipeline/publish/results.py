@@ -9,6 +9,8 @@ from typing import Any
 
 import numpy as np
 
+from ..engine import graph
+
 # The headline: the stage fields users script against (the README lists them), each by its one
 # name, `stage.field` as `pipeline graph` declares it. Fractions, not percent.
 HEADLINE = (
@@ -34,11 +36,12 @@ TIMINGS = ("mitsuba_render.render_seconds",)
 
 
 def headline(results: dict[str, dict[str, Any]]) -> dict[str, Any]:
-    """The headline fields of a run's results, by `stage.field`."""
+    """The headline fields of a run's results, by `stage.field` (those of the stages it computed)."""
     out = {}
     for path in HEADLINE:
         stage, field = path.split(".", 1)
-        out[path] = results[stage][field]
+        if stage in results:
+            out[path] = results[stage][field]
     return out
 
 
@@ -75,6 +78,9 @@ def write(path: Path, config, stage_keys, results, checks) -> dict:
                 for c in checks],
         timings=timings,
     )
+    not_run = [s.name for s in graph.STAGES if s.name not in results]
+    if not_run:
+        doc["not_run"] = not_run          # a targeted run (`--only`): these stages were not computed
     doc = _plain(doc)
     path.write_text(json.dumps(doc, indent=1, allow_nan=False))
     return doc

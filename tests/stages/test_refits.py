@@ -1,5 +1,6 @@
 """Refits: derived constants against independent numpy/scipy computations, and cache reuse."""
 
+import json
 import shutil
 
 import numpy as np
@@ -166,3 +167,43 @@ def test_rms_metric_optimum_is_a_minimum(cache):
     assert rms_1000(Q - 0.002) > rms_1000(Q) < rms_1000(Q + 0.002)
 
 
+
+
+def _ancestors(name: str) -> set[str]:
+    """Every stage `name` reads from, transitively, from the graph's declared inputs."""
+    from pipeline.engine import graph
+    direct = {path.split(".", 1)[0] for path in graph.BY_NAME[name].inputs}
+    return direct.union(*(_ancestors(u) for u in direct)) if direct else set()
+
+
+@pytest.mark.slow
+def test_a_targeted_refit_runs_exactly_what_explain_names(cache, tmp_path):
+    """`--only accuracy` on a Q refit: explain's plan is accuracy and what it reads; the run computes
+    those stages and no other; checks of stages it did not run are "not run", none FAIL; results.json
+    and the report say what did not run; only the figures of computed stages are drawn."""
+    from pipeline.engine import checks, graph
+    from pipeline.publish.figures import FIGURES
+    from pipeline.run import explain
+    config = pipeline.load_config(paths.PAPER_CONFIG, ("derivation.Q=0.7", "derivation.constants=fitted"),
+                                  name="targeted")
+    plan = [name for name, _ in explain(config, cache, only=("accuracy",))]
+    assert set(plan) == _ancestors("accuracy") | {"accuracy"} and len(plan) < len(graph.STAGES)
+    outcome = run_derivation(config, cache_dir=cache.root, outputs=tmp_path, log=lambda s: None, only=("accuracy",))
+    assert list(outcome.results) == plan
+    assert set(outcome.computed) <= set(plan) and "accuracy" in outcome.computed
+    verdicts = {c.expectation.id: c for c in outcome.checks}
+    for c in verdicts.values():
+        ran = c.expectation.result.split(".", 1)[0] in plan
+        assert (c.verdict == checks.NOT_RUN) == (not ran)
+        assert c.verdict != checks.FAIL
+    assert verdicts["P12"].verdict == checks.NOT_RUN and verdicts["P1"].verdict == checks.PASS
+    folder = tmp_path / "targeted"
+    doc = json.loads((folder / "results.json").read_text())
+    assert doc["not_run"] == [s.name for s in graph.STAGES if s.name not in plan]
+    assert set(doc["stages"]) == set(plan) and all(p.split(".")[0] in plan for p in doc["headline"])
+    report = (folder / "report.md").read_text()
+    assert "Not run: " + ", ".join(doc["not_run"]) in report and "| P12 |" in report
+    drawn = {p.name for p in folder.glob("*.png")}
+    expected = {f.file for f in FIGURES if set(f.stages) <= set(plan) and "{n}" not in f.file}
+    assert drawn == expected and drawn
+    assert all(report.count(f"]({name})") == 1 for name in drawn)
