@@ -188,7 +188,7 @@ register(Lobe("f_b", "t^n", "power", lambda m, n, p: n, "return pow(t, n);",
 register(Lobe("f_2", "((n/2)(t - 1) + 1)^2", "quadratic", lambda m, n, p: k_2(n), QUADRATIC_GLSL,
               dict(color="C1", ls="-"), energy=(("phong", PHONG_COS_N),), sampler="quadratic"))
 register(Lobe("f_Q", "(k_Q(n)(t - 1) + 1)^2, k_Q(n) = (sqrt(Q) - 1) / (Q^(1/n) - 1)", "quadratic",
-              lambda m, n, p: k_Q(n, p.Q, m), QUADRATIC_GLSL, dict(color="C0", ls=":", lw=1.2), depends_on=("Q",),
+              lambda m, n, p: k_Q(n, p.Q, m), QUADRATIC_GLSL, dict(color="C2", ls=":", lw=1.8), depends_on=("Q",),
               energy=(("phong", PHONG_COS_N),), sampler="quadratic"))
 register(Lobe("f_Q2", "(({slope:g} n + {intercept:g})(t - 1) + 1)^2", "quadratic", lambda m, n, p: k_Q2(n, p.slope, p.intercept),
               QUADRATIC_GLSL, dict(color="C0", ls="-", lw=2.2), depends_on=("line",),
@@ -201,7 +201,7 @@ register(Lobe("SG", "exp(n (t - 1))", "exp", lambda m, n, p: n, "return exp(n * 
               dict(color="C3", ls="-"), energy=(("phong", PHONG_COS_N),)))
 register(Lobe("SG_Lagarde", f"exp((n + {SG_LAGARDE_SHIFT}) (t - 1))", "exp", lambda m, n, p: n + SG_LAGARDE_SHIFT,
               "return exp(rate * (t - 1.0));   // rate = n + 0.775 per material",
-              dict(color="C3", ls="--"), energy=(("phong", PHONG_COS_N),)))
+              dict(color="C5", ls="--"), energy=(("phong", PHONG_COS_N),)))
 
 # The reference every other lobe is measured against.
 REFERENCE = "f_b"

@@ -11,6 +11,7 @@ import matplotlib
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
+import matplotlib.ticker  # noqa: E402
 import numpy as np  # noqa: E402
 
 from ..engine.exponents import n_range  # noqa: E402
@@ -176,8 +177,9 @@ def fig9(out, config, r):
             label=f"best expression at each complexity ({sr['forms_searched']} searched)")
     front = sr["front"]
     xs = [m["complexity"] for m in front]
-    ax.step(xs + [max(xs[-1], 13)], [m["rms"] for m in front] + [front[-1]["rms"]], where="post", color="C0", lw=1.5,
-            zorder=3, label="exhaustive front (this run)")
+    searched = max(k for k, _ in best)            # the axis ends at the largest complexity searched
+    ax.step(xs + [searched + 0.5], [m["rms"] for m in front] + [front[-1]["rms"]], where="post", color="C0", lw=1.5,
+            zorder=3, label=f"exhaustive front (this run, complexity <= {searched})")
     ax.plot(xs, [m["rms"] for m in front], "o", color="C0", ms=7, zorder=4)
     lines = ["front (size, RMS, sympy's canonical form):"]
     for m in front:
@@ -199,15 +201,16 @@ def fig9(out, config, r):
     paper = [p for p in paper if p[1] is not None]
     ax.plot([p[0] for p in paper], [p[1] for p in paper], marker="*", ms=16, mfc="none", mec="black", ls="none",
             zorder=6, label="paper: TuringBot's five rows")
+    right = max([searched] + [p[0] for p in paper]) + 0.5
     floor = sr["rounding_rms_floor"]
     if floor > 0:
         ax.axhline(floor, color="C3", ls=":", lw=1)
-        ax.text(14.3, floor * 0.7, f"RMS of rounding y to {config['sample.y_decimals']} decimals alone: {floor:.2g}",
-                color="C3", fontsize=8, ha="right", va="top")
+        ax.text(right - 0.2, floor * 0.7, f"RMS of rounding y to {config['sample.y_decimals']} decimals alone: "
+                f"{floor:.2g}", color="C3", fontsize=8, ha="right", va="top")
     ax.set(yscale="log", xlabel="complexity (TuringBot's: constants, n, +, -, x count 1; / counts 2)",
            ylabel="RMS error on the sample (1/sr)", title="Fig. 9: complexity / error front of coef(n)",
-           xlim=(0, 14.5))
-    ax.set_xticks(range(0, 15))
+           xlim=(0, right))
+    ax.set_xticks(range(0, int(right) + 1))
     ax.legend(fontsize=8, loc="upper right")
     ax.grid(alpha=0.3, which="both")
     return _save(fig, out, "fig9_front.png")
@@ -227,32 +230,46 @@ def fig10(out, config, r):
     b.plot(n, 100 * (fitted / e["y"] - 1), label="fit / y(n) - 1")
     b.plot(n, 100 * (used / e["y"] - 1), ls="--", label="used / y(n) - 1")
     b.axhline(0, color="black", lw=0.8)
-    b.set_yscale("symlog", linthresh=0.1)
-    b.set(xlabel="n", ylabel="relative residual (%), > 0: energy created\n(linear within +-0.1 %)")
+    _asinh_percent(b, np.concatenate([100 * (fitted / e["y"] - 1), 100 * (used / e["y"] - 1)]))
+    b.set(xlabel="n", ylabel="relative residual (%), > 0: energy created\n(asinh axis: linear near 0, log beyond 0.1 %)")
     b.legend(fontsize=8)
     for ax in (a, b):
         ax.grid(alpha=0.3, which="both")
     return _save(fig, out, "fig10_coef_fit.png")
 
 
-def _excess_axis(ax, excess_ranges):
-    """Reflected / received - 1 in % on a symlog axis, so that a 0.1 % excess shows beside a 5 % deficit;
-    the ranges of n where energy is created shaded."""
+def _asinh_percent(ax, values_percent) -> None:
+    """An asinh y axis in percent, with plain ticks at 0 and +-0.1, 0.2, 0.5, 1, 2, 5, ... within the data."""
+    ax.set_yscale("asinh", linear_width=0.1)
+    top = float(np.nanmax(np.abs(values_percent)))
+    steps = [m * 10.0**e for e in range(-1, 3) for m in (1, 2, 5)]
+    ticks = [0.0] + [sign * t for t in steps if t <= 1.5 * top for sign in (1, -1)]
+    ticks = [t for t in ticks if np.nanmin(values_percent) - 0.5 * abs(t) <= t <= np.nanmax(values_percent) + 0.5 * abs(t)
+             or t == 0.0]
+    ax.set_yticks(sorted(ticks))
+    ax.yaxis.set_major_formatter(matplotlib.ticker.FuncFormatter(lambda v, _: f"{v:g}"))
+    ax.yaxis.set_minor_locator(matplotlib.ticker.NullLocator())
+
+
+def _excess_axis(ax, excess_ranges, values_percent):
+    """Reflected / received - 1 in % on an asinh axis (linear near 0, logarithmic beyond 0.1 %, and
+    smooth: a symlog axis would put kinks into smooth curves at +-0.1 %), so that a 0.1 % excess shows
+    beside a 5 % deficit; the ranges of n where energy is created shaded."""
     ax.axhline(0, color="black", lw=1.2, ls=":", label="exact normalization (0 for every n)")
     for lo, hi in excess_ranges:
         ax.axvspan(lo, hi, color="C3", alpha=0.1, lw=0)
     if excess_ranges:
         ax.plot([], [], color="C3", alpha=0.3, lw=8, label="energy created: n = "
                 + ", ".join(f"{lo:g} to {hi:g}" for lo, hi in excess_ranges))
-    ax.set_yscale("symlog", linthresh=0.1)
-    ax.set(xscale="log", xlabel="n", ylabel="reflected / received - 1 (%)\n(linear within +-0.1 %, log beyond)")
+    _asinh_percent(ax, values_percent)
+    ax.set(xscale="log", xlabel="n", ylabel="reflected / received - 1 (%)\n(asinh axis: linear near 0, log beyond 0.1 %)")
 
 
 def fig11(out, config, r):
     h = r["hemispherical"]
     fig, ax = plt.subplots(figsize=(7.5, 4.4))
     ax.plot(n_range(config), 100 * h["deviation"], color="C0", label="coef(n) 2 pi Int(n) - 1 (the paper's Int)")
-    _excess_axis(ax, h["hemi_excess_ranges"])
+    _excess_axis(ax, h["hemi_excess_ranges"], 100 * h["deviation"])
     p = paper_value(config, "hemispherical.hemi_max_abs_dev")
     if p is not None:
         ax.plot([2], [-100 * p], marker="*", ms=14, mfc="none", mec="black", ls="none",
@@ -296,7 +313,7 @@ def exact_normalization(out, config, r):
     e, h, n = r["exact_normalization"], r["hemispherical"], n_range(config)
     fig, (a, b) = plt.subplots(1, 2, figsize=(12.5, 4.6))
     a.plot(n, 100 * e["energy_run"], color="C0", label=f"run's coef {h['coef_scale_used']:g} ({h['coef_offset_used']:g} + n)")
-    _excess_axis(a, e["excess_ranges"])
+    _excess_axis(a, e["excess_ranges"], np.concatenate([100 * e["energy_run"], 100 * e["asymptotic_phong_dev"]]))
     a.plot(n, 100 * e["asymptotic_phong_dev"], ls="--", color="C2", label="(3 / (2 pi)) (k + 1/4) = exact - 1/(16 k^2)")
     a.set_title(f"Phong form (R.V): largest excess {100 * e['paper_coef_max_excess']:+.3f} % at n = "
                 f"{e['paper_coef_n_at_max_excess']:g}", fontsize=10)
@@ -503,7 +520,8 @@ def mitsuba_crops(out, config, r):
     """Per sphere: its sun highlight in the three lobes' displays, zoomed, and the FLIP maps there."""
     s = r["mitsuba_render"]
     stats = {(x["lobe"], x["n"]): x for x in s["statistics"]}
-    fig, axes = plt.subplots(len(s["exponents"]), 5, figsize=(14, 3.1 * len(s["exponents"])), squeeze=False)
+    fig, axes = plt.subplots(len(s["exponents"]), 5, figsize=(14, 3.5 * len(s["exponents"])), squeeze=False)
+    fig.subplots_adjust(hspace=0.32, top=0.9)     # room for the two-line titles of the FLIP panels
     for i, n in enumerate(s["exponents"]):
         ys, xs = np.nonzero(s["highlight"] == i)
         cy, cx = int(ys.mean()), int(xs.mean())
@@ -511,7 +529,7 @@ def mitsuba_crops(out, config, r):
         window = (slice(max(cy - half, 0), cy + half), slice(max(cx - half, 0), cx + half))
         panels = [(s["display"][l][window], f"{name}", None) for l, name in enumerate(MITSUBA_LOBES)]
         panels += [(s["flip_maps"][l][window].astype(np.float32),
-                    f"FLIP {name}: {stats[(name, n)]['flip_highlight']:.3f} over the highlight", "magma")
+                    f"FLIP of {name}\n{stats[(name, n)]['flip_highlight']:.3f} mean over the highlight", "magma")
                    for l, name in enumerate(MITSUBA_LOBES[1:])]
         for ax, (image, title, cmap) in zip(axes[i], panels):
             if cmap:

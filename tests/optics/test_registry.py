@@ -69,7 +69,7 @@ def with_upstream(names) -> tuple[str, ...]:
 
 
 TOY = registry.Lobe("f_toy", "((n/3)(t - 1) + 1)^2", "quadratic", lambda m, n, p: n / 3.0,
-                    registry.QUADRATIC_GLSL, dict(color="C5", ls="-."), energy=(("phong", "phong_cos_n"),))
+                    registry.QUADRATIC_GLSL, dict(color="C9", ls="-."), energy=(("phong", "phong_cos_n"),))
 
 
 @pytest.fixture()
@@ -99,7 +99,7 @@ def test_a_registered_lobe_reaches_the_comparison_its_figure_and_the_cost_table(
     monkeypatch.setattr(plots, "_save", lambda fig, out, name, **kw: drawn.setdefault(name, fig) and name)
     plots.lobe_comparison(tmp_path, light_config, results)
     texts = [(t.get_text(), t.get_color()) for ax in drawn["lobe_comparison.png"].axes for t in ax.texts]
-    assert ("f_toy", "C5") in texts
+    assert ("f_toy", "C9") in texts
     cost = {row["lobe"]: row for row in results["shader_cost"]["lobes"]}
     if results["shader_cost"]["available"]:
         assert cost["f_toy"]["arithmetic"] == cost["f_Q2"]["arithmetic"] and cost["f_toy"]["transcendental"] == 0
