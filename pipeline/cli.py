@@ -1,4 +1,4 @@
-"""Command line: `pipeline reproduce`, `refit`, `explain`, `graph`, `keys`, `cache`, `regress`.
+"""Command line: `pipeline reproduce`, `refit`, `explain`, `graph`, `keys`, `cache`, `regress`, `compare`.
 
 Exit codes (`pipeline.engine.faults`): 0 every check passes, differs with a documented cause or is
 not comparable; 1 a check failed or a solver did not converge; 2 bad config, arguments or CSV
@@ -20,6 +20,7 @@ from pathlib import Path
 
 from .engine import checks as checks_mod, faults, graph, paths
 from .engine.config import ConfigError, key_table, load_config
+from .publish.compare import CompareError
 from .symbolic.regress import RegressError
 
 
@@ -113,6 +114,34 @@ def _regress(args) -> int:
     return 0
 
 
+def _compare(args) -> int:
+    from .publish import compare
+
+    runs = compare.find_runs(args.folders)
+    plot = None
+    if args.plot is not None:
+        if ":" not in args.plot:
+            raise compare.CompareError(f"--plot {args.plot!r}: expected KEY:FIELD, e.g. derivation.Q:accuracy.d_f_Q2")
+        plot = args.plot.split(":", 1)
+    columns, rows = compare.table(runs)
+    sweep = len(args.folders) == 1 and not (Path(args.folders[0]) / "results.json").is_file()
+    out = Path(args.out) if args.out else Path(args.folders[0]) if sweep else paths.OUTPUTS / "compare"
+    out.mkdir(parents=True, exist_ok=True)
+    written = [out / "compare.csv"]
+    if plot is not None:
+        written.append(out / "compare.png")
+    # Each file written beside its final name and renamed into place: none is left half written.
+    compare.write_csv(out / ".compare.csv.tmp", columns, rows)
+    if plot is not None:
+        compare.plot(out / ".compare.tmp.png", runs, *plot)
+        os.replace(out / ".compare.tmp.png", out / "compare.png")
+    os.replace(out / ".compare.csv.tmp", out / "compare.csv")
+    print(compare.markdown(columns, rows))
+    print(f"\n{len(runs)} runs; config keys that differ: {', '.join(compare.differing_keys(runs)) or 'none'}; "
+          f"wrote {', '.join(str(p) for p in written)}")
+    return 0
+
+
 def main(argv: list[str] | None = None) -> int:
     """Runs one command; every way it can end is an exit code and at most one line on stderr."""
     faults.stop_on_signals()
@@ -171,6 +200,13 @@ def _main(argv: list[str] | None) -> int:
     reg.add_argument("--seed", type=int, default=0, help="seed of the random starts (default 0)")
     reg.add_argument("--out", default=None, metavar="DIR",
                      help="output folder (default outputs/regress/<file name without .csv>)")
+    cmp = sub.add_parser("compare", help="runs side by side: the config values that differ against the headline "
+                                         "metrics (markdown, compare.csv)")
+    cmp.add_argument("folders", nargs="+", metavar="DIR", help="run folders (outputs/<name>), or a folder of them")
+    cmp.add_argument("--plot", default=None, metavar="KEY:FIELD",
+                     help="also draw compare.png: headline FIELD against config KEY")
+    cmp.add_argument("--out", default=None, metavar="DIR",
+                     help="folder for compare.csv (default: the sweep folder given, else outputs/compare)")
     cch = sub.add_parser("cache", help="show the cache's size per stage; --prune removes unused entries")
     cch.add_argument("--prune", action="store_true")
     cch.add_argument("--older-than", type=float, default=14.0, metavar="DAYS",
@@ -183,6 +219,8 @@ def _main(argv: list[str] | None) -> int:
         if args.command == "graph":
             print(graph.describe())
             return 0
+        if args.command == "compare":
+            return _compare(args)
         if args.command == "cache":
             faults.check_folder(paths.CACHE, "the cache folder (PIPELINE_CACHE_DIR)")
             return _cache(args)
@@ -199,7 +237,7 @@ def _main(argv: list[str] | None) -> int:
             if args.dry_run:
                 return _explain(config, only)
             baseline_config = load_config(paths.PAPER_CONFIG)
-    except (ConfigError, RegressError) as e:
+    except (ConfigError, RegressError, CompareError) as e:
         print(f"error: {e}", file=sys.stderr)
         return faults.EXIT_BAD_INPUT
     # Both folders are checked before anything is computed.
