@@ -1,4 +1,4 @@
-"""Command line: `pipeline reproduce`, `refit`, `explain`, `graph`, `keys`, `cache`, `regress`, `compare`.
+"""Command line: `pipeline reproduce`, `refit`, `explain`, `graph`, `keys`, `cache`, `regress`, `compare`, `sweep`.
 
 Exit codes (`pipeline.engine.faults`): 0 every check passes, differs with a documented cause or is
 not comparable; 1 a check failed or a solver did not converge; 2 bad config, arguments or CSV
@@ -142,6 +142,20 @@ def _compare(args) -> int:
     return 0
 
 
+def _sweep(args) -> int:
+    from .sweep import load_sweep, run_sweep
+
+    sweep = load_sweep(args.file)
+    faults.check_folder(paths.CACHE, "the cache folder (PIPELINE_CACHE_DIR)")
+    faults.check_folder(paths.OUTPUTS, "the outputs folder (PIPELINE_OUTPUTS_DIR)")
+    start = time.perf_counter()
+    done = run_sweep(sweep, args.scheduler, args.scheduler_file, args.workers)
+    failed = [r["name"] for r in done if not r["ok"]]
+    print(f"\nsweep '{sweep.name}': {len(done) - len(failed)} of {len(done)} points done"
+          + (f", failed: {', '.join(failed)}" if failed else "") + f"; {time.perf_counter() - start:.1f} s")
+    return faults.EXIT_FAILED if failed else faults.EXIT_DONE
+
+
 def main(argv: list[str] | None = None) -> int:
     """Runs one command; every way it can end is an exit code and at most one line on stderr."""
     faults.stop_on_signals()
@@ -207,6 +221,12 @@ def _main(argv: list[str] | None) -> int:
                      help="also draw compare.png: headline FIELD against config KEY")
     cmp.add_argument("--out", default=None, metavar="DIR",
                      help="folder for compare.csv (default: the sweep folder given, else outputs/compare)")
+    swp = sub.add_parser("sweep", help="a grid of refits from a sweep file, on Dask (a LocalCluster by default)")
+    swp.add_argument("file", metavar="SWEEP.toml")
+    swp.add_argument("--scheduler", default=None, metavar="ADDRESS", help="an existing Dask scheduler, tcp://host:port")
+    swp.add_argument("--scheduler-file", default=None, metavar="FILE", help="an existing Dask cluster's scheduler file")
+    swp.add_argument("--workers", type=int, default=None, metavar="N",
+                     help="LocalCluster worker processes (default: one per core)")
     cch = sub.add_parser("cache", help="show the cache's size per stage; --prune removes unused entries")
     cch.add_argument("--prune", action="store_true")
     cch.add_argument("--older-than", type=float, default=14.0, metavar="DAYS",
@@ -221,6 +241,8 @@ def _main(argv: list[str] | None) -> int:
             return 0
         if args.command == "compare":
             return _compare(args)
+        if args.command == "sweep":
+            return _sweep(args)
         if args.command == "cache":
             faults.check_folder(paths.CACHE, "the cache folder (PIPELINE_CACHE_DIR)")
             return _cache(args)

@@ -70,10 +70,12 @@ def table(runs) -> tuple[list[str], list[list[Any]]]:
     metrics = list(dict.fromkeys(m for _, doc in runs for m in _metrics(doc)))
     rows = [[name] + [doc["config"].get(k) for k in keys] + [_metrics(doc).get(m) for m in metrics]
             for name, doc in runs]
-    return ["run"] + keys + metrics, rows
+    # A config key and a stage field can share a name (zone.level): the config's column says so.
+    labels = [f"{k} (config)" if k in metrics else k for k in keys]
+    return ["run"] + labels + metrics, rows
 
 
-def _cell(value) -> str:
+def cell(value) -> str:
     if value is None:
         return ""
     if isinstance(value, float):
@@ -87,9 +89,9 @@ def markdown(columns, rows, metrics_that_differ_only: bool = True) -> str:
     """The table as markdown; the terminal's shows only the metrics that differ between runs."""
     keep = list(range(len(columns)))
     if metrics_that_differ_only and len(rows) > 1:
-        keep = [i for i in keep if len({_cell(r[i]) for r in rows}) > 1 or i == 0]
+        keep = [i for i in keep if len({cell(r[i]) for r in rows}) > 1 or i == 0]
     lines = ["| " + " | ".join(columns[i] for i in keep) + " |", "|" + "---|" * len(keep)]
-    lines += ["| " + " | ".join(_cell(r[i]) for i in keep) + " |" for r in rows]
+    lines += ["| " + " | ".join(cell(r[i]) for i in keep) + " |" for r in rows]
     return "\n".join(lines)
 
 
@@ -97,7 +99,7 @@ def write_csv(path: Path, columns, rows) -> None:
     with open(path, "w", newline="") as f:
         writer = csv.writer(f)
         writer.writerow(columns)
-        writer.writerows([[_cell(v) for v in row] for row in rows])
+        writer.writerows([[cell(v) for v in row] for row in rows])
 
 
 def plot(path: Path, runs, key: str, field: str) -> None:
@@ -114,14 +116,14 @@ def plot(path: Path, runs, key: str, field: str) -> None:
     others = [k for k in differing_keys(runs) if k != key]
     lines: dict[str, list[tuple[Any, Any]]] = {}
     for _, doc in runs:
-        label = ", ".join(f"{k} = {_cell(doc['config'].get(k))}" for k in others) or field
+        label = ", ".join(f"{k} = {cell(doc['config'].get(k))}" for k in others) or field
         value = _metrics(doc).get(field)
         if value is not None:
             lines.setdefault(label, []).append((doc["config"].get(key), value))
     fig, ax = plt.subplots(figsize=(7, 4.2))
     for label, points in lines.items():
         points.sort(key=lambda p: (isinstance(p[0], str), p[0]))
-        ax.plot([_cell(p[0]) if isinstance(p[0], str) else p[0] for p in points], [p[1] for p in points],
+        ax.plot([cell(p[0]) if isinstance(p[0], str) else p[0] for p in points], [p[1] for p in points],
                 "o-", label=label)
     ax.set(xlabel=key, ylabel=field, title=f"{field} against {key} ({len(runs)} runs)")
     ax.grid(alpha=0.3)
