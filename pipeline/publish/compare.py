@@ -123,8 +123,9 @@ def plot(path: Path, runs, key: str, field: str) -> None:
     fig, ax = plt.subplots(figsize=(7, 4.2))
     for label, points in lines.items():
         points.sort(key=lambda p: (isinstance(p[0], str), p[0]))
-        ax.plot([cell(p[0]) if isinstance(p[0], str) else p[0] for p in points], [p[1] for p in points],
-                "o-", label=label)
+        categorical = any(isinstance(p[0], str) for p in points)   # settings without an order: points, dotted
+        ax.plot([cell(p[0]) if categorical else p[0] for p in points], [p[1] for p in points],
+                "o:" if categorical else "o-", label=label)
     ax.set(xlabel=key, ylabel=field, title=f"{field} against {key} ({len(runs)} runs)")
     ax.grid(alpha=0.3)
     if len(lines) > 1 or others:
