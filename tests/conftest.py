@@ -11,7 +11,6 @@ Compiled XLA programs are shared the same way, by every test and the CLI subproc
 import contextlib
 import fcntl
 import os
-import shutil
 from pathlib import Path
 
 import pytest
@@ -21,6 +20,8 @@ from pipeline.engine import paths
 from pipeline.engine.cache import Cache
 from pipeline.engine.exponents import n_range
 from pipeline.run import run_derivation, run_stages
+
+from .helpers import copy_cache
 
 LIGHT_CONFIG = Path(__file__).parent / "light.toml"
 
@@ -110,7 +111,7 @@ def light_run(light_config, light_cache, paper_run, shared_root):
 def refit_cache(paper_run, light_run, light_cache, tmp_path):
     """`tmp_path / "cache"`, a copy of the cache holding the paper's and the light run (what a CLI refit of
     the light config reads: it computes the paper's run too, for its comparison)."""
-    shutil.copytree(light_cache, tmp_path / "cache")
+    copy_cache(light_cache, tmp_path / "cache")
     return tmp_path / "cache"
 
 
@@ -119,7 +120,7 @@ def paper_outputs(paper_config, paper_run, paper_cache, tmp_path_factory):
     """The paper's run with its outputs written (figures, report, results.json), into a private copy of
     the session's cache, once per test module: (outputs folder, run outcome, cache root)."""
     root = tmp_path_factory.mktemp("paper_outputs")
-    shutil.copytree(paper_cache, root / "cache")
+    copy_cache(paper_cache, root / "cache")
     outcome = run_derivation(paper_config, cache_dir=root / "cache", outputs=root / "out", log=lambda s: None)
     return root / "out", outcome, root / "cache"
 

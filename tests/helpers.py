@@ -12,3 +12,12 @@ def cli_env(tmp_path, **extra):
     return dict(os.environ, PIPELINE_CACHE_DIR=str(tmp_path / "cache"), PIPELINE_OUTPUTS_DIR=str(tmp_path / "out"),
                 PIPELINE_XLA_CACHE_DIR=xla, **extra)
 
+
+
+def copy_cache(source, target):
+    """A copy of the session's shared cache, which the other worker may be writing meanwhile: its
+    hidden entries (a writer's temporary folder, the `.in-use` lock file) are left out, since they
+    can vanish while the copy runs; published entries are never changed in place."""
+    import shutil
+
+    shutil.copytree(source, target, ignore=shutil.ignore_patterns(".*"))

@@ -3,7 +3,6 @@
 import json
 import os
 import random
-import shutil
 import signal
 import subprocess
 import sys
@@ -17,7 +16,7 @@ from pipeline.engine.config import load_config
 from pipeline.run import run_derivation
 
 from .conftest import LIGHT_CONFIG
-from .helpers import cli_env
+from .helpers import cli_env, copy_cache
 
 HEAVY = ("jax", "sympy", "pysindy", "matplotlib", "optimistix")
 
@@ -86,7 +85,7 @@ def test_a_solver_that_does_not_converge_exits_1_naming_its_inputs(tmp_path):
 
 @pytest.mark.slow
 def test_explain_says_what_a_change_recomputes_without_computing(paper_run, paper_cache, tmp_path):
-    shutil.copytree(paper_cache, tmp_path / "cache")
+    copy_cache(paper_cache, tmp_path / "cache")
     before = sorted(p.name for p in (tmp_path / "cache").rglob("*") if p.is_dir())
     done = run_cli(["explain", "scan.curve_points=200"], tmp_path)
     assert done.returncode == 0, done.stderr
@@ -169,7 +168,7 @@ def test_runs_killed_or_interrupted_at_random_moments_recover_with_identical_res
     recovered = (folder / "results.json").read_bytes()
     # The same run, never interrupted (here, in this process), in a fresh copy of the cache.
     clean = tmp_path / "clean"
-    shutil.copytree(light_cache, clean / "cache")
+    copy_cache(light_cache, clean / "cache")
     config = load_config(str(LIGHT_CONFIG), ("scan.curve_points=25", "regression.threshold_count=21"), name="killed")
     run_derivation(config, cache_dir=clean / "cache", outputs=clean / "out", log=lambda s: None)
     assert recovered == (clean / "out" / "killed" / "results.json").read_bytes()

@@ -17,14 +17,14 @@ from pipeline.engine.cache import MEMO, Cache, code_modules, digest
 from pipeline.run import run_stages
 
 from ..conftest import LIGHT_CONFIG
-from ..helpers import cli_env
+from ..helpers import cli_env, copy_cache
 
 
 @pytest.fixture()
 def warm_cache(light_run, light_cache, tmp_path):
     """A private copy of the cache that already holds the light run."""
     target = tmp_path / "cache"
-    shutil.copytree(light_cache, target)
+    copy_cache(light_cache, target)
     return Cache(target)
 
 

@@ -1,7 +1,6 @@
 """The lobe registry: every lobe declared once; a lobe added at run time reaches the comparison table,
 the comparison figure and the cost table with no other file touched."""
 
-import shutil
 
 import jax.numpy as jnp
 import matplotlib
@@ -16,6 +15,7 @@ from pipeline.optics import lobes, registry
 from pipeline.publish import plots, report_beyond
 from pipeline.run import run_stages
 
+from ..helpers import copy_cache
 from ..oracles import k_Q_np
 
 PARAMS = registry.Parameters(Q=0.64, slope=0.448, intercept=0.099, coef_scale=0.214, coef_offset=0.807)
@@ -84,7 +84,7 @@ def toy_lobe():
 def test_a_registered_lobe_reaches_the_comparison_its_figure_and_the_cost_table(toy_lobe, light_run, light_cache,
                                                                                 light_config, tmp_path,
                                                                                 monkeypatch):
-    shutil.copytree(light_cache, tmp_path / "cache")
+    copy_cache(light_cache, tmp_path / "cache")
     results, _, computed = run_stages(light_config, Cache(tmp_path / "cache"), log=lambda s: None,
                                       stages=with_upstream({"lobe_comparison", "shader_cost"}))
     # The two registry stages recompute (the registry is part of their key); nothing upstream does.

@@ -37,7 +37,9 @@ def test_two_cold_runs_write_identical_results(light_config, light_run, light_ca
     from pipeline.engine.cache import MEMO, Cache
     from pipeline.publish import results as results_mod
     from pipeline.run import run_stages
-    shutil.copytree(light_cache, tmp_path / "cache")
+
+    from ..helpers import copy_cache
+    copy_cache(light_cache, tmp_path / "cache")
     written = []
     for i in range(2):
         for kind in ("mitsuba_render", f"{MEMO}/mitsuba_pair", f"{MEMO}/mitsuba_no_sun"):

@@ -1,7 +1,6 @@
 """Refits: derived constants against independent numpy/scipy computations, and cache reuse."""
 
 import json
-import shutil
 
 import numpy as np
 import pytest
@@ -14,6 +13,7 @@ from pipeline.engine.checks import NOT_COMPARABLE, PASS
 from pipeline.engine.graph import PAPER_STAGES
 from pipeline.run import run_derivation, run_stages
 
+from ..helpers import copy_cache
 from ..oracles import dense_max_errors, k_Q_np
 
 # The paper's stages up to the hemispherical check: what these tests check (the symbolic
@@ -26,7 +26,7 @@ N_SPOT = (2.0, 5.0, 20.0, 100.0, 400.0, 1000.0)
 @pytest.fixture(scope="module")
 def cache(paper_run, paper_cache, tmp_path_factory):
     target = tmp_path_factory.mktemp("refit") / "cache"
-    shutil.copytree(paper_cache, target)
+    copy_cache(paper_cache, target)
     return Cache(target)
 
 
