@@ -103,6 +103,22 @@ def main() -> int:
                               "derivation.Q=0.56", "--set", "derivation.constants=fitted",
                               "--only", "accuracy,hemispherical", "--out", "bench_q_only"], env)
         rows.append(("refit Q=0.56 --only 2 stages", seconds, 3.0, recomputed(out)))
+        # A sweep of 8 Q values (numbers only) on the LocalCluster, against 8 targeted refits in a row
+        # (other Q values, so that neither finds the other's work in the cache).
+        sweep_file = os.path.join(tmp, "bench_sweep.toml")
+        with open(sweep_file, "w") as f:
+            f.write('[sweep]\nname = "bench_sweep"\nonly = ["accuracy"]\nset = { "derivation.constants" = "fitted" }\n'
+                    '[axes]\n"derivation.Q" = [' + ", ".join(f"{0.50 + 0.01 * i:.2f}" for i in range(8)) + "]\n")
+        sweep_seconds, _ = timed([py, "-m", "pipeline", "sweep", sweep_file], env)
+        start = time.perf_counter()
+        for i in range(8):
+            timed([py, "-m", "pipeline", "refit", "--config", "configs/paper.toml", "--set",
+                   f"derivation.Q={0.60 + 0.01 * i:.2f}", "--set", "derivation.constants=fitted", "--only", "accuracy",
+                   "--out", f"bench_seq_{i}"], env)
+        sequential = time.perf_counter() - start
+        rows.append(("sweep of 8 Q, --only accuracy", sweep_seconds, None,
+                     f"8 targeted refits in a row: {sequential:.1f} s; the sweep must not be slower: "
+                     + ("ok" if sweep_seconds <= sequential else "MISSED")))
         seconds, out = timed([py, "-m", "pipeline", "refit", "--config", "configs/paper.toml", "--set",
                               "scan.curve_points=200", "--out", "bench_curve"], env)
         rows.append(("refit scan.curve_points=200", seconds, 3.0, recomputed(out)))
