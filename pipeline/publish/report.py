@@ -218,7 +218,10 @@ def write(path: Path, config, doc, r, checks, figures, baseline=None) -> None:
               f"with a documented cause, {n_fail} fail, {n_na} not comparable (this run's settings differ from "
               "those the expected value was reported for).", "",
               f"f_Q2 against f_2: max d {_pct(a['d_f_Q2'])} vs {_pct(r['f2_errors']['d_f_2'])} (gain "
-              f"{a['epicenter_gain']:.3f}x), max D {a['D_f_Q2']:.5f} vs {r['f2_errors']['D_f_2']:.5f}.", ""]
+              f"{a['epicenter_gain']:.3f}x), max D {a['D_f_Q2']:.5f} vs {r['f2_errors']['D_f_2']:.5f}. "
+              f"f_Q2 ends where cos^n is still {_pct(a['cutoff_peak_fraction_at_n_max'])} of its peak at n = "
+              f"{config['derivation.n_max']:g} ({_pct(a['cutoff_peak_fraction_limit'])} as n grows: exp(-1/a) for "
+              "the line's slope a): its highlight has a sharp edge where the reference's still glows.", ""]
     if baseline is not None:
         lines += _comparison(doc, baseline)
     if checks:

@@ -37,6 +37,13 @@ def run(config, inputs, memo):
     out |= dict(D_f_Q_zone_edge_x=float(np.arccos(1.0 - u_edge)), D_f_Q_in_blooming_zone=in_blooming,
                 D_f_Q_below_f_2=below, D_f_Q_below_f_2_in_blooming_zone=below and in_blooming)
 
+    # Where f_Q2 ends: its zero crossing t0 = 1 - 1/k, where cos^n is still (1 - 1/k)^n of its peak
+    # (0 where k <= 1: the lobe then reaches the horizon); for large n, exp(-1/a).
+    k = ks["f_Q2"]
+    fraction = np.where(k > 1.0, np.exp(n * np.log1p(-1.0 / np.where(k > 1.0, k, 2.0))), 0.0)
+    out |= dict(cutoff_peak_fraction_curve=fraction, cutoff_peak_fraction_at_n_max=float(fraction[-1]),
+                cutoff_peak_fraction_limit=float(np.exp(-1.0 / a)))
+
     x = np.linspace(0.0, np.pi / 2, 721)
     out |= dict(fig5_x=x, fig5_f_b=np.asarray(jax.jit(f_b)(x, FIG5_N)),
                 fig5_f_2=np.asarray(jax.jit(quadratic)(x, k_2(FIG5_N))),

@@ -114,3 +114,20 @@ def test_hemispherical_deviation_against_the_closed_form(paper_run):
     k = 0.448 * n + 0.099
     dev = 0.214 * (0.807 + n) * 2 * np.pi * (1 / (3 * k) - 1 / (12 * k**2)) - 1
     np.testing.assert_allclose(h["deviation"], dev, atol=1e-12)
+
+
+def test_where_f_Q2_ends_against_numpy_and_its_large_n_limit(paper_run):
+    """cos^n at f_Q2's zero crossing t0 = 1 - 1/k: recomputed from the line, and its large-n limit
+    exp(-1/a) reached as n grows (0.448 n + 0.099: 10.7 %)."""
+    a = paper_run["accuracy"]
+    line = paper_run["linear_coefficient"]
+    slope, intercept = line["slope_used"], line["intercept_used"]
+    n = np.arange(2.0, 1001.0)
+    k = slope * n + intercept
+    expected = np.where(k > 1, (1 - 1 / np.maximum(k, 1.0)) ** n, 0.0)
+    np.testing.assert_allclose(a["cutoff_peak_fraction_curve"], expected, rtol=1e-12, atol=1e-300)
+    assert a["cutoff_peak_fraction_limit"] == pytest.approx(np.exp(-1 / slope), rel=1e-15)
+    assert a["cutoff_peak_fraction_limit"] == pytest.approx(0.1073, abs=5e-5)
+    big = 1e7
+    assert (1 - 1 / (slope * big + intercept)) ** big == pytest.approx(a["cutoff_peak_fraction_limit"], rel=1e-6)
+    assert abs(a["cutoff_peak_fraction_at_n_max"] - a["cutoff_peak_fraction_limit"]) < 0.01
