@@ -221,7 +221,8 @@ def _outputs_key(config: Config, keys: dict[str, str], baseline: RunOutcome | No
     code = "".join(code_hash(m) for m in ("pipeline.publish.figures", "pipeline.publish.plots",
                                           "pipeline.publish.report",
                                           "pipeline.publish.results", "pipeline.publish.shader",
-                                          "pipeline.publish.tables", "pipeline.engine.checks"))
+                                          "pipeline.publish.tables", "pipeline.publish.summary",
+                                          "pipeline.engine.checks"))
     return digest("outputs", keys, baseline.keys if baseline else None, dict(config.values), config.source,
                   json.dumps([dataclasses.asdict(e) for e in config.expectations], sort_keys=True, default=str),
                   code)
@@ -262,7 +263,7 @@ def run_derivation(config: Config, cache_dir: Path = paths.CACHE, outputs: Path 
 
 
 def _write_outputs(tmp: Path, config, results, keys, checks, baseline, drawer) -> str:
-    from .publish import report, results as results_mod, shader, tables
+    from .publish import report, results as results_mod, shader, summary, tables
 
     doc = results_mod.write(tmp / "results.json", config, keys, results, checks)
     drawn = drawer.collect(tmp, results, keys)
@@ -272,5 +273,6 @@ def _write_outputs(tmp: Path, config, results, keys, checks, baseline, drawer) -
     else:
         tables.write(tmp, config, results)
         shader.write(tmp, config, results, keys)
-        report.write(tmp / "report.md", config, doc, results, checks, drawn, baseline)
+        top = summary.write(tmp / "summary.md", config, results)
+        report.write(tmp / "report.md", config, doc, results, checks, drawn, baseline, top)
     return f"{sum(len(v) for v in drawn.values())} figures, report.md, results.json"

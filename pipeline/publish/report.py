@@ -201,13 +201,14 @@ def write_targeted(path: Path, config, doc, checks, figures) -> None:
     path.write_text("\n".join(lines))
 
 
-def write(path: Path, config, doc, r, checks, figures, baseline=None) -> None:
+def write(path: Path, config, doc, r, checks, figures, baseline=None, summary_lines=()) -> None:
     """Writes report.md; `figures` maps report sections to the (file, caption) drawn for them."""
     a = r["accuracy"]
     n_fail = sum(c.verdict == checks_mod.FAIL for c in checks)
     n_diff = sum(c.verdict == checks_mod.DIFFERS for c in checks)
     n_na = sum(c.verdict == checks_mod.NOT_COMPARABLE for c in checks)
     lines = [f"# Derivation of the modified cosine-quadratic lobe: run `{config.name}`", ""]
+    lines += list(summary_lines)      # summary.md, the adopter's answer, first
     changed = [k for k in config.changed_from_file(config.values) if not k.startswith("run.")]
     if config["run.question"] and changed and "run.question" not in config.changed_from_file(["run.question"]):
         lines += [f"**Question of `{config.source}`** (this run changes {', '.join(changed)}): "

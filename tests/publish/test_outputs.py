@@ -143,3 +143,18 @@ def test_a_figure_reading_an_undeclared_config_key_is_an_error(paper_config):
     assert view["render.resolution"] == 512
     with pytest.raises(KeyError, match="figure read config key 'derivation.Q', which it does not declare"):
         view["derivation.Q"]
+
+
+def test_the_summary_is_one_screen_at_the_top_of_the_report(paper_outputs):
+    """summary.md: the question, the answer, a row per use, three facts; the same text opens report.md
+    (its numbers are checked against results.json with the report's, above)."""
+    out = paper_outputs[0] / "paper"
+    summary = (out / "summary.md").read_text()
+    report = (out / "report.md").read_text()
+    assert report.split("\n", 2)[2].startswith(summary)
+    assert len(summary.splitlines()) <= 25
+    for use in ("empirical Phong lobe, t = R.V", "empirical Blinn lobe, t = N.H", "half precision (mediump)",
+                "microfacet NDF (Cook-Torrance)"):
+        assert f"| {use}" in summary
+    assert "1. The paper's coef 0.214 (0.807 + n) is not the exact one" in summary
+    assert summary.count("\n3. f_Q2 ends where cos^n is still ") == 1
