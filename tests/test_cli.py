@@ -44,7 +44,7 @@ def test_fast_answers_import_no_numerical_library(args):
 
 @pytest.mark.parametrize("args,message", [
     (["refit", "--config", "configs/paper.toml", "--set", "nosuch.key=1", "--out", "x"],
-     "section 'nosuch' does not exist; allowed sections are run, derivation, paper_model"),
+     "section 'nosuch' does not exist; allowed sections are run, derivation, lobe, paper_model"),
     (["refit", "--config", "configs", "--out", "x"], "config file 'configs' is a directory"),
 ])
 def test_bad_config_paths_and_sections_exit_2(args, message, tmp_path):

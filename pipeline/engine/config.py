@@ -72,6 +72,10 @@ MITSUBA_SAMPLES_MAX = 2**31
 SPP_CHOICES = tuple(4**i for i in range(7))
 
 
+# The family's powers: m = 16 is four squarings; beyond it the lobe is a spherical Gaussian in all
+# but name (the tests' dense grids resolve it up to here).
+POWER_MAX = 16
+
 LIBRARY_TERMS = ("1", "n", "1/n", "1/n^2", "n^2", "sqrt(n)", "log(n)")
 METRICS = ("relative_epicenter", "absolute", "rms")
 FITS = ("least_squares", "minimax")
@@ -100,6 +104,9 @@ SCHEMA: tuple[Key, ...] = (
     Key("derivation.constants", "fitted", '"paper" or "fitted"', lambda v: v in ("paper", "fitted"),
         'constants used downstream: the paper\'s rounded ones (only with the paper\'s settings) or '
         "this run's full-precision fits"),
+    Key("lobe.power", 2, "an integer in [2, 16]", _int_in(2, POWER_MAX),
+        "power m of the family f_Qm = (k (cos x - 1) + 1)^m that every stage derives (paper: 2, f_Q2; "
+        "m = 3, 4, ... give f_Q3, f_Q4, ...)"),
     Key("paper_model.slope", 0.448, "a number in (0, 10]", lambda v: _positive(v) and v <= 10,
         "the paper's rounded slope of k_Q2(n)"),
     Key("paper_model.intercept", 0.099, "a number in [-10, 10], with slope n_min + intercept > 0",
@@ -189,6 +196,10 @@ SCHEMA: tuple[Key, ...] = (
         "cells of the log(1 + n u) grid that brackets each extremum of a lobe without a closed form"),
     Key("comparison.albedo_angles", 19, "an integer in [2, 1801]", lambda v: _is_int(v) and 2 <= v <= 1801,
         "incidence angles over [0, 90] degrees for the comparison's largest albedo"),
+    Key("front.powers", [2, 3, 4, 8], "a list of 1 to 8 distinct integers in [2, 16]",
+        lambda v: isinstance(v, list) and 1 <= len(v) <= 8 and len(set(v)) == len(v)
+        and all(_is_int(x) and 2 <= x <= POWER_MAX for x in v),
+        "powers m of the family compared in the accuracy/cost front, each with its own best Q and line"),
     Key("render.resolution", 512, "an integer in [16, 4096]", lambda v: _is_int(v) and 16 <= v <= 4096,
         "width and height of each rendered image, in pixels"),
     Key("render.exponents", [10, 100, 1000], "a list of 1 to 8 numbers in [1, 100000]",
@@ -274,7 +285,7 @@ class Config:
         v = self.values
         return (v["derivation.n_min"] == 2 and v["derivation.n_max"] == 1000
                 and v["derivation.Q"] in ("scan", 0.64) and v["derivation.metric"] == "relative_epicenter"
-                and v["derivation.fit"] == "least_squares")
+                and v["derivation.fit"] == "least_squares" and v["lobe.power"] == 2)
 
 
 def _fail(key: str, value: Any, allowed: str) -> ConfigError:
@@ -426,7 +437,8 @@ def validate(values: Mapping[str, Any], raw_expectations: Mapping[str, Any], sou
     if full["derivation.constants"] == "paper" and not config.uses_paper_settings():
         raise _fail("derivation.constants", "paper",
                     '"fitted": the paper\'s rounded constants hold only with its settings '
-                    '(n in [2, 1000], Q = 0.64 or "scan", metric "relative_epicenter", fit "least_squares")')
+                    '(n in [2, 1000], Q = 0.64 or "scan", metric "relative_epicenter", fit "least_squares", '
+                    'lobe.power 2)')
     return config
 
 

@@ -18,6 +18,7 @@ from collections.abc import Mapping
 from types import MappingProxyType
 
 RANGE = ("derivation.n_min", "derivation.n_max")
+POWER = ("lobe.power",)      # the family's power m: every stage that evaluates f_Q or f_Q2 reads it
 
 
 @dataclasses.dataclass(frozen=True)
@@ -51,7 +52,7 @@ STAGES: tuple[Stage, ...] = (
         "level": "level L of the epicenter zone {x : cos^n x >= L} [in (0, 1)]",
         "calibrated": "whether L was solved for from zone.calibration_target [bool]",
     }),
-    _stage("q_scan", "Figs. 2, 3", RANGE + ("derivation.metric", "scan.*", "solver.*"), ("zone.level",), {
+    _stage("q_scan", "Figs. 2, 3", RANGE + POWER + ("derivation.metric", "scan.*", "solver.*"), ("zone.level",), {
         "coarse_Q": "the coarse Q grid [array]",
         "coarse_objective": "the metric's objective on the coarse grid [array, fraction]",
         "Q_scan_coarse": "best Q on the coarse grid [in (0, 1)]",
@@ -80,7 +81,7 @@ STAGES: tuple[Stage, ...] = (
         "sample_size": "number of sample points [count]",
     }),
     _stage("linear_coefficient", "Fig. 4",
-           RANGE + ("derivation.fit", "derivation.constants", "paper_model.slope", "paper_model.intercept",
+           RANGE + POWER + ("derivation.fit", "derivation.constants", "paper_model.slope", "paper_model.intercept",
                     "paper_model.line_max_rel_error", "solver.*"),
            ("q_choice.Q_used", "sample.sample_n"), {
         "k_Q": f"k_Q(n) at Q_used [{PER_N}]",
@@ -90,8 +91,9 @@ STAGES: tuple[Stage, ...] = (
         "lin_rel_error": f"line / k_Q - 1 [{PER_N}]",
         "paper_line_rel_error": f"paper's line / k_Q - 1 [{PER_N}]",
         "paper_line_max_rel_error": "max over n of |paper's line / k_Q - 1| [fraction]",
-        "asymptotic_slope": "large-n slope of k_Q(n): (1 - sqrt Q) / (-ln Q) [1]",
-        "asymptotic_intercept": "large-n intercept of k_Q(n): (1 - sqrt Q) / 2 [1]",
+        "asymptotic_slope": "large-n slope of k_Q(n): (1 - Q^(1/m)) / (-ln Q) (m = 2: 1 - sqrt Q) [1]",
+        "asymptotic_intercept": "large-n intercept of k_Q(n): (1 - Q^(1/m)) / 2 [1]",
+        "slope_minus_asymptote": "lin_slope - asymptotic_slope: the fit against theory [1]",
         "intercept_variants": "slope and intercept of other least-squares fits (other n, relative weights) [list]",
         "intercept_at_bound": "intercept putting the paper's slope on its 0.5 % bound at n_min [1]",
         "slope_used": "slope a of k = a n + b used downstream (paper's or fitted) [1]",
@@ -109,7 +111,7 @@ STAGES: tuple[Stage, ...] = (
         "zone_levels": "zone levels of the sensitivity table: zone.sensitivity_levels and the level used [array]",
         "zone_d_f_2": "max d of f_2 per zone level [array, fraction]",
     }),
-    _stage("accuracy", "Figs. 5, 6", RANGE + ("solver.*",),
+    _stage("accuracy", "Figs. 5, 6", RANGE + POWER + ("solver.*",),
            ("zone.level", "q_choice.Q_used", "linear_coefficient.slope_used", "linear_coefficient.intercept_used",
             "f2_errors.d_f_2", "f2_errors.D_f_2", "f2_errors.zone_levels", "f2_errors.zone_d_f_2"),
            {
@@ -138,7 +140,7 @@ STAGES: tuple[Stage, ...] = (
         "fig5_f_b": "cos^20 x [array]", "fig5_f_2": "f_2 at n = 20 [array]", "fig5_f_Q2": "f_Q2 at n = 20 [array]",
         "fig5_zone_edge_x": "zone edge at n = 20 [rad]",
     }),
-    _stage("energy_dataset", "Fig. 7", RANGE + ("energy.*", "sample.y_decimals"),
+    _stage("energy_dataset", "Fig. 7", RANGE + POWER + ("energy.*", "sample.y_decimals"),
            ("linear_coefficient.slope_used", "linear_coefficient.intercept_used", "sample.sample_n"), {
         "Int": f"Int(n) = int_0^gran f_Q2 cos sin dg [{PER_N}]",
         "y": f"ideal normalization y(n) = 1 / (2 pi Int(n)) [{PER_N}, 1/sr]",
@@ -181,7 +183,7 @@ STAGES: tuple[Stage, ...] = (
         "hemi_max_excess": "max over n of coef(n) 2 pi Int(n) - 1 (> 0: energy created) [fraction]",
         "hemi_excess_ranges": "contiguous [first, last] n where it is > 0 [list]",
     }),
-    _stage("exact_normalization", "beyond", RANGE + ("albedo.quadrature_nodes",),
+    _stage("exact_normalization", "beyond", RANGE + POWER + ("albedo.quadrature_nodes",),
            ("linear_coefficient.slope_used", "linear_coefficient.intercept_used", "energy_dataset.Int",
             "hemispherical.coef_scale_used", "hemispherical.coef_offset_used"), {
         "coef_exact": f"exact Phong-form coef(n) = 1 / (2 pi Int_hemisphere) [{PER_N}, 1/sr]",
@@ -213,8 +215,10 @@ STAGES: tuple[Stage, ...] = (
         "expansion_inv_n": "its coefficient of 1/n [1/sr]",
         "expansion_scale": "two-term expansion as scale (offset + n): scale [1/sr]",
         "expansion_offset": "... and offset [n]",
-        "asymptotic_phong_dev": f"(3/(2pi))(k + 1/4) / coef_exact - 1 [{PER_N}]",
-        "asymptotic_blinn_dev": f"(3/(8pi))(k + 5/4) / coef_blinn - 1 [{PER_N}]",
+        "asymptotic_phong_dev": f"(c_1 k + c_0) / coef_exact - 1 (m = 2: (3/(2pi))(k + 1/4)) [{PER_N}]",
+        "asymptotic_blinn_dev": f"(c_1 k + c_0) / coef_blinn - 1 (m = 2: (3/(8pi))(k + 5/4)) [{PER_N}]",
+        "asymptotic_phong_terms": "[c_1, c_0] of the Phong form's two-term large-k coef [list]",
+        "asymptotic_blinn_terms": "[c_1, c_0] of the Blinn form's two-term large-k coef [list]",
         "asymptotic_phong_max_abs_dev": "max |asymptotic_phong_dev| [fraction]",
         "asymptotic_phong_max_excess": "max asymptotic_phong_dev [fraction]",
         "asymptotic_blinn_max_abs_dev": "max |asymptotic_blinn_dev| [fraction]",
@@ -222,15 +226,17 @@ STAGES: tuple[Stage, ...] = (
         "blinn_to_phong_ratio_at_n_max": "coef_blinn / coef_exact at n_max [ratio]",
     }),
     _stage("symbolic_regression", "Fig. 9, P14",
-           RANGE + ("symbolic.*", "sample.*", "paper_model.turingbot_size12"),
+           RANGE + POWER + ("symbolic.*", "sample.*", "paper_model.turingbot_size12"),
            ("sample.sample_n", "energy_dataset.sample_y", "energy_dataset.y", "exact_normalization.coef_exact",
+            "exact_normalization.Int_gran",
             "linear_coefficient.slope_used", "linear_coefficient.intercept_used"), {
         "front": "Pareto front of complexity against RMS: form, constants, canonical text, RMS, distance to the exact coef [list]",
         "forms_searched": "distinct expressions enumerated and fitted [count]",
         "forms_by_complexity": "expressions enumerated at each complexity [dict]",
         "front_complexities": "complexities of the front's members [list]",
         "best_rms_by_complexity": "lowest RMS at each complexity, on the front or not [dict, 1/sr]",
-        "equivalence_tolerance": "max |member - exact coef| over n below which a member counts as the exact form: the rounding step of y [1/sr]",
+        "equivalence_tolerance": "max |member - 1/(2 pi Int_gran)| over n (the dataset's closed form; the exact coef "
+                                 "where k >= 1) below which a member counts as the exact form: the rounding step of y [1/sr]",
         "rounding_rms_floor": "RMS that rounding y alone leaves, step / sqrt(12) (0 if y is not rounded) [1/sr]",
         "sr_exact_complexity": "smallest complexity whose front member is the exact coef within that tolerance (-1: none) [count]",
         "sr_exact_expression": "that member [text]",
@@ -238,10 +244,15 @@ STAGES: tuple[Stage, ...] = (
         "sr_exact_offset": "its offset [n]",
         "sr_exact_residue": "its residue [n^2]",
         "sr_exact_pole": "its pole [n]",
-        "exact_scale": "the exact coef's scale, 3a/(2 pi) [1/sr]",
-        "exact_offset": "the exact coef's offset, (4b + 1)/(4a) [n]",
-        "exact_residue": "the exact coef's residue, 1/(16 a^2) [n^2]",
-        "exact_pole": "the exact coef's pole, (1 - 4b)/(4a) [n]",
+        "exact_form_on_front": "whether the front's size-12 member is the exact form scale (offset + n + residue/(n - pole)) "
+                               "with four free constants, within the tolerance [bool]",
+        "exact_form_expression": "that member (empty if not) [text]",
+        "exact_form_max_rel_dev": "largest relative difference of its four constants from the closed-form ones "
+                                  "(NaN if not on the front) [fraction]",
+        "exact_scale": "the exact coef's scale, (m + 1) a / (2 pi) (m = 2: 3a/(2 pi)) [1/sr]",
+        "exact_offset": "the exact coef's offset, (b + c)/a, c = 1/(m + 2) (m = 2: (4b + 1)/(4a)) [n]",
+        "exact_residue": "the exact coef's residue, c^2/a^2 (m = 2: 1/(16 a^2)) [n^2]",
+        "exact_pole": "the exact coef's pole, (c - b)/a (m = 2: (1 - 4b)/(4a)) [n]",
         "paper_rows": "the paper's five rows fitted as forms of their own, each beside the front's member at its size [list]",
         "size1_constant": "the paper's size-1 form fitted here: constant constant [1/sr, n]",
         "size1_rms": "RMS error of the paper's size-1 form on the sample [1/sr]",
@@ -271,7 +282,7 @@ STAGES: tuple[Stage, ...] = (
         "paper12_max_rel_to_exact": "max over n of |the paper's size-12 row / exact coef - 1| [fraction]",
         "paper12_max_energy_excess": "max over n of the paper's size-12 row / exact coef - 1 (> 0: energy created) [fraction]",
     }),
-    _stage("directional_albedo", "beyond", RANGE + ("albedo.*",),
+    _stage("directional_albedo", "beyond", RANGE + POWER + ("albedo.*",),
            ("linear_coefficient.slope_used", "linear_coefficient.intercept_used", "hemispherical.coef_scale_used",
             "hemispherical.coef_offset_used", "exact_normalization.coef_exact", "exact_normalization.coef_blinn"), {
         "theta": "incidence angles [array, rad]",
@@ -296,7 +307,7 @@ STAGES: tuple[Stage, ...] = (
         "importance_sampling_max_abs_z": "largest |z| of those rows [standard errors]",
         "reciprocity_max_rel_dev": "max |f(L, V) / f(V, L) - 1| on random pairs [fraction]",
     }),
-    _stage("lobe_comparison", "beyond", RANGE + ("solver.*", "albedo.quadrature_nodes", "comparison.*"),
+    _stage("lobe_comparison", "beyond", RANGE + POWER + ("solver.*", "albedo.quadrature_nodes", "comparison.*"),
            ("zone.level", "q_choice.Q_used", "q_scan.Q_continuous_best", "linear_coefficient.slope_used",
             "linear_coefficient.intercept_used", "hemispherical.coef_scale_used", "hemispherical.coef_offset_used"), {
         "lobes": "the compared lobes: registry key, label, formula, operations per pixel and per material [list]",
@@ -310,19 +321,19 @@ STAGES: tuple[Stage, ...] = (
         "per_n": "per pair of lobes and measure (d, D): the [first, last] n where each is better [list]",
         "large_n": "d and D of every lobe at n = 10^4 and 10^6, their limits as n grows (within 1e-6) [list]",
     }),
-    _stage("half_precision", "beyond", ("render.exponents",),
+    _stage("half_precision", "beyond", POWER + ("render.exponents",),
            ("linear_coefficient.slope_used", "linear_coefficient.intercept_used"), {
         "rows": "per n, lobe and route for 1 - cos x: distinct float16 values over the visible highlight, and "
                 "the largest absolute error against float64 [list]",
         "samples": "angles sampled per n [count]",
     }),
-    _stage("shader_cost", "beyond", (), (), {
+    _stage("shader_cost", "beyond", POWER, (), {
         "available": "whether glslangValidator and spirv-opt were found [bool]",
         "tools": "their versions, or what is missing [text]",
         "lobes": "per lobe: GLSL body, optimized-SPIR-V instruction counts (arithmetic, division, "
                  "transcendental) and each opcode [list, instructions per pixel]",
     }),
-    _stage("render", "beyond", ("render.*",) + RANGE,
+    _stage("render", "beyond", ("render.*",) + RANGE + POWER,
            ("zone.level", "linear_coefficient.slope_used", "linear_coefficient.intercept_used",
             "f2_errors.d_f_2_curve", "accuracy.d_f_Q2_curve"), {
         "lobes": "rendered lobes, reference first [list]",
@@ -339,7 +350,7 @@ STAGES: tuple[Stage, ...] = (
         "psnr_f_Q2_min": "worst PSNR of f_Q2's displayed images [dB]",
         "psnr_f_2_min": "worst PSNR of f_2's displayed images [dB]",
     }),
-    _stage("mitsuba_render", "beyond", ("mitsuba.*", "albedo.quadrature_nodes"),
+    _stage("mitsuba_render", "beyond", POWER + ("mitsuba.*", "albedo.quadrature_nodes"),
            ("linear_coefficient.slope_used", "linear_coefficient.intercept_used", "zone.level"), {
         "variant": "Mitsuba variant that ran (llvm_ad_rgb, or the scalar_rgb fallback) [text]",
         "spp": "samples per pixel of each render [count]",

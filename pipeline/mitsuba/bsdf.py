@@ -1,10 +1,12 @@
-"""The lobes as Mitsuba 3 BSDF plugins: the reference cos^n and the quadratic lobe (f_2, f_Q2),
+"""The lobes as Mitsuba 3 BSDF plugins: the reference cos^n and the family's lobe (f_2, f_Q2, f_Qm),
 Phong and Blinn forms, each with its normalization, importance-sampled in closed form.
 
 One plugin, `cosquad_lobe`, with properties
-- `shape`: "power" (max(c, 0)^n, the reference f_b) or "quadratic" (max(k (c - 1) + 1, 0)^2);
+- `shape`: "power" (max(c, 0)^n, the reference f_b) or "linear_power" (max(k (c - 1) + 1, 0)^m);
+- `power`: the family's integer power m (default 2, the paper's quadratic), evaluated by squarings
+  and multiplies;
 - `form`: "phong" (c = wo . R, R the mirror direction of wi) or "blinn" (c = N . h, h the half vector);
-- `exponent` n, `k` (quadratic only), `coef` (the normalization: the BSDF is coef * lobe(c); by
+- `exponent` n, `k` (the family only), `coef` (the normalization: the BSDF is coef * lobe(c); by
   default the lobe's exact normalization at normal incidence, `normalization()`);
 - `sampler`: "lobe" (the closed-form importance sampler of `pipeline.optics.sampling`, for cos^n its
   standard one c = xi^(1/(n+1))) or "cosine" (cosine-weighted hemisphere, for comparison).
@@ -12,7 +14,9 @@ One plugin, `cosquad_lobe`, with properties
 Phong form: the axis cosine c is drawn around R and the direction returned with the lobe's pdf over
 the whole sphere; a direction below the surface gets weight 0 and `pdf` returns 0 there, so the pdf
 of what is returned with nonzero weight equals `pdf`. Blinn form: the half vector is drawn around
-the normal the same way and wo is wi reflected about it, with pdf pdf_h / (4 |wo . h|).
+the normal the same way and wo is wi reflected about it, with pdf (pdf_h(h) + pdf_h(-h)) / (4 |wo . h|)
+(both half vectors reflect wi to wo; the second is drawn only where the lobe reaches below the
+horizon, k < 1).
 
 Everything is vectorized Dr.Jit arithmetic (no per-sample Python): in an `llvm_ad_*` variant a call
 on a million directions is one compiled kernel. Mitsuba is imported by `register()` only.
@@ -26,6 +30,8 @@ import os
 import subprocess
 import sys
 
+from ..optics.registry import power_steps
+
 NAME = "cosquad_lobe"
 FAST_VARIANT, FALLBACK_VARIANT = "llvm_ad_rgb", "scalar_rgb"
 
@@ -36,9 +42,10 @@ _PROBE = ("import mitsuba as mi\n"
 
 
 @functools.cache
-def normalization(shape: str, form: str, n: float, k: float, nodes: int = 96) -> float:
-    """The exact normalization of a lobe (`shape` "power" or "quadratic", the registry's families) at normal incidence: 1 over
-    its albedo per unit coef there, by the pipeline's hemisphere quadrature (`pipeline.optics.albedo`)."""
+def normalization(shape: str, form: str, n: float, k: float, nodes: int = 96, power: int = 2) -> float:
+    """The exact normalization of a lobe (`shape` "power" or "linear_power", the registry's families)
+    at normal incidence: 1 over its albedo per unit coef there, by the pipeline's hemisphere
+    quadrature (`pipeline.optics.albedo`)."""
     import numpy as np
 
     from ..optics.albedo import albedo_table
@@ -46,7 +53,7 @@ def normalization(shape: str, form: str, n: float, k: float, nodes: int = 96) ->
     if shape == "power":
         albedo = albedo_table(form, "power", n, n, 1.0, np.zeros(1), nodes)
     else:
-        albedo = albedo_table(form, "quadratic", n, k, min(1.0 / k, 2.0), np.zeros(1), nodes)
+        albedo = albedo_table(form, "linear_power", n, k, min(1.0 / k, 2.0), np.zeros(1), nodes, power)
     return 1.0 / float(albedo[0, 0])
 
 
@@ -91,46 +98,59 @@ def _make_class():
     class CosQuadLobe(mi.BSDF):
         def __init__(self, props):
             mi.BSDF.__init__(self, props)
-            self.shape = props.get("shape", "quadratic")
+            self.shape = props.get("shape", "linear_power")
+            self.power = int(props.get("power", 2))
             self.form = props.get("form", "phong")
             self.sampler = props.get("sampler", "lobe")
             self.n = float(props.get("exponent", 100.0))
             self.k = float(props.get("k", 1.0))
             self.coef = float(props["coef"]) if "coef" in props else normalization(
-                self.shape, self.form, self.n, self.k if self.shape == "quadratic" else self.n)
-            for name, value, allowed in (("shape", self.shape, ("power", "quadratic")),
+                self.shape, self.form, self.n, self.k if self.shape == "linear_power" else self.n, power=self.power)
+            for name, value, allowed in (("shape", self.shape, ("power", "linear_power")),
                                          ("form", self.form, ("phong", "blinn")),
                                          ("sampler", self.sampler, ("lobe", "cosine"))):
                 if value not in allowed:
                     raise ValueError(f"{NAME}: {name} = {value!r}; allowed: {', '.join(allowed)}")
-            if self.shape == "quadratic" and not self.k > 0:
+            if self.shape == "linear_power" and not self.k > 0:
                 raise ValueError(f"{NAME}: k = {self.k} must be > 0")
+            if not 1 <= self.power <= 64:
+                raise ValueError(f"{NAME}: power = {self.power} must be an integer in [1, 64]")
             flags = mi.BSDFFlags.GlossyReflection | mi.BSDFFlags.FrontSide
             self.m_components = [flags]
             self.m_flags = flags
-            w0 = max(1.0 - 2.0 * self.k, 0.0) ** 3       # quadratic: w^3 at c = -1 (0 unless k < 1/2)
-            self.w0_cubed = w0
-            self.z = 2.0 * math.pi * (1.0 - w0) / (3.0 * self.k)
+            m1 = self.power + 1
+            w0 = max(1.0 - 2.0 * self.k, 0.0) ** m1      # the family: w^(m+1) at c = -1 (0 unless k < 1/2)
+            self.w0_power = w0
+            self.z = 2.0 * math.pi * (1.0 - w0) / (m1 * self.k)
+
+        def family_power(self, b):
+            """b^m by squarings and multiplies (`registry.power_steps`), never a pow."""
+            values = {"b": b}
+            steps, result = power_steps("b", self.power)
+            for name, expression in steps:
+                left, right = (values[v.strip()] for v in expression.split("*"))
+                values[name] = left * right
+            return values[result]
 
         # The lobe and its sampler as functions of the axis cosine c.
         def lobe(self, c):
             if self.shape == "power":
                 return dr.power(dr.maximum(c, 0.0), self.n)
-            b = dr.maximum(self.k * (c - 1.0) + 1.0, 0.0)
-            return b * b
+            return self.family_power(dr.maximum(self.k * (c - 1.0) + 1.0, 0.0))
 
         def axis_pdf(self, c):
             """Solid-angle pdf of directions at axis cosine c."""
             if self.shape == "power":
                 return dr.select(c > 0.0, (self.n + 1.0) / (2.0 * math.pi) * dr.power(dr.maximum(c, 0.0), self.n), 0.0)
             w = self.k * (c - 1.0) + 1.0
-            return dr.select(w > 0.0, w * w / self.z, 0.0)
+            return dr.select(w > 0.0, self.family_power(dr.maximum(w, 0.0)) / self.z, 0.0)
 
         def axis_cosine(self, xi):
             """The axis cosine from one uniform number (inverse CDF)."""
             if self.shape == "power":
                 return dr.power(xi, 1.0 / (self.n + 1.0))
-            w = dr.cbrt(self.w0_cubed + xi * (1.0 - self.w0_cubed))
+            mixed = self.w0_power + xi * (1.0 - self.w0_power)
+            w = dr.cbrt(mixed) if self.power == 2 else dr.power(mixed, 1.0 / (self.power + 1))
             return 1.0 + (w - 1.0) / self.k
 
         def cosine(self, wi, wo):
@@ -154,7 +174,9 @@ def _make_class():
                 c, h = self.cosine(si.wi, wo)
                 p = self.axis_pdf(c)
                 if self.form == "blinn":
-                    p = p / (4.0 * dr.abs(dr.dot(wo, h)))
+                    # Both h and -h reflect wi to wo; where the lobe reaches below the horizon
+                    # (k < 1) the sampler draws either, so both densities count.
+                    p = (p + self.axis_pdf(-c)) / (4.0 * dr.abs(dr.dot(wo, h)))
             return dr.select(active & (cos_i > 0.0) & (cos_o > 0.0), p, 0.0)
 
         def eval_pdf(self, ctx, si, wo, active=True):
@@ -187,7 +209,7 @@ def _make_class():
             pass
 
         def to_string(self):
-            return (f"CosQuadLobe[shape={self.shape}, form={self.form}, n={self.n}, k={self.k}, "
+            return (f"CosQuadLobe[shape={self.shape}, power={self.power}, form={self.form}, n={self.n}, k={self.k}, "
                     f"coef={self.coef}, sampler={self.sampler}]")
 
     return CosQuadLobe

@@ -45,9 +45,9 @@ def scene_dict(lobes, width: int, height: int, spp: int, integrator: dict | None
     return scene
 
 
-def lobe_dict(shape: str, n: float, k: float, coef: float, sampler: str = "lobe") -> dict:
+def lobe_dict(shape: str, n: float, k: float, coef: float, sampler: str = "lobe", power: int = 2) -> dict:
     return {"type": bsdf.NAME, "shape": shape, "form": "blinn", "exponent": float(n), "k": float(k),
-            "coef": float(coef), "sampler": sampler}
+            "coef": float(coef), "sampler": sampler, "power": int(power)}
 
 
 def render(lobes, width: int, height: int, spp: int, seed: int, sun: bool = True) -> np.ndarray:

@@ -105,12 +105,12 @@ def directional_albedo(form: str, lobe, n, u_end, coef, theta_i, nodes, weights)
 N_BLOCK, SMALL_N_BLOCK, THETA_BLOCK = 64, 8, 16
 
 
-@functools.partial(jax.jit, static_argnames=("form", "nodes"))
-def _block(form, nodes, shape_index, n, p, u_end, theta_i):
+@functools.partial(jax.jit, static_argnames=("form", "nodes", "power"))
+def _block(form, nodes, shape_index, n, p, u_end, theta_i, power):
     x, w = np.polynomial.legendre.leggauss(nodes)
 
     def one(n_, p_, e_, t_):
-        return directional_albedo(form, lambda u, _: lobe_of_shape(shape_index, u, p_), n_, e_, 1.0, t_, x, w)
+        return directional_albedo(form, lambda u, _: lobe_of_shape(shape_index, u, p_, power), n_, e_, 1.0, t_, x, w)
     return jax.vmap(lambda n_, p_, e_: jax.vmap(lambda t_: one(n_, p_, e_, t_))(theta_i))(n, p, u_end)
 
 
@@ -120,9 +120,9 @@ def _padded(values, block):
     return np.concatenate([values, np.full(size - len(values), values[-1])])
 
 
-def albedo_table(form: str, shape: str, n, p, u_end, theta_i, nodes: int) -> np.ndarray:
-    """a / coef over the grid n x theta_i (both 1-D) of the lobe `SHAPES[shape](u, p)`, with p and
-    u_end given per n (or as scalars); returns a numpy array [len(n), len(theta_i)].
+def albedo_table(form: str, shape: str, n, p, u_end, theta_i, nodes: int, power: int = 2) -> np.ndarray:
+    """a / coef over the grid n x theta_i (both 1-D) of the lobe `SHAPES[shape](u, p, power)`, with
+    p and u_end given per n (or as scalars); returns a numpy array [len(n), len(theta_i)].
 
     The albedo is linear in the normalization: multiply row i by coef(n_i).
     """
@@ -134,7 +134,8 @@ def albedo_table(form: str, shape: str, n, p, u_end, theta_i, nodes: int) -> np.
     angles = _padded(theta_i, THETA_BLOCK)
     index = SHAPE_NAMES.index(shape)
     # Every block is dispatched before any is read back, so that computation overlaps dispatch.
-    blocks = {(i, j): _block(form, nodes, index, *(v[i:i + rows] for v in per_n), angles[j:j + THETA_BLOCK])
+    blocks = {(i, j): _block(form, nodes, index, *(v[i:i + rows] for v in per_n), angles[j:j + THETA_BLOCK],
+                             int(power))
               for i in range(0, len(per_n[0]), rows) for j in range(0, len(angles), THETA_BLOCK)}
     out = np.empty((len(per_n[0]), len(angles)))
     for (i, j), block in blocks.items():
@@ -142,8 +143,8 @@ def albedo_table(form: str, shape: str, n, p, u_end, theta_i, nodes: int) -> np.
     return out[: len(n), : len(theta_i)]
 
 
-@functools.partial(jax.jit, static_argnames=("form", "shape", "samples"))
-def monte_carlo_albedo(form: str, shape: str, p, u_end, coef, theta_i, key, samples: int):
+@functools.partial(jax.jit, static_argnames=("form", "shape", "samples", "power"))
+def monte_carlo_albedo(form: str, shape: str, p, u_end, coef, theta_i, key, samples: int, power: int = 2):
     """(estimate, standard error) of a(theta_i) by uniform sampling of the lobe's cap u in [0, u_end].
 
     The direction (V for Phong, H for Blinn) is drawn uniformly in solid angle on the cap of the
@@ -169,7 +170,7 @@ def monte_carlo_albedo(form: str, shape: str, p, u_end, coef, theta_i, key, samp
         LH = H @ L
         V = 2.0 * LH[:, None] * H - L
         weight = jnp.where((LH > 0.0) & (V[:, 2] > 0.0), 4.0 * LH * V[:, 2], 0.0)
-    values = coef * SHAPES[shape](u, p) * weight * TWO_PI * cap
+    values = coef * SHAPES[shape](u, p, power) * weight * TWO_PI * cap
     return jnp.mean(values), jnp.std(values) / np.sqrt(samples)
 
 
@@ -181,11 +182,11 @@ def random_directions(key, count: int):
     return v.at[:, 2].set(jnp.abs(v[:, 2]))
 
 
-@functools.partial(jax.jit, static_argnames=("form", "shape"))
-def reciprocity_error(form: str, shape: str, p, coef, L, V):
+@functools.partial(jax.jit, static_argnames=("form", "shape", "power"))
+def reciprocity_error(form: str, shape: str, p, coef, L, V, power: int = 2):
     """max |f(L, V) - f(V, L)| / f(L, V) over the direction pairs (rows of L, V) where f(L, V) > 0."""
     def lobe(u, _):
-        return SHAPES[shape](u, p)
+        return SHAPES[shape](u, p, power)
     f_lv = brdf(form, lobe, 0.0, coef, L, V)
     f_vl = brdf(form, lobe, 0.0, coef, V, L)
     return jnp.max(jnp.abs(f_lv - f_vl) / jnp.maximum(jnp.abs(f_lv), 1e-300) * (f_lv > 0))

@@ -1,11 +1,17 @@
 """The lobes' JAX code: the shape families every registry lobe evaluates with, as functions of
 u = 1 - cos x, and the paper's lobes as functions of x.
 
-Every quadratic lobe of the paper has the form (k (cos x - 1) + 1)^2, i.e. (1 - k u)^2, and is
-clamped to 0 beyond its zero crossing cos x = 1 - 1/k (u = 1/k). They differ only in k(n), whose
-formulas the registry declares (`pipeline.optics.registry`: k_2 = n / 2, the level-matched k_Q,
-the line k_Q2 = slope n + intercept). The reference lobe f_b (Phong / Blinn-Phong) is cos(x)^n.
+Every lobe of the paper's family has the form (k (cos x - 1) + 1)^m, i.e. (1 - k u)^m, with the
+power m = 2 in the paper (`lobe.power` in the config: any integer m >= 2), clamped to 0 beyond its
+zero crossing cos x = 1 - 1/k (u = 1/k). They differ only in k(n), whose formulas the registry
+declares (`pipeline.optics.registry`: k_2 = n / 2, the level-matched k_Q, the line
+k_Q2 = slope n + intercept). The reference lobe f_b (Phong / Blinn-Phong) is cos(x)^n.
+
+The power is a static (Python int) argument: `base ** m` with an int m is m - 1 multiplies or
+fewer (squarings), never a pow, and each m compiles its own program.
 """
+
+import functools
 
 import jax
 import jax.numpy as jnp
@@ -19,9 +25,9 @@ def k_2(n):
     return registry.k_2(n)
 
 
-def k_Q(n, Q):
-    """Coefficient k of f_Q for Q in (0, 1) (`registry.k_Q` in JAX)."""
-    return registry.k_Q(n, Q, jnp)
+def k_Q(n, Q, power: int = 2):
+    """Coefficient k of f_Q for Q in (0, 1) and the power m (`registry.k_Q` in JAX)."""
+    return registry.k_Q(n, Q, jnp, power)
 
 
 def k_Q2(n, slope, intercept):
@@ -34,10 +40,10 @@ def f_b_u(u, n):
     return (1.0 - u) ** n
 
 
-def quadratic_u(u, k):
-    """Quadratic lobe (1 - k u)^2 at u = 1 - cos x, clamped to 0 for u >= 1/k."""
+def linear_power_u(u, k, power: int = 2):
+    """The family's lobe (1 - k u)^m at u = 1 - cos x, clamped to 0 for u >= 1/k."""
     base = 1.0 - k * u
-    return jnp.where(base > 0.0, base * base, 0.0)
+    return jnp.where(base > 0.0, base ** int(power), 0.0)
 
 
 def f_b(x, n):
@@ -45,66 +51,68 @@ def f_b(x, n):
     return f_b_u(1.0 - jnp.cos(x), n)
 
 
-def quadratic(x, k):
-    """Quadratic lobe (k (cos x - 1) + 1)^2, clamped to 0 past its zero crossing."""
-    return quadratic_u(1.0 - jnp.cos(x), k)
+def linear_power(x, k, power: int = 2):
+    """The family's lobe (k (cos x - 1) + 1)^m, clamped to 0 past its zero crossing."""
+    return linear_power_u(1.0 - jnp.cos(x), k, power)
 
 
 def f_2(x, n):
     """The original cosine-quadratic lobe ((n/2)(cos x - 1) + 1)^2, clamped."""
-    return quadratic(x, k_2(n))
+    return linear_power(x, k_2(n))
 
 
-def f_Q(x, n, Q):
-    """The level-matched lobe (k_Q(n)(cos x - 1) + 1)^2, clamped."""
-    return quadratic(x, k_Q(n, Q))
+def f_Q(x, n, Q, power: int = 2):
+    """The level-matched lobe (k_Q(n)(cos x - 1) + 1)^m, clamped."""
+    return linear_power(x, k_Q(n, Q, power), power)
 
 
-def f_Q2(x, n, slope, intercept):
-    """The paper's model ((slope n + intercept)(cos x - 1) + 1)^2, clamped."""
-    return quadratic(x, k_Q2(n, slope, intercept))
+def f_Q2(x, n, slope, intercept, power: int = 2):
+    """The paper's model ((slope n + intercept)(cos x - 1) + 1)^m (m = 2 in the paper), clamped."""
+    return linear_power(x, k_Q2(n, slope, intercept), power)
 
 
 def gran(k):
-    """Zero crossing x of a quadratic lobe: arccos(1 - 1/k); exceeds pi/2 when k < 1."""
+    """Zero crossing x of a lobe of the family: arccos(1 - 1/k); exceeds pi/2 when k < 1."""
     return jnp.arccos(1.0 - 1.0 / k)
 
 
-# The shape families, as functions of (u, p) with one parameter p per exponent n: the coefficient
-# k for the quadratics, n for cos^n and Schlick, the rate for the exponentials. A family is a static
-# argument (or a traced index) of the jitted functions that evaluate lobes, so each compiles once
-# and every lobe of that family (f_2, f_Q, f_Q2 are all "quadratic") reuses the program.
+# The shape families, as functions of (u, p, power) with one parameter p per exponent n: the
+# coefficient k for the family (k (t - 1) + 1)^m, n for cos^n and Schlick, the rate for the
+# exponentials; only the family reads the (static) power. A family is a static argument (or a
+# traced index) of the jitted functions that evaluate lobes, so each compiles once per power and
+# every lobe of that family (f_2, f_Q, f_Q2 are all "linear_power") reuses the program.
 # Past u = 1 (t = cos x < 0, reachable in the Phong form) a shader's max(t, 0) holds the lobe at
 # its t = 0 value: 0 for cos^n and Schlick, exp(-p) for the exponentials.
-def power_u(u, n):
+def power_u(u, n, power: int = 2):
     """cos^n at u, with t clamped at 0."""
     return f_b_u(jnp.minimum(u, 1.0), n)
 
 
-def schlick_u(u, n):
+def schlick_u(u, n, power: int = 2):
     """Schlick's t / (n - n t + t) at u, with t clamped at 0."""
     u = jnp.minimum(u, 1.0)
     return (1.0 - u) / (n * u + 1.0 - u)
 
 
-def exp_u(u, rate):
+def exp_u(u, rate, power: int = 2):
     """exp(rate (t - 1)) at u, with t clamped at 0."""
     return jnp.exp(-rate * jnp.minimum(u, 1.0))
 
 
-SHAPES = {"quadratic": quadratic_u, "power": power_u, "schlick": schlick_u, "exp": exp_u}
+SHAPES = {"linear_power": linear_power_u, "power": power_u, "schlick": schlick_u, "exp": exp_u}
 SHAPE_NAMES = registry.SHAPE_NAMES
 assert tuple(SHAPES) == SHAPE_NAMES, "the registry names the shape families of this module, in this order"
 
 
 def support_end(shape: str, p):
-    """The u past which the lobe is 0: 1/k for a quadratic; elsewhere the lobe is held at its t = 0
+    """The u past which the lobe is 0: 1/k for the family; elsewhere the lobe is held at its t = 0
     value past u = 1, so its support is the whole sphere (u up to 2)."""
     p = np.asarray(p, dtype=np.float64)
-    return 1.0 / p if shape == "quadratic" else np.full_like(p, 2.0)
+    return 1.0 / p if shape == "linear_power" else np.full_like(p, 2.0)
 
 
-def lobe_of_shape(shape_index, u, p):
-    """`SHAPES[SHAPE_NAMES[shape_index]](u, p)` with a traced index: one compiled program serves
-    every shape (the index is the same for a whole call, so only its branch runs)."""
-    return jax.lax.switch(shape_index, tuple(SHAPES.values()), u, p)
+def lobe_of_shape(shape_index, u, p, power: int = 2):
+    """`SHAPES[SHAPE_NAMES[shape_index]](u, p, power)` with a traced index: one compiled program
+    serves every shape (the index is the same for a whole call, so only its branch runs)."""
+    branches = tuple(functools.partial(fn, power=int(power)) for fn in SHAPES.values())
+    return jax.lax.switch(shape_index, branches, u, p)

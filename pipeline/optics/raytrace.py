@@ -93,11 +93,12 @@ def _surface(scene: Scene, resolution: int):
     return hit, albedo, lit, t
 
 
-@functools.partial(jax.jit, static_argnames=("scene", "resolution", "shape"))
-def shade(scene: Scene, resolution: int, shape: str, p, coef):
-    """Linear RGB radiance [res, res, 3] with the Blinn-form lobe `SHAPES[shape](u, p)` normalized by coef."""
+@functools.partial(jax.jit, static_argnames=("scene", "resolution", "shape", "power"))
+def shade(scene: Scene, resolution: int, shape: str, p, coef, power: int = 2):
+    """Linear RGB radiance [res, res, 3] with the Blinn-form lobe `SHAPES[shape](u, p, power)`
+    normalized by coef."""
     hit, albedo, lit, t = _surface(scene, resolution)
-    specular = SPECULAR * coef * SHAPES[shape](1.0 - t, p)
+    specular = SPECULAR * coef * SHAPES[shape](1.0 - t, p, power)
     radiance = lit[..., None] * (albedo / np.pi + specular[..., None])
     return jnp.where(hit[..., None], radiance, jnp.array(BACKGROUND))
 

@@ -88,13 +88,14 @@ def count(body: list[str]) -> dict:
                      + ("OpFDiv",)})
 
 
-def lobe_costs(lobes) -> list[dict]:
+def lobe_costs(lobes, p=None) -> list[dict]:
     """The optimized-SPIR-V instruction counts (per pixel) of each lobe's GLSL body (registry
-    `Lobe`s, in order)."""
+    `Lobe`s, in order; the family's at the power of the run's `Parameters` p)."""
     rows = []
     for lobe in lobes:
-        counts = count(function_body(optimized_disassembly(FRAGMENT.format(body=lobe.glsl))))
-        rows.append(dict(lobe=lobe.key, glsl=lobe.glsl, **counts))
+        body = lobe.glsl_of(p)
+        counts = count(function_body(optimized_disassembly(FRAGMENT.format(body=body))))
+        rows.append(dict(lobe=lobe.key, glsl=body, **counts))
     return rows
 
 

@@ -85,12 +85,16 @@ FIGURES = (
 )
 
 
+# Keys every figure reads: the family's power names the fitted lobe (f_Q2, f_Q3, ...) in its text.
+ALWAYS = ("lobe.power",)
+
+
 class FigureConfig:
     """The config keys a figure declares, and the config's expectations (the paper's values it marks).
     Reading any other key is an error, so a figure's cache key covers everything it reads."""
 
     def __init__(self, config, keys):
-        self.values = config.subset(keys)
+        self.values = config.subset(tuple(keys) + ALWAYS)
         self.expectations = config.expectations
 
     def __getitem__(self, key):
@@ -103,7 +107,7 @@ def figure_key(figure: Figure, config, stage_keys) -> str:
     """A figure's cache key: its drawing code, the keys of the stages it reads, the config values it
     reads, and the expectations it may mark."""
     return digest("figure", figure.file, code_hash("pipeline.publish.plots"),
-                  {s: stage_keys[s] for s in figure.stages}, config.subset(figure.config),
+                  {s: stage_keys[s] for s in figure.stages}, config.subset(tuple(figure.config) + ALWAYS),
                   [dataclasses.asdict(e) for e in config.expectations])
 
 
@@ -115,6 +119,7 @@ def draw_into_cache(figure: Figure, folder: Path, key: str, config: FigureConfig
     folder.mkdir(parents=True, exist_ok=True)
     tmp = temporary_folder(folder, key)
     try:
+        plots.POWER = config["lobe.power"]
         files = getattr(plots, figure.draw)(tmp, config, results)
         files = [files] if isinstance(files, str) else list(files)
         # Each file with its SHA-256: every later read verifies it.

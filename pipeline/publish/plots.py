@@ -11,11 +11,13 @@ import matplotlib
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
+import matplotlib.text  # noqa: E402
 import matplotlib.ticker  # noqa: E402
 import numpy as np  # noqa: E402
 
 from ..engine.exponents import n_range  # noqa: E402
 from ..optics import registry  # noqa: E402
+from .report_beyond import at_power, family  # noqa: E402
 
 PAPER = dict(color="black", marker="*", markersize=12, linestyle="none", zorder=5)
 # PNG compression level 1: files ~1.5x larger than the default 6, written several times faster.
@@ -31,9 +33,16 @@ def paper_value(config, result_path):
     return None
 
 
+POWER = 2       # the run's lobe.power, set before each figure is drawn (`figures.draw_into_cache`)
+
+
 def _save(fig, out: Path, name: str, dpi: int = 110, tight: bool = True) -> str:
     """Writes the figure to out/name and closes it. tight=False keeps a layout set by hand (for large
-    images, where tight_layout would draw everything once more just to measure it)."""
+    images, where tight_layout would draw everything once more just to measure it). At a power
+    m != 2 every text names the fitted lobe f_Qm (`report_beyond.at_power`)."""
+    if POWER != 2:
+        for text in fig.findobj(matplotlib.text.Text):
+            text.set_text(at_power(text.get_text(), POWER))
     if tight:
         fig.tight_layout()
     fig.savefig(out / name, dpi=dpi, pil_kwargs=FAST_PNG)
@@ -314,10 +323,13 @@ def exact_normalization(out, config, r):
     fig, (a, b) = plt.subplots(1, 2, figsize=(12.5, 4.6))
     a.plot(n, 100 * e["energy_run"], color="C0", label=f"run's coef {h['coef_scale_used']:g} ({h['coef_offset_used']:g} + n)")
     _excess_axis(a, e["excess_ranges"], np.concatenate([100 * e["energy_run"], 100 * e["asymptotic_phong_dev"]]))
-    a.plot(n, 100 * e["asymptotic_phong_dev"], ls="--", color="C2", label="(3 / (2 pi)) (k + 1/4) = exact - 1/(16 k^2)")
+    fam = family(POWER)
+    a.plot(n, 100 * e["asymptotic_phong_dev"], ls="--", color="C2", label=f"{fam['two_term']} = exact (1 - {fam['under']})")
     a.set_title(f"Phong form (R.V): largest excess {100 * e['paper_coef_max_excess']:+.3f} % at n = "
                 f"{e['paper_coef_n_at_max_excess']:g}", fontsize=10)
-    b.plot(n, 100 * e["asymptotic_blinn_dev"], ls="--", color="C2", label="(3 / (8 pi)) (k + 5/4)")
+    b1, b0 = e["asymptotic_blinn_terms"]
+    b.plot(n, 100 * e["asymptotic_blinn_dev"], ls="--", color="C2",
+           label="(3 / (8 pi)) (k + 5/4)" if POWER == 2 else f"{b1:.4g} (k + {b0 / b1:.4g})")
     b.axhline(0, color="black", lw=1.2, ls=":", label="exact Blinn coef (0 for every n)")
     b.set(xscale="log", xlabel="n", ylabel="reflected / received - 1 (%)")
     b.set_title(f"Blinn form (N.H), its own coef: {e['blinn_to_phong_ratio_at_n_max']:.3f} x the Phong one "

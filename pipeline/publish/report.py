@@ -5,7 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from ..engine import checks as checks_mod
-from .report_beyond import embed, ns, pct as _pct
+from .report_beyond import at_power, embed, family, ns, pct as _pct
 from .report_beyond import sections as beyond_sections
 from .results import HEADLINE, headline
 from .tables import front_markdown
@@ -67,6 +67,7 @@ def _choices(config, r) -> list[str]:
 
 def _symbolic(config, r) -> list[str]:
     sr, ex = r["symbolic_regression"], r["exact_normalization"]
+    fam = family(config["lobe.power"])
     exact = [m for m in sr["front"] if m["complexity"] == sr["sr_exact_complexity"]]
     rows = sr["paper_rows"]
     lines = [
@@ -94,10 +95,10 @@ def _symbolic(config, r) -> list[str]:
         lines.append(f"| {row['size']} | {row['form']} | {consts} | {row['rms']:.4g} | "
                      f"{'the same form' if row['on_front'] else row['front_member']} | {row['front_rms']:.4g} |")
     lines += ["",
-              f"**The paper's size-12 row is the exact normalization.** The exact coef = 6k^2/(pi (4k - 1)), "
-              f"k = a n + b, is in partial fractions scale (offset + n + residue/(n - pole)) with scale = 3a/(2 pi) "
-              f"= {sr['exact_scale']:.6f}, offset = (4b + 1)/(4a) = {sr['exact_offset']:.6f}, residue = 1/(16 a^2) "
-              f"= {sr['exact_residue']:.6f}, pole = (1 - 4b)/(4a) = {sr['exact_pole']:.6f}. TuringBot's printed row "
+              f"**The paper's size-12 row is the exact normalization.** The exact coef = {fam['exact']}, "
+              f"k = a n + b, is in partial fractions scale (offset + n + residue/(n - pole)) with scale = {fam['scale']} "
+              f"= {sr['exact_scale']:.6f}, offset = {fam['offset']} = {sr['exact_offset']:.6f}, residue = {fam['residue']} "
+              f"= {sr['exact_residue']:.6f}, pole = {fam['pole']} = {sr['exact_pole']:.6f}. TuringBot's printed row "
               f"differs from it by at most {sr['paper12_max_abs_to_exact']:.2g} (relative "
               f"{sr['paper12_max_rel_to_exact']:.2g}) over n in [{config['derivation.n_min']}, "
               f"{config['derivation.n_max']}], below the rounding step of y ({sr['equivalence_tolerance']:g}), and "
@@ -198,7 +199,7 @@ def write_targeted(path: Path, config, doc, checks, figures) -> None:
     drawn = [item for items in figures.values() for item in items]
     if drawn:
         lines += ["## Figures", ""] + [f"![{caption}]({name})\n" for name, caption in drawn]
-    path.write_text("\n".join(lines))
+    path.write_text(at_power("\n".join(lines), config["lobe.power"]))
 
 
 def write(path: Path, config, doc, r, checks, figures, baseline=None, summary_lines=()) -> None:
@@ -207,7 +208,7 @@ def write(path: Path, config, doc, r, checks, figures, baseline=None, summary_li
     n_fail = sum(c.verdict == checks_mod.FAIL for c in checks)
     n_diff = sum(c.verdict == checks_mod.DIFFERS for c in checks)
     n_na = sum(c.verdict == checks_mod.NOT_COMPARABLE for c in checks)
-    lines = [f"# Derivation of the modified cosine-quadratic lobe: run `{config.name}`", ""]
+    lines = [f"# Derivation of {family(config['lobe.power'])['title']}: run `{config.name}`", ""]
     lines += list(summary_lines)      # summary.md, the adopter's answer, first
     changed = [k for k in config.changed_from_file(config.values) if not k.startswith("run.")]
     if config["run.question"] and changed and "run.question" not in config.changed_from_file(["run.question"]):
@@ -253,4 +254,4 @@ def write(path: Path, config, doc, r, checks, figures, baseline=None, summary_li
               "- `newenergy.csv`: the sample, like the paper's newenergy.txt; `energy_all_n.csv`: every n",
               "- `symbolic_front.csv`: the exhaustive symbolic-regression front; `regression_front.csv`: "
               "the pysindy front", ""]
-    path.write_text("\n".join(lines))
+    path.write_text(at_power("\n".join(lines), config["lobe.power"]))

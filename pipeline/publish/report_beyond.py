@@ -5,8 +5,32 @@ the verdicts are decided by those numbers, not written in advance.
 
 from __future__ import annotations
 
+import re
+
 from ..engine.checks import fmt
 from ..optics import registry
+
+
+_F_Q2 = re.compile(r"(?<![\w.`])f_Q2(?![\w`])")
+
+
+def at_power(text: str, power: int) -> str:
+    """The report's text at the run's power m: the fitted lobe f_Q2 named f_Q3, f_Q4, ... (names in
+    prose only: field paths such as accuracy.d_f_Q2 and `code` keep the registry's key)."""
+    return text if power == 2 else _F_Q2.sub(registry.family_name(power), text)
+
+
+def family(power: int) -> dict[str, str]:
+    """The family's closed forms at power m as report text (m = 2: the paper's quadratic)."""
+    m1, m2 = power + 1, power + 2
+    if power == 2:
+        return dict(exact="6 k^2 / (pi (4 k - 1))", scale="3a/(2 pi)", offset="(4b + 1)/(4a)",
+                    residue="1/(16 a^2)", pole="(1 - 4b)/(4a)", two_term="(3 / (2 pi)) (k + 1/4)",
+                    under="1/(16 k^2)", title="the modified cosine-quadratic lobe")
+    return dict(exact=f"{m1 * m2} k^2 / (2 pi ({m2} k - 1))", scale=f"{m1}a/(2 pi)", offset=f"(b + 1/{m2})/a",
+                residue=f"1/({m2 * m2} a^2)", pole=f"(1/{m2} - b)/a", two_term=f"({m1} / (2 pi)) (k + 1/{m2})",
+                under=f"1/({m2 * m2} k^2)",
+                title=f"the cosine-linear lobe to the power {power}, {registry.family_name(power)}")
 
 
 def pct(x: float) -> str:
@@ -40,6 +64,9 @@ def embed(figures, section: str) -> list[str]:
 def exact_section(config, r, figures) -> list[str]:
     e, lin, reg = r["exact_normalization"], r["linear_coefficient"], r["sparse_regression"]
     scale, offset = r["hemispherical"]["coef_scale_used"], r["hemispherical"]["coef_offset_used"]
+    fam = family(config["lobe.power"])
+    b1, b0 = e["asymptotic_blinn_terms"]
+    blinn_two_term = ("(3 / (8 pi)) (k + 5/4)" if config["lobe.power"] == 2 else f"{b1:.6g} (k + {b0 / b1:.6g})")
     below = [int(v) for v in e["below_horizon_n"]]
     lines = ["## Beyond the paper: exact normalization", "",
              "For k = a n + b (here a = " f"{lin['slope_used']:g}, b = {lin['intercept_used']:g}) sympy integrates the "
@@ -76,7 +103,7 @@ def exact_section(config, r, figures) -> list[str]:
               f"- coef(n) = `{e['formula_expansion_n']}` + O(1/n^2)",
               f"- numerically: {e['expansion_n']:.6f} n + {e['expansion_1']:.6f} + {e['expansion_inv_n']:.6f}/n; "
               f"its two-term part is {e['expansion_scale']:.6f} ({e['expansion_offset']:.6f} + n) = "
-              "(3 / (2 pi)) (k + 1/4), which under-reflects by exactly 1/(16 k^2) (largest "
+              f"{fam['two_term']}, which under-reflects by exactly {fam['under']} (largest "
               f"{e['asymptotic_phong_max_abs_dev']:.4f}, never above 1: max excess "
               f"{e['asymptotic_phong_max_excess']:+.2e}).", "",
               "| model | c n | c_0 | c_-1 / n | two-term scale (offset + n) |", "|---|---|---|---|---|",
@@ -91,13 +118,13 @@ def exact_section(config, r, figures) -> list[str]:
                      f"{fmt(paper.get('sparse_regression.three_term_inv_n', float('nan')))} | "
                      f"{fmt(paper.get('sparse_regression.coef_scale', float('nan')))} "
                      f"({fmt(paper.get('sparse_regression.coef_offset', float('nan')))} + n) |")
-    lines += ["", "The regressions recover the exact slope 3a/(2 pi) to 6 digits. Their constant and 1/n terms, "
+    lines += ["", f"The regressions recover the exact slope {fam['scale']} to 6 digits. Their constant and 1/n terms, "
               "and the two-term offset, absorb the O(1/n^2) remainder at small n, which the sample weights "
               "heavily: the regressed offset is not the expansion's.", "",
               "Blinn form (cos x = N.H), exact at normal view: Int_B(k) = "
               f"`{e['formula_Int_blinn']}`; coef_B = `{e['formula_coef_blinn']}`. At n = {config['derivation.n_max']:g} it is "
               f"{e['blinn_to_phong_ratio_at_n_max']:.4f} of the Phong-form coef (limit 1/4: the half-vector lobe "
-              f"is four times wider in solid angle). Its two-term asymptote (3 / (8 pi)) (k + 5/4) is off by up to "
+              f"is four times wider in solid angle). Its two-term asymptote {blinn_two_term} is off by up to "
               f"{e['asymptotic_blinn_max_abs_dev']:.4f} (at small n) and never above 1 (max excess "
               f"{e['asymptotic_blinn_max_excess']:+.2e}). Generated code:", ""] + _code(e["code_coef_blinn"]) + [""]
     return lines + embed(figures, "exact_normalization")
@@ -185,7 +212,7 @@ def verdict_section(config, r) -> list[str]:
                      f"n = {ranges(e['excess_ranges'])}, by up to {excess:+.6f} (at normal incidence, n = "
                      f"{e['paper_coef_n_at_max_excess']:g}), and loses up to {e['paper_coef_max_abs_dev']:.4f} at "
                      f"n = {e['paper_coef_n_at_max_abs_dev']:g}. The excess is small but it is an excess; the exact "
-                     f"coef 6 k^2 / (pi (4 k - 1)) costs one division per material and reflects exactly 1 at "
+                     f"coef {family(config['lobe.power'])['exact']} costs one division per material and reflects exactly 1 at "
                      f"normal incidence (checked to {e['exact_coef_max_abs_dev']:.0e}) and less at every other "
                      f"angle (max {s['phong_exact_coef_max']:.12f}).")
     else:
@@ -242,9 +269,9 @@ def half_text(h) -> str:
     q_t, q_u, c_t = rows[(n, "f_Q2", t)], rows[(n, "f_Q2", u)], rows[(n, registry.REFERENCE, t)]
     return (f"at n = {n:g}, f_Q2 written as k t + (1 - k) from t = N.H takes {q_t['distinct']} values across the "
             f"highlight and errs by up to {q_t['max_abs_error']:.2g} of its peak (k t and 1 - k cancel in float16), "
-            f"cos^n takes {c_t['distinct']}; f_Q2 written as (1 - k u)^2 with u = dot(c, c) / (1 + N.H), c = N x H takes "
+            f"cos^n takes {c_t['distinct']}; f_Q2 written as (1 - k u)^m with u = dot(c, c) / (1 + N.H), c = N x H takes "
             f"{q_u['distinct']} values and errs by at most {q_u['max_abs_error']:.2g}. In half precision the "
-            "quadratic lobe is better than pow, provided it is fed u from the cross product.")
+            "lobe is better than pow, provided it is fed u from the cross product.")
 
 
 def labels(c) -> dict[str, str]:

@@ -21,14 +21,14 @@ t, n = sp.symbols("t n", real=True)
 PREFIX = "cosquad_"
 
 
-def functions(slope: float, intercept: float, coef_scale: float, coef_offset: float) -> dict[str, tuple]:
+def functions(slope: float, intercept: float, coef_scale: float, coef_offset: float,
+              power: int = 2) -> dict[str, tuple]:
     """name -> (arguments, sympy expression) with the constants filled in, evaluated to floats."""
     k = sp.Float(slope) * n + sp.Float(intercept)
     values = {integrals.slope: slope, integrals.intercept: intercept}
 
     def exact_coef(which):
-        integral = integrals.phong_integral() if which == "phong" else integrals.blinn_integral()
-        return integrals.coef_of_n(integral).subs(values).subs(integrals.n, n)
+        return integrals.coef_of_n(integrals.integral(which, power)).subs(values).subs(integrals.n, n)
     exprs = {
         "k": ((n,), k),
         "coef": ((n,), sp.Float(coef_scale) * (sp.Float(coef_offset) + n)),
@@ -44,7 +44,8 @@ def functions(slope: float, intercept: float, coef_scale: float, coef_offset: fl
 
 DOCS = {
     "k": "k(n) = slope n + intercept, the lobe's coefficient",
-    "lobe": "the lobe ((k (t - 1) + 1)^2, 0 past its zero crossing); t = cos x",
+    "lobe": "the lobe ((k (t - 1) + 1)^{power}, 0 past its zero crossing, by squarings and multiplies: no pow); "
+            "t = cos x",
     "lobe_u": "the same lobe of u = 1 - cos x (u from cosquad_u), for half precision: k t + 1 - k cancels "
               "in float16 at large n, 1 - k u does not",
     "u": "u = 1 - dot(N, H) without cancellation, |N x H|^2 / (1 + N.H); 1 (the lobe's edge) for a back-facing H",
@@ -73,9 +74,20 @@ def _relative(source: str) -> str:
     return str(path.relative_to(ROOT)) if path.is_relative_to(ROOT) else str(path)
 
 
+def power_lines(base: str, power: int, declare: str) -> tuple[list[str], str]:
+    """(statements, result) computing base^power by `registry.power_steps`, each statement
+    `declare name = expression;` (declare "float " for GLSL/HLSL, "" and no ';' for Python)."""
+    steps, result = registry.power_steps(base, power)
+    end = ";" if declare else ""
+    return [f"{declare}{name} = {expression}{end}" for name, expression in steps], result
+
+
 def header(comment: str, config, version_tag: str, coef_note: str) -> list[str]:
     c, p = comment, PREFIX
-    return [f"{c} Modified cosine-quadratic specular lobe, exported by cosquad-pipeline {version_tag}",
+    power = config["lobe.power"]
+    title = ("Modified cosine-quadratic specular lobe" if power == 2 else
+             f"The cosine-linear lobe to the power {power} ({registry.family_name(power)})")
+    return [f"{c} {title}, exported by cosquad-pipeline {version_tag}",
             f"{c} from run '{config.name}' (config {_relative(config.source)}).",
             f"{c} Usage, with the exact normalizations (albedo 1 at normal incidence):",
             f"{c}   Blinn form: spec = {p}coef_blinn(n) * {p}lobe(max(dot(N, H), 0.0), n) * max(dot(N, L), 0.0) * light",
@@ -95,9 +107,8 @@ SAMPLER = """// Importance sampling of the lobe around `axis` (R for the Phong f
 {v3} {p}sample({v2} xi, {v3} axis, float n)
 {{
     float k = {p}k(n);
-    float w0 = max(1.0 - 2.0 * k, 0.0);
-    w0 = w0 * w0 * w0;
-    float w = pow(w0 + xi.x * (1.0 - w0), 1.0 / 3.0);   // k (c - 1) + 1, with density proportional to w^2
+    float w0 = pow(max(1.0 - 2.0 * k, 0.0), {m1}.0);
+    float w = pow(w0 + xi.x * (1.0 - w0), 1.0 / {m1}.0);   // k (c - 1) + 1, with density proportional to w^{m}
     float c = 1.0 + (w - 1.0) / k;
     float s = sqrt(max(1.0 - c * c, 0.0));
     float phi = 6.283185307179586 * xi.y;
@@ -113,10 +124,10 @@ SAMPLER = """// Importance sampling of the lobe around `axis` (R for the Phong f
 float {p}pdf(float c, float n)
 {{
     float k = {p}k(n);
-    float w = k * (c - 1.0) + 1.0;
-    float w0 = max(1.0 - 2.0 * k, 0.0);
-    float z = 6.283185307179586 * (1.0 - w0 * w0 * w0) / (3.0 * k);
-    return w > 0.0 ? w * w / z : 0.0;
+    float b = max(k * (c - 1.0) + 1.0, 0.0);
+    float z = 6.283185307179586 * (1.0 - pow(max(1.0 - 2.0 * k, 0.0), {m1}.0)) / ({m1}.0 * k);
+    {steps}
+    return {result} / z;
 }}
 """
 
@@ -124,8 +135,8 @@ SAMPLER_PY = """
 def {p}sample(xi, axis, n):
     \"\"\"Importance sampling of the lobe around axis (a unit 3-tuple) from xi in [0, 1)^2.\"\"\"
     k = {p}k(n)
-    w0 = max(1.0 - 2.0 * k, 0.0) ** 3
-    w = (w0 + xi[0] * (1.0 - w0)) ** (1.0 / 3.0)
+    w0 = max(1.0 - 2.0 * k, 0.0) ** {m1}
+    w = (w0 + xi[0] * (1.0 - w0)) ** (1.0 / {m1})
     c = 1.0 + (w - 1.0) / k
     s = math.sqrt(max(1.0 - c * c, 0.0))
     phi = 6.283185307179586 * xi[1]
@@ -141,10 +152,10 @@ def {p}sample(xi, axis, n):
 def {p}pdf(c, n):
     \"\"\"Solid-angle pdf of {p}sample at cosine c to its axis.\"\"\"
     k = {p}k(n)
-    w = k * (c - 1.0) + 1.0
-    w0 = max(1.0 - 2.0 * k, 0.0)
-    z = 6.283185307179586 * (1.0 - w0 ** 3) / (3.0 * k)
-    return w * w / z if w > 0.0 else 0.0
+    b = max(k * (c - 1.0) + 1.0, 0.0)
+    z = 6.283185307179586 * (1.0 - max(1.0 - 2.0 * k, 0.0) ** {m1}) / ({m1} * k)
+    {steps}
+    return {result} / z
 """
 
 
@@ -152,29 +163,38 @@ def render_sources(config, slope, intercept, coef_scale, coef_offset, version_ta
                    coef_note: str) -> dict[str, str]:
     """The three files: GLSL, HLSL and the Python twin, as text. `coef_note` says, in a few words,
     how far the run's coef(n) is from the exact one."""
-    fns = functions(slope, intercept, coef_scale, coef_offset)
+    power = config["lobe.power"]
+    fns = functions(slope, intercept, coef_scale, coef_offset, power)
+    c_steps, result = power_lines("b", power, "float ")
+    py_steps, _ = power_lines("b", power, "")
+    docs = {name: text.format(power=power) for name, text in DOCS.items()}
     glsl, hlsl = header("//", config, version_tag, coef_note), header("//", config, version_tag, coef_note)
     py = (['"""' + header("", config, version_tag, coef_note)[0].strip() + '"""', ""]
           + header("#", config, version_tag, coef_note))
     py += ["import math", "", ""]
     for name, (args, expr) in fns.items():
         c_args = ", ".join(f"float {a}" for a in args)
-        glsl += [f"// {DOCS[name]}", f"float {PREFIX}{name}({c_args})", "{", f"    return {_glsl(expr)};", "}", ""]
-        hlsl += [f"// {DOCS[name]}", f"float {PREFIX}{name}({c_args})", "{", f"    return {_hlsl(expr)};", "}", ""]
-        py += [f"def {PREFIX}{name}({', '.join(str(a) for a in args)}):", f'    """{DOCS[name]}"""',
+        glsl += [f"// {docs[name]}", f"float {PREFIX}{name}({c_args})", "{", f"    return {_glsl(expr)};", "}", ""]
+        hlsl += [f"// {docs[name]}", f"float {PREFIX}{name}({c_args})", "{", f"    return {_hlsl(expr)};", "}", ""]
+        py += [f"def {PREFIX}{name}({', '.join(str(a) for a in args)}):", f'    """{docs[name]}"""',
                f"    return {_python(expr)}", "", ""]
         if name == "k":
-            # The lobe: the registry's GLSL body of f_Q2, as a shader author writes it (no pow).
-            body = ["{", f"    float k = {PREFIX}k(n);", f"    {registry.LOBES['f_Q2'].glsl}", "}", ""]
+            # The lobe: the registry's GLSL body of f_Q2 at the run's power, as a shader author
+            # writes it (no pow).
+            lobe_glsl = registry.LOBES["f_Q2"].glsl_of(registry.Parameters(power=power))
+            body = ["{", f"    float k = {PREFIX}k(n);", f"    {lobe_glsl}", "}", ""]
             for lines in (glsl, hlsl):
-                lines += [f"// {DOCS['lobe']}", f"float {PREFIX}lobe(float t, float n)"] + body
-            py += [f"def {PREFIX}lobe(t, n):", f'    """{DOCS["lobe"]}"""', f"    k = {PREFIX}k(n)",
-                   "    b = max(k * t + (1.0 - k), 0.0)", "    return b * b", "", ""]
-            body_u = ["{", f"    float k = {PREFIX}k(n);", "    float b = max(1.0 - k * u, 0.0);", "    return b * b;", "}", ""]
+                lines += [f"// {docs['lobe']}", f"float {PREFIX}lobe(float t, float n)"] + body
+            py += [f"def {PREFIX}lobe(t, n):", f'    """{docs["lobe"]}"""', f"    k = {PREFIX}k(n)",
+                   "    b = max(k * t + (1.0 - k), 0.0)", *(f"    {line}" for line in py_steps),
+                   f"    return {result}", "", ""]
+            body_u = (["{", f"    float k = {PREFIX}k(n);", "    float b = max(1.0 - k * u, 0.0);"]
+                      + [f"    {line}" for line in c_steps] + [f"    return {result};", "}", ""])
             for lines in (glsl, hlsl):
-                lines += [f"// {DOCS['lobe_u']}", f"float {PREFIX}lobe_u(float u, float n)"] + body_u
-            py += [f"def {PREFIX}lobe_u(u, n):", f'    """{DOCS["lobe_u"]}"""', f"    k = {PREFIX}k(n)",
-                   "    b = max(1.0 - k * u, 0.0)", "    return b * b", "", ""]
+                lines += [f"// {docs['lobe_u']}", f"float {PREFIX}lobe_u(float u, float n)"] + body_u
+            py += [f"def {PREFIX}lobe_u(u, n):", f'    """{docs["lobe_u"]}"""', f"    k = {PREFIX}k(n)",
+                   "    b = max(1.0 - k * u, 0.0)", *(f"    {line}" for line in py_steps),
+                   f"    return {result}", "", ""]
             for lines, v3 in ((glsl, "vec3"), (hlsl, "float3")):
                 lines += [f"// {DOCS['u']}", f"float {PREFIX}u({v3} N, {v3} H)", "{", "    float t = dot(N, H);",
                           "    if (t <= 0.0) return 1.0;", f"    {v3} c = cross(N, H);",
@@ -183,9 +203,10 @@ def render_sources(config, slope, intercept, coef_scale, coef_offset, version_ta
                    "    if t <= 0.0:", "        return 1.0",
                    "    c = (N[1] * H[2] - N[2] * H[1], N[2] * H[0] - N[0] * H[2], N[0] * H[1] - N[1] * H[0])",
                    "    return sum(x * x for x in c) / (1.0 + t)", "", ""]
-    glsl.append(SAMPLER.format(p=PREFIX, v2="vec2", v3="vec3"))
-    hlsl.append(SAMPLER.format(p=PREFIX, v2="float2", v3="float3"))
-    py.append(SAMPLER_PY.format(p=PREFIX))
+    sampler = dict(p=PREFIX, m=power, m1=power + 1, result=result)
+    glsl.append(SAMPLER.format(v2="vec2", v3="vec3", steps="\n    ".join(c_steps), **sampler))
+    hlsl.append(SAMPLER.format(v2="float2", v3="float3", steps="\n    ".join(c_steps), **sampler))
+    py.append(SAMPLER_PY.format(steps="\n    ".join(py_steps), **sampler))
     return {"cosquad.glsl": "\n".join(glsl), "cosquad.hlsl": "\n".join(hlsl),
             "cosquad_twin.py": "\n".join(py).rstrip() + "\n"}
 

@@ -8,7 +8,7 @@ results (results.json).
 
 from __future__ import annotations
 
-from .report_beyond import pct
+from .report_beyond import at_power, pct
 
 
 def _cost(results, key: str) -> str:
@@ -43,7 +43,7 @@ def lines(config, results) -> list[str]:
     if config["run.question"]:
         out += [f"**Question.** {config['run.question']}", ""]
     out += [f"**Answer.** For n = {n_lo} to {n_hi}, f_Q2 = (({lin['slope_used']:.6g} n + {lin['intercept_used']:.6g})"
-            f"(cos x - 1) + 1)^2 stays within {pct(a['d_f_Q2'])} of cos^n in the epicenter zone "
+            f"(cos x - 1) + 1)^{config['lobe.power']} stays within {pct(a['d_f_Q2'])} of cos^n in the epicenter zone "
             f"({a['epicenter_gain']:.2f}x closer than f_2) and within {a['D_f_Q2']:.4f} anywhere, with no "
             "transcendental instruction; normalize it with the exact coefs, not a scale (offset + n) fit.", "",
             "| use | call (shader/cosquad.glsl) | normalization | largest albedo | accuracy | cost | verdict |",
@@ -72,6 +72,6 @@ def lines(config, results) -> list[str]:
 
 
 def write(path, config, results) -> list[str]:
-    text = lines(config, results)
+    text = at_power("\n".join(lines(config, results)), config["lobe.power"]).split("\n")
     path.write_text("\n".join(text))
     return text

@@ -1,4 +1,4 @@
-"""Accuracy of f_Q2 (Figs. 5, 6): max d and max D of f_Q2 and f_Q (at the Q used) over n, the
+"""Accuracy of f_Q2 (Figs. 5, 6; f_Qm at the run's power m): max d and max D of f_Q2 and f_Q (at the Q used) over n, the
 curves over n, the gain over f_2, where f_Q's max D lies (the paper's P4), the lobes at n = 20,
 and how the epicenter figures move with the zone's level.
 
@@ -8,8 +8,8 @@ Each lobe's measures are one memoized call, so a refit that moves only the line 
 import numpy as np
 
 from ..optics.numerics import jax
-from ..optics.lobes import f_b, k_2, k_Q, k_Q2, quadratic
-from .common import n_range, quadratic_errors, summary
+from ..optics.lobes import f_b, k_2, k_Q, k_Q2, linear_power
+from .common import family_errors, n_range, summary
 
 FIG5_N = 20.0
 
@@ -20,8 +20,10 @@ def run(config, inputs, memo):
     a, b = inputs["linear_coefficient.slope_used"], inputs["linear_coefficient.intercept_used"]
     levels = list(inputs["f2_errors.zone_levels"])
     solver = dict(rtol=config["solver.rtol"], atol=config["solver.atol"], max_steps=config["solver.max_steps"])
-    ks = {"f_Q2": np.asarray(k_Q2(n, a, b)), "f_Q": np.asarray(jax.jit(k_Q)(n, inputs["q_choice.Q_used"]))}
-    m = {name: memo("quadratic_errors", quadratic_errors, n=n, k=k, level=level, levels=levels, **solver)
+    power = config["lobe.power"]
+    ks = {"f_Q2": np.asarray(k_Q2(n, a, b)),
+          "f_Q": np.asarray(jax.jit(k_Q, static_argnames="power")(n, inputs["q_choice.Q_used"], power=power))}
+    m = {name: memo("family_errors", family_errors, n=n, k=k, level=level, levels=levels, power=power, **solver)
          for name, k in ks.items()}
     out = summary("f_Q2", n, m["f_Q2"]) | summary("f_Q", n, m["f_Q"])
     d_f_2, D_f_2 = inputs["f2_errors.d_f_2"], inputs["f2_errors.D_f_2"]
@@ -46,7 +48,7 @@ def run(config, inputs, memo):
 
     x = np.linspace(0.0, np.pi / 2, 721)
     out |= dict(fig5_x=x, fig5_f_b=np.asarray(jax.jit(f_b)(x, FIG5_N)),
-                fig5_f_2=np.asarray(jax.jit(quadratic)(x, k_2(FIG5_N))),
-                fig5_f_Q2=np.asarray(jax.jit(quadratic)(x, k_Q2(FIG5_N, a, b))),
+                fig5_f_2=np.asarray(jax.jit(linear_power)(x, k_2(FIG5_N))),
+                fig5_f_Q2=np.asarray(jax.jit(linear_power, static_argnames="power")(x, k_Q2(FIG5_N, a, b), power=power)),
                 fig5_zone_edge_x=float(np.arccos(level ** (1.0 / FIG5_N))))
     return out

@@ -1,5 +1,5 @@
-"""Helpers shared by the stages: the exponent range, the vectorized error measures of a quadratic
-lobe, and the regression sample and its alternatives."""
+"""Helpers shared by the stages: the exponent range, the vectorized error measures of a lobe of the
+family (k (t - 1) + 1)^m, and the regression sample and its alternatives."""
 
 
 from ..optics.numerics import jax
@@ -11,23 +11,23 @@ from ..engine.exponents import n_range  # noqa: F401  (the stages' one n range)
 from ..optics.roots import SolverError, SolverSettings
 
 
-def lobe_measures(n, k, level, settings: SolverSettings):
-    """Per-n error measures of the quadratic lobe with coefficients k (arrays over n).
+def lobe_measures(n, k, level, settings: SolverSettings, power: int = 2):
+    """Per-n error measures of the lobe (k (t - 1) + 1)^power with coefficients k (arrays over n).
 
     Returns a dict of arrays over n: d (relative, epicenter zone) and D (absolute, [0, pi/2]) with
     their signed parts and the u = 1 - cos x where each is attained, the relative RMS error, and
     the solver success flags.
     """
-    d_over, d_under, d_u_over, d_u_under = jax.vmap(relative_parts, (0, 0, None))(n, k, level)
-    D_over, D_under, D_u_over, D_u_under, ok = jax.vmap(lambda n_, k_: absolute_parts(n_, k_, settings))(n, k)
+    d_over, d_under, d_u_over, d_u_under = jax.vmap(lambda n_, k_: relative_parts(n_, k_, level, power))(n, k)
+    D_over, D_under, D_u_over, D_u_under, ok = jax.vmap(lambda n_, k_: absolute_parts(n_, k_, settings, power))(n, k)
     return dict(d_over=d_over, d_under=d_under, d=jnp.maximum(d_over, d_under),
                 d_u=jnp.where(d_over >= d_under, d_u_over, d_u_under),
                 D_over=D_over, D_under=D_under, D=jnp.maximum(D_over, D_under),
                 D_u=jnp.where(D_over >= D_under, D_u_over, D_u_under),
-                rms=jax.vmap(rms_relative)(n, k), ok=ok)
+                rms=jax.vmap(lambda n_, k_: rms_relative(n_, k_, power))(n, k), ok=ok)
 
 
-measures = jax.jit(lobe_measures, static_argnames="settings")
+measures = jax.jit(lobe_measures, static_argnames=("settings", "power"))
 
 
 def require_converged(ok, what: str, **inputs) -> None:
@@ -54,14 +54,15 @@ def runs_of(mask, n):
     return out
 
 
-def quadratic_errors(n, k, level, levels, rtol, atol, max_steps):
-    """Measures of the quadratic lobe with coefficients k over n: curves of d, D and rms, where D
-    is attained (u), and max d at each zone level of `levels`."""
+def family_errors(n, k, level, levels, rtol, atol, max_steps, power=2):
+    """Measures of the lobe (k (t - 1) + 1)^power with coefficients k over n: curves of d, D and
+    rms, where D is attained (u), and max d at each zone level of `levels`."""
     settings = SolverSettings(rtol, atol, max_steps)
-    m = measures(n, k, level, settings)
+    power = int(power)
+    m = measures(n, k, level, settings, power)
     require_converged(m["ok"], "max D", n=n)
     return dict(d=np.asarray(m["d"]), D=np.asarray(m["D"]), rms=np.asarray(m["rms"]), D_u=np.asarray(m["D_u"]),
-                zone_d=np.array([float(np.max(measures(n, k, L, settings)["d"])) for L in levels]))
+                zone_d=np.array([float(np.max(measures(n, k, L, settings, power)["d"])) for L in levels]))
 
 
 def summary(name, n, m) -> dict:

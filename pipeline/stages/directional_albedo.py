@@ -1,8 +1,8 @@
 """Energy at every incidence angle (beyond the paper): the directional albedo a(theta_i) of the
-normalized f_Q2, for the Phong form (x between V and R) and the Blinn form (x between N and H).
+normalized f_Q2 (f_Qm at the run's power m), for the Phong form (x between V and R) and the Blinn form (x between N and H).
 
 Normalizations: the run's coef (the paper's 0.214 (0.807 + n)) and the exact one (Phong form); the
-exact Blinn-form coef and its two-term asymptote (3 / (8 pi)) (k + 5/4); and, to show why the
+exact Blinn-form coef and its two-term asymptote (3 / (8 pi)) (k + 5/4) at m = 2; and, to show why the
 Blinn form needs its own, the Phong coef applied to the Blinn form.
 
 Quadrature error is measured, not assumed: the tables at `albedo.curve_n` are recomputed with
@@ -15,6 +15,7 @@ direction pairs.
 from ..optics.numerics import jax
 import numpy as np
 
+from ..optics import integrals
 from ..optics.albedo import albedo_table, monte_carlo_albedo, random_directions, reciprocity_error
 from ..optics.sampling import importance_albedo
 from .common import n_range
@@ -24,14 +25,15 @@ MC_RERUNS = 16
 RECIPROCITY_PAIRS = 4096
 
 
-def _variants(inputs, n, k):
+def _variants(inputs, n, k, power):
     """(form, coef over n) of each normalized lobe."""
     scale, offset = inputs["hemispherical.coef_scale_used"], inputs["hemispherical.coef_offset_used"]
+    b1, b0 = integrals.asymptote("blinn", power)
     return {
         "phong_run_coef": ("phong", scale * (offset + n)),
         "phong_exact_coef": ("phong", inputs["exact_normalization.coef_exact"]),
         "blinn_exact_coef": ("blinn", inputs["exact_normalization.coef_blinn"]),
-        "blinn_asymptotic_coef": ("blinn", 3.0 / (8.0 * np.pi) * (k + 1.25)),
+        "blinn_asymptotic_coef": ("blinn", b1 * k + b0),
         "blinn_with_phong_coef": ("blinn", scale * (offset + n)),
     }
 
@@ -44,13 +46,14 @@ def run(config, inputs, memo):
     theta = np.linspace(0.0, 0.5 * np.pi, config["albedo.angles"])
     curve_n = np.array(sorted({float(m) for m in config["albedo.curve_n"] if n[0] <= m <= n[-1]}))
     pick = np.searchsorted(n, curve_n)
-    variants = _variants(inputs, n, k)
+    power = config["lobe.power"]
+    variants = _variants(inputs, n, k, power)
 
     out = dict(theta=theta, curve_n=curve_n)
     quad_error = 0.0
     # The albedo is linear in coef: one table of the unnormalized lobe per form serves every variant.
-    unit = {form: (albedo_table(form, "quadratic", n, k, 1.0 / k, theta, nodes),
-                   albedo_table(form, "quadratic", n[pick], k[pick], 1.0 / k[pick], theta, 2 * nodes))
+    unit = {form: (albedo_table(form, "linear_power", n, k, 1.0 / k, theta, nodes, power),
+                   albedo_table(form, "linear_power", n[pick], k[pick], 1.0 / k[pick], theta, 2 * nodes, power))
             for form in ("phong", "blinn")}
     for name, (form, coef) in variants.items():
         table = coef[:, None] * unit[form][0]
@@ -73,12 +76,13 @@ def run(config, inputs, memo):
     angles = np.radians(MC_ANGLES_DEG)
     for name in ("phong_exact_coef", "blinn_exact_coef"):
         form, coef = variants[name]
-        quad = coef[pick, None] * albedo_table(form, "quadratic", n[pick], k[pick], 1.0 / k[pick], angles, nodes)
+        quad = coef[pick, None] * albedo_table(form, "linear_power", n[pick], k[pick], 1.0 / k[pick], angles, nodes,
+                                               power)
         for row, (m, i) in enumerate(zip(curve_n, pick)):
             for col, deg in enumerate(MC_ANGLES_DEG):
                 key, sub = jax.random.split(key)
-                mean, se = monte_carlo_albedo(form, "quadratic", k[i], 1.0 / k[i], coef[i], angles[col], sub,
-                                              config["albedo.mc_samples"])
+                mean, se = monte_carlo_albedo(form, "linear_power", k[i], 1.0 / k[i], coef[i], angles[col], sub,
+                                              config["albedo.mc_samples"], power)
                 q = float(quad[row, col])
                 rows.append(dict(form=form, n=float(m), theta_deg=deg, quadrature=q, monte_carlo=float(mean),
                                  standard_error=float(se), z=float((mean - q) / se)))
@@ -92,8 +96,8 @@ def run(config, inputs, memo):
     coef = variants[f"{form}_exact_coef"][1][i]
     rerun = []
     for sub in jax.random.split(jax.random.PRNGKey(config["albedo.mc_seed"] + 1), MC_RERUNS):
-        mean, se = monte_carlo_albedo(form, "quadratic", k[i], 1.0 / k[i], coef, np.radians(worst["theta_deg"]), sub,
-                                      config["albedo.mc_samples"])
+        mean, se = monte_carlo_albedo(form, "linear_power", k[i], 1.0 / k[i], coef, np.radians(worst["theta_deg"]),
+                                      sub, config["albedo.mc_samples"], power)
         rerun.append(float((mean - worst["quadrature"]) / se))
     out["monte_carlo_worst_point"] = dict(form=form, n=worst["n"], theta_deg=worst["theta_deg"], z=worst["z"],
                                           rerun_z=rerun, rerun_mean_z=float(np.mean(rerun)),
@@ -108,7 +112,7 @@ def run(config, inputs, memo):
         i = int(np.searchsorted(n, row["n"]))
         coef = variants[f"{row['form']}_exact_coef"][1][i]
         mean, se = importance_albedo(row["form"], k[i], coef, np.radians(row["theta_deg"]), sub,
-                                     config["albedo.mc_samples"])
+                                     config["albedo.mc_samples"], power)
         sampled.append(dict(form=row["form"], n=row["n"], theta_deg=row["theta_deg"], quadrature=row["quadrature"],
                             estimate=float(mean), standard_error=float(se),
                             z=float((mean - row["quadrature"]) / se),
@@ -122,6 +126,6 @@ def run(config, inputs, memo):
     worst = 0.0
     for i in pick:
         for form, coef in (("phong", variants["phong_exact_coef"][1][i]), ("blinn", variants["blinn_exact_coef"][1][i])):
-            worst = max(worst, float(reciprocity_error(form, "quadratic", k[i], coef, L, V)))
+            worst = max(worst, float(reciprocity_error(form, "linear_power", k[i], coef, L, V, power)))
     out["reciprocity_max_rel_dev"] = worst
     return out

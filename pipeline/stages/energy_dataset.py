@@ -1,4 +1,5 @@
-"""Energy dataset (Fig. 7): the ideal normalization y(n) = 1 / (2 pi Int(n)) of f_Q2, with
+"""Energy dataset (Fig. 7): the ideal normalization y(n) = 1 / (2 pi Int(n)) of f_Q2 (f_Qm at the
+run's power m), with
 
     Int(n) = int_0^gran(n) f_Q2(g) cos(g) sin(g) dg,   gran(n) = arccos(1 - 1/k_Q2(n)),
 
@@ -13,29 +14,29 @@ from ..optics.numerics import jax
 import jax.numpy as jnp
 import numpy as np
 
-from ..optics.lobes import gran, k_Q2, quadratic
+from ..optics.lobes import gran, k_Q2, linear_power
 from .common import n_range
 
 
-def hemispherical_integral(k, nodes, weights):
-    """Int = int_0^gran f(g) cos g sin g dg for the quadratic lobe with coefficient k (scalar)."""
+def hemispherical_integral(k, nodes, weights, power: int = 2):
+    """Int = int_0^gran f(g) cos g sin g dg for the family's lobe with coefficient k (scalar)."""
     top = gran(k)
     g = 0.5 * top * (nodes + 1.0)
-    return 0.5 * top * jnp.sum(weights * quadratic(g, k) * jnp.cos(g) * jnp.sin(g))
+    return 0.5 * top * jnp.sum(weights * linear_power(g, k, power) * jnp.cos(g) * jnp.sin(g))
 
 
-@functools.partial(jax.jit, static_argnames="nodes")
-def integrals(k, nodes: int):
+@functools.partial(jax.jit, static_argnames=("nodes", "power"))
+def integrals(k, nodes: int, power: int = 2):
     """Int for every k of the array k, by `nodes`-point Gauss-Legendre quadrature."""
     x, w = np.polynomial.legendre.leggauss(nodes)
-    return jax.vmap(hemispherical_integral, (0, None, None))(k, x, w)
+    return jax.vmap(lambda k_: hemispherical_integral(k_, x, w, power))(k)
 
 
 def run(config, inputs, memo):
     sample = np.asarray(inputs["sample.sample_n"]).astype(np.int64)
     n = n_range(config)
     k = k_Q2(n, inputs["linear_coefficient.slope_used"], inputs["linear_coefficient.intercept_used"])
-    integral = integrals(k, config["energy.quadrature_nodes"])
+    integral = integrals(k, config["energy.quadrature_nodes"], config["lobe.power"])
     y = 1.0 / (2.0 * jnp.pi * integral)
     n_np, y_np = np.asarray(n), np.asarray(y)
     y_sample = y_np[sample - config["derivation.n_min"]]

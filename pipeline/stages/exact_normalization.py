@@ -8,8 +8,10 @@ beside the paper's regressed 0.214 (0.807 + n), the run's own fit, and the quadr
   is created. The exact coef is also checked against an independent route (the directional-albedo
   quadrature at normal incidence).
 - The large-n expansion of the exact coef, in n, to set beside the sparse regression's models.
-- The Blinn form's exact normalization at normal view, and the two-term asymptotic forms
-  (3 / (2 pi)) (k + 1/4) (Phong) and (3 / (8 pi)) (k + 5/4) (Blinn).
+- The Blinn form's exact normalization at normal view, and the two-term asymptotic forms c_1 k + c_0
+  (at m = 2, (3 / (2 pi)) (k + 1/4) (Phong) and (3 / (8 pi)) (k + 5/4) (Blinn)).
+
+Everything is for the run's power m (`lobe.power`): sympy integrates the lobe of that power.
 """
 
 import numpy as np
@@ -26,10 +28,11 @@ def run(config, inputs, memo):
     k = a * n + b
     n_np = np.asarray(n)
 
-    coef_fn, coef_source = integrals.exact_coef_code("phong")
-    blinn_fn, blinn_source = integrals.exact_coef_code("blinn")
-    Int_fn, _ = integrals.jax_function(integrals.phong_integral(), (integrals.k,))
-    gran_fn, _ = integrals.jax_function(integrals.phong_integral_gran(), (integrals.k,))
+    power = config["lobe.power"]
+    coef_fn, coef_source = integrals.exact_coef_code("phong", power)
+    blinn_fn, blinn_source = integrals.exact_coef_code("blinn", power)
+    Int_fn, _ = integrals.jax_function(integrals.phong_integral(power), (integrals.k,))
+    gran_fn, _ = integrals.jax_function(integrals.phong_integral_gran(power), (integrals.k,))
     coef_exact = np.asarray(coef_fn(n, a, b))
     coef_blinn = np.asarray(blinn_fn(n, a, b))
     Int = np.asarray(Int_fn(k))
@@ -42,21 +45,22 @@ def run(config, inputs, memo):
     excess = energy_run > 0.0
 
     # Independent route: the hemisphere quadrature of `pipeline.optics.albedo` at normal incidence.
-    albedo0 = coef_exact * albedo_table("phong", "quadratic", n, k, 1.0 / k, np.zeros(1),
-                                        config["albedo.quadrature_nodes"])[:, 0]
+    albedo0 = coef_exact * albedo_table("phong", "linear_power", n, k, 1.0 / k, np.zeros(1),
+                                        config["albedo.quadrature_nodes"], power)[:, 0]
     exact_dev = np.asarray(albedo0) - 1.0
     # The paper-style dataset (quadrature up to gran) against the exact integral up to gran.
     dataset_dev = inputs["energy_dataset.Int"] / Int_gran - 1.0
 
     # Large-n expansions, numeric in this run's a, b.
     values = {integrals.slope: a, integrals.intercept: b}
-    phong_k = integrals.large_k_expansion("phong")
-    blinn_k = integrals.large_k_expansion("blinn")
+    phong_k = integrals.large_k_expansion("phong", 3, power)
+    blinn_k = integrals.large_k_expansion("blinn", 3, power)
     phong_n = integrals.expansion_in_n(phong_k)
     terms = {name: float(phong_n.coeff(integrals.n, p).subs(values)) for name, p in
              (("n", 1), ("1", 0), ("1/n", -1))}
-    asym_phong = 3.0 / (2.0 * np.pi) * (k + 0.25)
-    asym_blinn = 3.0 / (8.0 * np.pi) * (k + 1.25)
+    (p1, p0), (b1, b0) = integrals.asymptote("phong", power), integrals.asymptote("blinn", power)
+    asym_phong = p1 * k + p0
+    asym_blinn = b1 * k + b0
     asym_phong_dev = np.asarray(asym_phong) / coef_exact - 1.0
     asym_blinn_dev = np.asarray(asym_blinn) / coef_blinn - 1.0
 
@@ -72,10 +76,12 @@ def run(config, inputs, memo):
         exact_coef_max_abs_dev=float(np.max(np.abs(exact_dev))),
         dataset_quadrature_max_rel_dev=float(np.max(np.abs(dataset_dev))),
         below_horizon_n=n_np[below], below_horizon_Int_difference=Int[below] - Int_gran[below], below_horizon_coef=coef_exact[below], below_horizon_coef_gran=1.0 / (2.0 * np.pi * Int_gran[below]),
-        formula_Int=sp.sstr(integrals.phong_integral()), formula_Int_gran=sp.sstr(integrals.phong_integral_gran()),
-        formula_coef=sp.sstr(integrals.coef_of_k(integrals.phong_integral())),
-        formula_Int_blinn=sp.sstr(integrals.blinn_integral()),
-        formula_coef_blinn=sp.sstr(integrals.coef_of_k(integrals.blinn_integral())),
+        formula_Int=sp.sstr(integrals.phong_integral(power)),
+        formula_Int_gran=sp.sstr(integrals.phong_integral_gran(power)),
+        formula_coef=sp.sstr(integrals.coef_of_k(integrals.phong_integral(power))),
+        formula_Int_blinn=sp.sstr(integrals.blinn_integral(power)),
+        formula_coef_blinn=sp.sstr(integrals.coef_of_k(integrals.blinn_integral(power))),
+        asymptotic_phong_terms=[p1, p0], asymptotic_blinn_terms=[b1, b0],
         formula_expansion_k=sp.sstr(phong_k), formula_expansion_blinn_k=sp.sstr(blinn_k),
         formula_expansion_n=sp.sstr(phong_n),
         code_coef=coef_source, code_coef_blinn=blinn_source,

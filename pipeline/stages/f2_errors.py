@@ -6,13 +6,13 @@ on neither Q nor the line, so a refit that changes those keeps it (and its check
 import numpy as np
 
 from ..optics.lobes import k_2
-from .common import n_range, quadratic_errors, summary
+from .common import n_range, family_errors, summary
 
 
 def run(config, inputs, memo):
     n = np.asarray(n_range(config))
     level = inputs["zone.level"]
     levels = sorted(set(config["zone.sensitivity_levels"]) | {level})
-    m = quadratic_errors(n, np.asarray(k_2(n)), level, levels, config["solver.rtol"], config["solver.atol"],
+    m = family_errors(n, np.asarray(k_2(n)), level, levels, config["solver.rtol"], config["solver.atol"],
                          config["solver.max_steps"])
     return summary("f_2", n, m) | dict(zone_levels=np.array(levels))

@@ -16,6 +16,8 @@ means visible bands) and the largest absolute error against the float64 lobe (pe
 
 import numpy as np
 
+from ..optics.registry import power_steps
+
 SAMPLES = 20000
 VISIBLE = 1.0 / 255.0
 
@@ -31,8 +33,20 @@ def _vectors(x, seed):
     return N, np.cos(x)[:, None] * N + np.sin(x)[:, None] * r
 
 
-def half_lobes(n: float, k: float, seed: int = 0) -> list[dict]:
-    """Rows (lobe, route, distinct values, max absolute error) at exponent n, f_Q2 coefficient k."""
+def float16_power(base, power: int):
+    """base^power in float16 as the exported shader computes it (`power_steps`: squarings and
+    multiplies, each rounded to float16)."""
+    values = {"b": base.astype(np.float16)}
+    steps, result = power_steps("b", power)
+    for name, expression in steps:
+        left, right = (values[v.strip()] for v in expression.split("*"))
+        values[name] = (left * right).astype(np.float16)
+    return values[result]
+
+
+def half_lobes(n: float, k: float, seed: int = 0, power: int = 2) -> list[dict]:
+    """Rows (lobe, route, distinct values, max absolute error) at exponent n, f_Q2 coefficient k
+    (f_Qm at power m; the rows keep the registry key f_Q2)."""
     x = np.linspace(0.0, np.arccos(VISIBLE ** (1.0 / n)), SAMPLES)
     N, H = (v.astype(np.float16) for v in _vectors(x, seed))
     one, zero, k16 = np.float16(1), np.float16(0), np.float16(k)
@@ -45,10 +59,10 @@ def half_lobes(n: float, k: float, seed: int = 0) -> list[dict]:
     values = {
         ("f_b", "1 - N.H"): np.power(np.clip(t, 0, 1).astype(np.float32), np.float32(n)).astype(np.float16),
         ("f_b", "dot(c, c) / (1 + N.H), c = N x H"): np.power((one - u).astype(np.float32), np.float32(n)).astype(np.float16),
-        ("f_Q2", "1 - N.H"): (quad_t * quad_t).astype(np.float16),
-        ("f_Q2", "dot(c, c) / (1 + N.H), c = N x H"): (quad_u * quad_u).astype(np.float16),
+        ("f_Q2", "1 - N.H"): float16_power(quad_t, power),
+        ("f_Q2", "dot(c, c) / (1 + N.H), c = N x H"): float16_power(quad_u, power),
     }
-    exact = {"f_b": np.cos(x) ** n, "f_Q2": np.maximum(1.0 - k * (1.0 - np.cos(x)), 0.0) ** 2}
+    exact = {"f_b": np.cos(x) ** n, "f_Q2": np.maximum(1.0 - k * (1.0 - np.cos(x)), 0.0) ** power}
     return [dict(n=float(n), lobe=lobe, route=route, distinct=int(len(np.unique(v))),
                  max_abs_error=float(np.max(np.abs(v.astype(np.float64) - exact[lobe]))))
             for (lobe, route), v in values.items()]
@@ -56,5 +70,6 @@ def half_lobes(n: float, k: float, seed: int = 0) -> list[dict]:
 
 def run(config, inputs, memo):
     a, b = inputs["linear_coefficient.slope_used"], inputs["linear_coefficient.intercept_used"]
-    rows = [row for n in config["render.exponents"] for row in half_lobes(float(n), a * float(n) + b)]
+    rows = [row for n in config["render.exponents"]
+            for row in half_lobes(float(n), a * float(n) + b, power=config["lobe.power"])]
     return dict(rows=rows, samples=SAMPLES)

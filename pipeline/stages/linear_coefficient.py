@@ -1,4 +1,4 @@
-"""Linear coefficient (Fig. 4): k_Q(n) replaced by slope * n + intercept.
+"""Linear coefficient (Fig. 4): k_Q(n) (of the run's power m) replaced by slope * n + intercept.
 
 "least_squares" (the paper's linear regression) minimizes sum_n (slope n + intercept - k_Q(n))^2
 over every integer n in range, with optimistix. "minimax" minimizes the worst relative error
@@ -47,10 +47,18 @@ def minimax_line(n, k):
     return float(res.x[0]), float(res.x[1])
 
 
+def asymptote(Q: float, power: int = 2) -> tuple[float, float]:
+    """(slope, intercept) of the large-n line of k_Q(n) = (Q^(1/m) - 1) / (Q^(1/n) - 1):
+    (1 - Q^(1/m)) / (-ln Q) and (1 - Q^(1/m)) / 2, from Q^(1/n) - 1 = ln Q / n + (ln Q)^2 / (2 n^2) + ..."""
+    drop = float(-np.expm1(np.log(Q) / power))
+    return drop / float(-np.log(Q)), drop / 2.0
+
+
 def run(config, inputs, memo):
     n = n_range(config)
     Q = inputs["q_choice.Q_used"]
-    k = np.asarray(jax.jit(k_Q)(n, Q))
+    power = config["lobe.power"]
+    k = np.asarray(jax.jit(k_Q, static_argnames="power")(n, Q, power=power))
     fit = config["derivation.fit"]
     if fit == "least_squares":
         slope, intercept = least_squares_line(n, k, config["solver.rtol"], config["solver.atol"],
@@ -65,7 +73,7 @@ def run(config, inputs, memo):
     # Other fits of the same line, to show where the paper's intercept could come from: ordinary
     # least squares on other sets of n, and least squares of the relative error (weights 1/k^2).
     def ols(ns, weights=None):
-        ks = np.asarray(jax.jit(k_Q)(ns, Q))
+        ks = np.asarray(jax.jit(k_Q, static_argnames="power")(ns, Q, power=power))
         w = np.ones_like(ns) if weights is None else weights(ks)
         A = np.column_stack([ns, np.ones_like(ns)]) * np.sqrt(w)[:, None]
         (a, b), *_ = np.linalg.lstsq(A, ks * np.sqrt(w), rcond=None)
@@ -77,14 +85,15 @@ def run(config, inputs, memo):
                 dict(variant="relative error (weights 1/k^2), every n", **ols(n, lambda ks: 1.0 / ks**2))]
     # The intercept that puts the paper's rounded slope exactly on its stated bound at the smallest n.
     intercept_at_bound = float((1.0 - config["paper_model.line_max_rel_error"]) * k[0] - paper_slope * n[0])
-    # The large-n asymptote of k_Q(n), a check on the fit: k_Q(n) = n (1 - sqrt Q) / (-ln Q)
-    # + (1 - sqrt Q) / 2 + O(1/n).
+    # The large-n asymptote of k_Q(n), a check on the fit: k_Q(n) = n (1 - Q^(1/m)) / (-ln Q)
+    # + (1 - Q^(1/m)) / 2 + O(1/n) (at m = 2, 1 - sqrt Q).
+    slope_asymptote, intercept_asymptote = asymptote(Q, power)
     return dict(
         k_Q=np.asarray(k), lin_slope=slope, lin_intercept=intercept, lin_max_rel_error=float(np.max(np.abs(rel))),
         lin_rel_error=rel, paper_line_rel_error=rel_paper,
         paper_line_max_rel_error=float(np.max(np.abs(rel_paper))),
-        asymptotic_slope=float((1.0 - np.sqrt(Q)) / -np.log(Q)),
-        asymptotic_intercept=float((1.0 - np.sqrt(Q)) / 2.0),
+        asymptotic_slope=slope_asymptote, asymptotic_intercept=intercept_asymptote,
+        slope_minus_asymptote=slope - slope_asymptote,
         intercept_variants=variants, intercept_at_bound=intercept_at_bound,
         slope_used=paper_slope if use_paper else slope,
         intercept_used=paper_intercept if use_paper else intercept,

@@ -35,19 +35,19 @@ def _short(ops: dict) -> str:
     return ", ".join(parts) or "none"
 
 
-def shape_errors(shape, n, p, level, cells, rtol, atol, max_steps):
-    """d and D per n of the lobe `SHAPES[shape](u, p)` (p per n)."""
-    m = error_curves(shape, n, p, level, cells, SolverSettings(rtol, atol, max_steps))
+def shape_errors(shape, n, p, level, cells, rtol, atol, max_steps, power=2):
+    """d and D per n of the lobe `SHAPES[shape](u, p, power)` (p per n)."""
+    m = error_curves(shape, n, p, level, cells, SolverSettings(rtol, atol, max_steps), int(power))
     require_converged(m["ok"], f"extrema of the {shape} lobe", n=n)
     return dict(d=np.asarray(m["d"]), D=np.asarray(m["D"]))
 
 
-def energy_table(form, shape, n, p, u_end, theta, nodes, check_n):
+def energy_table(form, shape, n, p, u_end, theta, nodes, check_n, power=2):
     """Albedo table (unnormalized: coef = 1) over n x theta, and the same at `check_n` with twice
     the nodes."""
     idx = np.searchsorted(n, check_n)
-    return dict(table=albedo_table(form, shape, n, p, u_end, theta, nodes),
-                check=albedo_table(form, shape, n[idx], p[idx], u_end[idx], theta, 2 * nodes) if len(idx)
+    return dict(table=albedo_table(form, shape, n, p, u_end, theta, nodes, int(power)),
+                check=albedo_table(form, shape, n[idx], p[idx], u_end[idx], theta, 2 * nodes, int(power)) if len(idx)
                 else np.zeros((0, len(theta))))
 
 
@@ -68,7 +68,7 @@ def run(config, inputs, memo):
     used = registry.Parameters(Q=inputs["q_choice.Q_used"], slope=inputs["linear_coefficient.slope_used"],
                                intercept=inputs["linear_coefficient.intercept_used"],
                                coef_scale=inputs["hemispherical.coef_scale_used"],
-                               coef_offset=inputs["hemispherical.coef_offset_used"])
+                               coef_offset=inputs["hemispherical.coef_offset_used"], power=config["lobe.power"])
     best = used._replace(Q=inputs["q_scan.Q_continuous_best"])
     compared = instances(used, best)
     norms = normalizations(used)
@@ -79,14 +79,16 @@ def run(config, inputs, memo):
     n_ext = np.concatenate([n, LARGE_N])
     for key, lobe, p in compared:
         m = memo("shape_errors", shape_errors, shape=lobe.shape, n=n_ext,
-                 p=np.asarray(lobe.parameter(jnp, n_ext, p), dtype=np.float64), level=level, cells=cells, **solver)
+                 p=np.asarray(lobe.parameter(jnp, n_ext, p), dtype=np.float64), level=level, cells=cells,
+                 power=lobe.power_of(p), **solver)
         large_n += [dict(lobe=key, n=float(v), d=float(d), D=float(D))
                     for v, d, D in zip(LARGE_N, m["d"][len(n):], m["D"][len(n):])]
         m = {name: m[name][: len(n)] for name in ("d", "D")}
         pixel, material = operations.count_operations(lobe.expression(p))
         shapes[key] = dict(d=float(m["d"].max()), D=float(m["D"].max()), d_curve=m["d"], D_curve=m["D"],
                            ops_pixel=pixel, ops_material=material)
-        lobe_rows.append(dict(lobe=key, registry_key=lobe.key, label=lobe.label(p), formula=lobe.formula_of(p),
+        lobe_rows.append(dict(lobe=key, registry_key=lobe.key, name=lobe.name(p) + key[len(lobe.key):],
+                              label=lobe.label(p), formula=lobe.formula_of(p), power=lobe.power_of(p),
                               d_n_at_max=float(n[m["d"].argmax()]), D_n_at_max=float(n[m["D"].argmax()]),
                               ops_pixel=pixel, ops_material=material))
 
@@ -103,7 +105,7 @@ def run(config, inputs, memo):
         coef = np.asarray(norm.fn(n), dtype=np.float64)
         t = memo("energy_table", energy_table, form=form, shape=lobe.shape, n=n, p=param,
                  u_end=np.asarray(support_end(lobe.shape, param), dtype=np.float64),
-                 theta=theta, nodes=nodes, check_n=check)
+                 theta=theta, nodes=nodes, check_n=check, power=lobe.power_of(p))
         # The albedo is linear in coef: rows sharing a form and a lobe share one table.
         table = coef[:, None] * t["table"]
         if len(check):

@@ -62,20 +62,21 @@ def run(config, inputs, memo):
     spp = config["mitsuba.spp"] if variant == bsdf.FAST_VARIANT else config["mitsuba.fallback_spp"]
     nodes = config["albedo.quadrature_nodes"]
 
-    params = registry.Parameters(slope=a, intercept=b)
+    params = registry.Parameters(slope=a, intercept=b, power=config["lobe.power"])
 
     def lobes(key, sampler="lobe"):
         """The plugin properties of the three spheres with the registry's lobe `key`."""
         lobe, out = registry.LOBES[key], []
         for n in exponents:
             p = float(lobe.parameter(np, n, params))
-            coef = bsdf.normalization(lobe.shape, "blinn", n, p, nodes)
-            out.append(scene.lobe_dict(lobe.shape, n, p, coef, sampler))
+            power = lobe.power_of(params)
+            coef = bsdf.normalization(lobe.shape, "blinn", n, p, nodes, power)
+            out.append(scene.lobe_dict(lobe.shape, n, p, coef, sampler, power))
         return out
 
     def lobe_value(props, t):
         """The sphere's lobe at N.H = t (`pipeline.optics.lobes`, in u = 1 - t)."""
-        return np.asarray(SHAPES[props["shape"]](1.0 - t, props["k"]))
+        return np.asarray(SHAPES[props["shape"]](1.0 - t, props["k"], props["power"]))
 
     start = time.perf_counter()
     runs = {}

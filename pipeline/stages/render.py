@@ -28,14 +28,14 @@ LOBES = (registry.REFERENCE, "f_2", "f_Q2")
 
 
 def candidate(scene_index: int, resolution: int, n: float, shape: str, p: float, coef: float, reference_coef: float,
-              level: float) -> dict:
+              level: float, power: int = 2) -> dict:
     """One candidate lobe's image at exponent n against the reference cos^n (both with their coef):
     its display and luminance, FLIP map, visible-highlight mask of both, and its statistics. A
     memoized call: a candidate that does not depend on a setting (f_2 under a Q refit) is reused."""
     scene = SCENES[scene_index]
     base8 = np.asarray(display_and_luminance(shade(scene, resolution, "power", 1.0, 0.0))[0])
     ref = shade(scene, resolution, "power", n, reference_coef)
-    image = shade(scene, resolution, shape, p, coef)
+    image = shade(scene, resolution, shape, p, coef, int(power))
     ref8, _ = (np.asarray(v) for v in display_and_luminance(ref))
     image8, lum = (np.asarray(v) for v in display_and_luminance(image))
     epicenter = np.asarray(epicenter_mask(scene, resolution, n, level))
@@ -64,12 +64,13 @@ def reference(scene_index: int, resolution: int, n: float, coef: float) -> dict:
 def run(config, inputs, memo):
     a, b = inputs["linear_coefficient.slope_used"], inputs["linear_coefficient.intercept_used"]
     level = inputs["zone.level"]
-    blinn_coef, _ = integrals.exact_coef_code("blinn")
+    power = config["lobe.power"]
+    blinn_fns = {m: integrals.exact_coef_code("blinn", m)[0] for m in {2, power}}
     res = config["render.resolution"]
     exponents = [float(v) for v in config["render.exponents"]]
     own = config["render.normalization"] == "exact"
 
-    params = registry.Parameters(slope=a, intercept=b)
+    params = registry.Parameters(slope=a, intercept=b, power=power)
     d_curves = {"f_2": inputs["f2_errors.d_f_2_curve"], "f_Q2": inputs["accuracy.d_f_Q2_curve"]}
 
     def d_bound(name, n):
@@ -78,14 +79,15 @@ def run(config, inputs, memo):
         return float(d_curves[name][i]) if n == round(n) and 0 <= i < len(d_curves[name]) else float("nan")
 
     def lobes(n):
-        """(shape, parameter, coef) of each lobe at exponent n: the reference with Giesen's factor, each
-        candidate with Giesen's or its own exact Blinn-form coef (of k: k = 1 k + 0)."""
+        """(shape, parameter, coef, power) of each lobe at exponent n: the reference with Giesen's
+        factor, each candidate with Giesen's or its own exact Blinn-form coef (of k: k = 1 k + 0)."""
         out = {}
         for key in LOBES:
             lobe = registry.LOBES[key]
             p = float(lobe.parameter(np, n, params))
-            own_coef = float(blinn_coef(p, 1.0, 0.0)) if own and key != registry.REFERENCE else giesen(n)
-            out[key] = (lobe.shape, p, own_coef)
+            m = lobe.power_of(params)
+            own_coef = float(blinn_fns[m](p, 1.0, 0.0)) if own and key != registry.REFERENCE else giesen(n)
+            out[key] = (lobe.shape, p, own_coef, m)
         return out
 
     shape = (len(SCENES), len(exponents))
@@ -101,9 +103,9 @@ def run(config, inputs, memo):
             display[i, j, 0], lum[i, j, 0] = r["display"], r["luminance"]
             area = dict(scene=scene.name, n=n)
             for l, name in enumerate(LOBES[1:], 1):
-                shape_, p, coef = spec[name]
+                shape_, p, coef, m = spec[name]
                 c = memo("render_candidate", candidate, scene_index=i, resolution=res, n=n, shape=shape_,
-                         p=float(p), coef=float(coef), reference_coef=ref_coef, level=level)
+                         p=float(p), coef=float(coef), reference_coef=ref_coef, level=level, power=m)
                 display[i, j, l], lum[i, j, l], flip_maps[i, j, l - 1] = c["display"], c["luminance"], c["flip"]
                 st = dict(c["stats"])
                 area[registry.REFERENCE], area[name] = st.pop("reference_visible_pixels"), st.pop("visible_pixels")

@@ -9,6 +9,7 @@ from ..optics import registry, spirv
 
 def run(config, inputs, memo):
     try:
-        return dict(available=True, tools=spirv.tool_versions(), lobes=spirv.lobe_costs(registry.LOBES.values()))
+        p = registry.Parameters(power=config["lobe.power"])
+        return dict(available=True, tools=spirv.tool_versions(), lobes=spirv.lobe_costs(registry.LOBES.values(), p))
     except spirv.ToolMissing as e:
         return dict(available=False, tools=str(e), lobes=[])

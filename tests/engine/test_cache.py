@@ -65,13 +65,13 @@ def test_a_change_recomputes_only_what_reads_it_and_stops_where_values_repeat(wa
 
 @pytest.mark.slow
 def test_a_q_refit_reuses_the_work_that_does_not_depend_on_q(warm_cache, light_run):
-    before = {name: memo_entries(warm_cache, name) for name in ("quadratic_errors", "shape_errors", "energy_table")}
+    before = {name: memo_entries(warm_cache, name) for name in ("family_errors", "shape_errors", "energy_table")}
     config = pipeline.load_config(LIGHT_CONFIG, ("derivation.Q=0.7",))
     results, computed, _ = run(config, warm_cache)
     assert "zone" not in computed and "q_scan" not in computed and "render" in computed
     after = {name: memo_entries(warm_cache, name) for name in before}
     # f_Q2 and f_Q move with Q (accuracy); f_2's errors are a stage of their own, not rerun.
-    assert "f2_errors" not in computed and after["quadratic_errors"] - before["quadratic_errors"] == 2
+    assert "f2_errors" not in computed and after["family_errors"] - before["family_errors"] == 2
     # Of the 8 compared lobes only f_Q (run's Q) and f_Q2 move; f_b, f_2, Schlick, SG, SG_Lagarde
     # and f_Q at the optimal Q are reused.
     assert after["shape_errors"] - before["shape_errors"] == 2

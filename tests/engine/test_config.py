@@ -157,3 +157,13 @@ def test_the_largest_seeds_allowed_are_what_the_libraries_take():
     jax.random.PRNGKey(JAX_SEED_MAX + 2)
     with pytest.raises(OverflowError):
         jax.random.PRNGKey(JAX_SEED_MAX + 3)
+
+
+@pytest.mark.parametrize("text, key", [("lobe.power=1", "lobe.power"), ("lobe.power=17", "lobe.power"),
+                                       ("lobe.power=2.5", "lobe.power"), ("lobe.power=true", "lobe.power"),
+                                       ("front.powers=[]", "front.powers"), ("front.powers=[2, 17]", "front.powers"),
+                                       ("front.powers=[3, 3]", "front.powers")])
+def test_bad_powers_are_refused_naming_the_key(text, key):
+    from pipeline.engine.config import ConfigError
+    with pytest.raises(ConfigError, match=rf"'{key}'.*expected .*\[2, 16\]"):
+        load_config(paths.ROOT / "configs" / "power_4.toml", (text,))

@@ -16,10 +16,17 @@ from mitsuba.chi2 import BSDFAdapter, ChiSquareTest  # noqa: E402
 A, B = 0.448, 0.099          # the paper's line: f_Q2's k = A n + B
 EXPONENTS = (2.0, 10.0, 100.0, 1000.0)
 ANGLES = (0.0, 45.0, 80.0)
-LOBES = {"f_b": ("power", lambda n: n), "f_2": ("quadratic", lambda n: n / 2.0),
-         "f_Q2": ("quadratic", lambda n: A * n + B)}
-CASES = [(lobe, form, n, angle) for lobe in LOBES for form in ("phong", "blinn") for n in EXPONENTS
-         for angle in ANGLES]
+# (shape, k(n), power m). f_Q3 and f_Q4: the large-n asymptotes of k_Q(n) at Q = 0.65 (the best Q
+# of the power-4 run), (1 - Q^(1/m)) (n / (-ln Q) + 1/2).
+LOBES = {"f_b": ("power", lambda n: n, 2), "f_2": ("linear_power", lambda n: n / 2.0, 2),
+         "f_Q2": ("linear_power", lambda n: A * n + B, 2),
+         "f_Q3": ("linear_power", lambda n: 0.3105065 * n + 0.0668804, 3),
+         "f_Q4": ("linear_power", lambda n: 0.2370086 * n + 0.0510496, 4)}
+PAPER_LOBES = ("f_b", "f_2", "f_Q2")
+CASES = ([(lobe, form, n, angle) for lobe in PAPER_LOBES for form in ("phong", "blinn") for n in EXPONENTS
+          for angle in ANGLES]
+         + [(lobe, form, n, angle) for lobe in ("f_Q3", "f_Q4") for form in ("phong", "blinn")
+            for n in (2.0, 100.0, 1000.0) for angle in (0.0, 80.0)])
 
 
 @pytest.fixture(scope="module")
@@ -36,10 +43,10 @@ def variant():
 
 
 def plugin_dict(lobe, form, n, name=mitsuba_bsdf.NAME, sampler="lobe"):
-    shape, k = LOBES[lobe]
+    shape, k, power = LOBES[lobe]
     p = k(n)
     return {"type": name, "shape": shape, "form": form, "exponent": n, "k": p, "coef": 1.0 / normal_albedo(lobe, form, n),
-            "sampler": sampler}
+            "sampler": sampler, "power": power}
 
 
 def normal_albedo(lobe, form, n):
@@ -51,7 +58,7 @@ def test_the_default_normalization_is_the_exact_one(variant):
     """Without a coef the plugin takes the exact normalization: the closed forms (n + 2)/(2 pi) for
     cos^n (Phong) and 6k^2/(pi (4k - 1)) for the quadratic lobe with k >= 1 (Phong)."""
     cos_n = mi.load_dict({"type": mitsuba_bsdf.NAME, "shape": "power", "form": "phong", "exponent": 50.0})
-    quadratic = mi.load_dict({"type": mitsuba_bsdf.NAME, "shape": "quadratic", "form": "phong", "exponent": 50.0,
+    quadratic = mi.load_dict({"type": mitsuba_bsdf.NAME, "shape": "linear_power", "form": "phong", "exponent": 50.0,
                               "k": 22.499})
     k = 22.499
     assert cos_n.coef == pytest.approx(52.0 / (2 * math.pi), rel=1e-9)
@@ -59,49 +66,67 @@ def test_the_default_normalization_is_the_exact_one(variant):
 
 
 def quadrature_albedo(lobe, form, n, angles_deg):
-    shape, k = LOBES[lobe]
+    shape, k, power = LOBES[lobe]
     if shape == "power":
         return albedo_table(form, "power", n, n, 1.0, np.radians(angles_deg), 96)[0]
     p = k(n)
-    return albedo_table(form, "quadratic", n, p, min(1.0 / p, 2.0), np.radians(angles_deg), 96)[0]
+    return albedo_table(form, "linear_power", n, p, min(1.0 / p, 2.0), np.radians(angles_deg), 96, power)[0]
 
 
 def axis_cdf(lobe, n, c):
     """The axis cosine's CDF F (the uniform number the exact sampler would need), written out
-    independently of the plugin: cos^n: c^(n+1) on [0, 1]; quadratic: (w^3 - w0^3)/(1 - w0^3),
-    w = k (c - 1) + 1, w0 = max(1 - 2k, 0)."""
-    shape, k = LOBES[lobe]
+    independently of the plugin: cos^n: c^(n+1) on [0, 1]; the family at power m:
+    (w^(m+1) - w0^(m+1))/(1 - w0^(m+1)), w = k (c - 1) + 1, w0 = max(1 - 2k, 0)."""
+    shape, k, power = LOBES[lobe]
     if shape == "power":
         return dr.power(dr.clip(c, 0.0, 1.0), n + 1.0)
     p = k(n)
-    w0 = max(1.0 - 2.0 * p, 0.0) ** 3
+    w0 = max(1.0 - 2.0 * p, 0.0) ** (power + 1)
     w = dr.clip(p * (c - 1.0) + 1.0, 0.0, 1.0)
-    return (w * w * w - w0) / (1.0 - w0)
+    return (dr.power(w, power + 1.0) - w0) / (1.0 - w0)
 
 
 def axis_cosine(lobe, n, u):
-    shape, k = LOBES[lobe]
+    shape, k, power = LOBES[lobe]
     if shape == "power":
         return dr.power(u, 1.0 / (n + 1.0))
     p = k(n)
-    w0 = max(1.0 - 2.0 * p, 0.0) ** 3
-    return 1.0 + (dr.cbrt(w0 + u * (1.0 - w0)) - 1.0) / p
+    w0 = max(1.0 - 2.0 * p, 0.0) ** (power + 1)
+    return 1.0 + (dr.power(w0 + u * (1.0 - w0), 1.0 / (power + 1.0)) - 1.0) / p
 
 
 def axis_density(lobe, n, c):
     """dF/dc."""
-    shape, k = LOBES[lobe]
+    shape, k, power = LOBES[lobe]
     if shape == "power":
         return (n + 1.0) * dr.power(dr.maximum(c, 0.0), n)
     p = k(n)
-    w0 = max(1.0 - 2.0 * p, 0.0) ** 3
+    w0 = max(1.0 - 2.0 * p, 0.0) ** (power + 1)
     w = dr.maximum(p * (c - 1.0) + 1.0, 0.0)
-    return 3.0 * p * w * w / (1.0 - w0)
+    return (power + 1.0) * p * dr.power(w, float(power)) / (1.0 - w0)
+
+
+def folded_cdf(lobe, n, c):
+    """The Blinn form's half-vector cosine folded onto [0, 1]: h and -h reflect wi to the same wo,
+    so the sampler's draws at c and -c land together; F(c) - F(-c) for c >= 0 (= F(c) where the
+    lobe stays above the horizon, k >= 1)."""
+    return axis_cdf(lobe, n, c) - axis_cdf(lobe, n, -c)
+
+
+def folded_cosine(lobe, n, u, steps=40):
+    """Inverse of `folded_cdf` on [0, 1], by bisection (it is increasing)."""
+    lo, hi = dr.zeros(mi.Float, dr.width(u)), dr.ones(mi.Float, dr.width(u))
+    for _ in range(steps):
+        mid = 0.5 * (lo + hi)
+        below = folded_cdf(lobe, n, mid) < u
+        lo, hi = dr.select(below, mid, lo), dr.select(below, hi, mid)
+    return 0.5 * (lo + hi)
 
 
 class LobeDomain:
     """Directions parameterized around the lobe: (phi, F(c)) over [-pi, pi] x [0, 1], c the cosine to
-    the lobe's axis (Phong: to the mirror direction; Blinn: of the half vector to the normal). The
+    the lobe's axis (Phong: to the mirror direction; Blinn: of the half vector to the normal, with
+    F folded onto the upper hemisphere, `folded_cdf`). The
     exact sampler fills it uniformly, so every one of Mitsuba's histogram cells carries samples at
     any n (its default spherical grid puts a narrow lobe in a handful of cells)."""
 
@@ -116,7 +141,7 @@ class LobeDomain:
         return 1.0
 
     def map_forward(self, p):
-        c = axis_cosine(self.lobe, self.n, p.y)
+        c = axis_cosine(self.lobe, self.n, p.y) if self.form == "phong" else folded_cosine(self.lobe, self.n, p.y)
         sin = dr.safe_sqrt(1.0 - c * c)
         s, co = dr.sincos(p.x)
         d = self.axis.to_world(mi.Vector3f(sin * co, sin * s, c))
@@ -128,14 +153,18 @@ class LobeDomain:
 
     def map_backward(self, wo):
         v, _ = self.local(wo)
-        return mi.Vector2f(dr.atan2(v.y, v.x), axis_cdf(self.lobe, self.n, dr.clip(v.z, -1.0, 1.0)))
+        c = dr.clip(v.z, -1.0, 1.0)
+        return mi.Vector2f(dr.atan2(v.y, v.x), axis_cdf(self.lobe, self.n, c) if self.form == "phong"
+                           else folded_cdf(self.lobe, self.n, dr.maximum(c, 0.0)))
 
     def jacobian(self, wo):
         """Solid angle of wo per unit parameter area: dw/dphi dF = 1 / F'(c), times 4 |wo.h| for
         the Blinn form (dw_o = 4 |wo.h| dw_h)."""
         v, d = self.local(wo)
-        j = 1.0 / axis_density(self.lobe, self.n, v.z)
-        return j if self.form == "phong" else j * 4.0 * dr.abs(dr.dot(wo, d))
+        if self.form == "phong":
+            return 1.0 / axis_density(self.lobe, self.n, v.z)
+        folded = axis_density(self.lobe, self.n, v.z) + axis_density(self.lobe, self.n, -v.z)
+        return 4.0 * dr.abs(dr.dot(wo, d)) / folded
 
 
 def chi2(lobe, form, n, angle, name=mitsuba_bsdf.NAME):
@@ -171,7 +200,8 @@ def wrong_plugins(variant):
         def axis_cosine(self, xi):
             if self.shape == "power":
                 return dr.power(xi, 1.0 / (self.n / 2.0 + 1.0))
-            return 1.0 + (dr.sqrt(self.w0_cubed + xi * (1.0 - self.w0_cubed)) - 1.0) / self.k
+            # The root of degree m where m + 1 belongs (the square root at m = 2).
+            return 1.0 + (dr.power(self.w0_power + xi * (1.0 - self.w0_power), 1.0 / self.power) - 1.0) / self.k
 
     class PdfTooLarge(base):
         def pdf(self, ctx, si, wo, active=True):
@@ -182,8 +212,8 @@ def wrong_plugins(variant):
     return ("cosquad_wrong_root", "cosquad_wrong_pdf")
 
 
-@pytest.mark.parametrize("lobe, form, n", [(lobe, form, n) for lobe in LOBES for form in ("phong", "blinn")
-                                           for n in (10.0, 100.0)])
+@pytest.mark.parametrize("lobe, form, n", [(lobe, form, n) for lobe in PAPER_LOBES for form in ("phong", "blinn")
+                                           for n in (10.0, 100.0)] + [("f_Q4", "phong", 100.0)])
 def test_wrong_samplers_fail_the_same_test(wrong_plugins, lobe, form, n):
     for name in wrong_plugins:
         passed, test = chi2(lobe, form, n, 45.0, name)

@@ -2,7 +2,7 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from pipeline.optics.lobes import f_2, f_b, f_Q, f_Q2, gran, k_2, k_Q, quadratic
+from pipeline.optics.lobes import f_2, f_b, f_Q, f_Q2, gran, k_2, k_Q, linear_power
 
 X = jnp.linspace(0.0, jnp.pi / 2, 2001)
 
@@ -41,8 +41,8 @@ def test_clamping_past_the_zero_crossing():
     k = 10.0
     x0 = float(gran(k))
     assert np.cos(x0) == pytest.approx(1 - 1 / k)
-    assert float(quadratic(x0 + 1e-6, k)) == 0.0
-    assert float(quadratic(x0 - 1e-3, k)) > 0.0
+    assert float(linear_power(x0 + 1e-6, k)) == 0.0
+    assert float(linear_power(x0 - 1e-3, k)) > 0.0
     # With k < 1 the zero crossing lies past the horizon.
     assert float(gran(0.995)) > np.pi / 2
 

@@ -68,8 +68,8 @@ def with_upstream(names) -> tuple[str, ...]:
     return tuple(out)
 
 
-TOY = registry.Lobe("f_toy", "((n/3)(t - 1) + 1)^2", "quadratic", lambda m, n, p: n / 3.0,
-                    registry.QUADRATIC_GLSL, dict(color="C9", ls="-."), energy=(("phong", "phong_cos_n"),))
+TOY = registry.Lobe("f_toy", "((n/3)(t - 1) + 1)^2", "linear_power", lambda m, n, p: n / 3.0,
+                    None, dict(color="C9", ls="-."), energy=(("phong", "phong_cos_n"),))
 
 
 @pytest.fixture()

@@ -66,7 +66,7 @@ def test_importance_sampled_albedo_matches_the_quadrature(form, n):
     k = K[n]
     for deg in (0.0, 45.0, 80.0):
         theta = np.radians(deg)
-        quad = float(albedo_table(form, "quadratic", [n], [k], [1 / k], [theta], 96)[0, 0])
+        quad = float(albedo_table(form, "linear_power", [n], [k], [1 / k], [theta], 96)[0, 0])
         mean, se = _albedo_estimate(form, k, theta)
         assert abs(mean - quad) < 4 * se + 1e-7 * quad, (form, n, deg, mean, quad, se)
         # A pdf 10 % too large biases the estimate by 10 %: far outside the same bound.

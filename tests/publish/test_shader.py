@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from pipeline.publish import shader
-from pipeline.optics.lobes import quadratic_u
+from pipeline.optics.lobes import linear_power_u
 
 
 
@@ -33,7 +33,7 @@ def test_exported_python_twin_matches_the_pipeline(exported, paper_run, n_all):
     for n in np.concatenate([np.arange(2.0, 40.0), rng.uniform(2, 1000, 200)]):
         k = 0.448 * n + 0.099
         for t in np.concatenate([rng.uniform(0, 1, 20), [0.0, 1.0, 1 - 1 / k]]):
-            assert twin.cosquad_lobe(t, n) == pytest.approx(float(quadratic_u(1 - t, k)), rel=1e-12, abs=1e-15)
+            assert twin.cosquad_lobe(t, n) == pytest.approx(float(linear_power_u(1 - t, k)), rel=1e-12, abs=1e-15)
         assert twin.cosquad_coef(n) == pytest.approx(0.214 * (0.807 + n), rel=1e-14)
     for i, n in enumerate(n_all[:: 37]):
         assert twin.cosquad_coef_exact(n) == pytest.approx(e["coef_exact"][:: 37][i], rel=1e-12)
@@ -103,7 +103,8 @@ void main() { color = vec4(cosquad_lobe(t_in, n)); }
     # k t + (1 - k) with k = a n + b, the max and the square: a handful of arithmetic instructions.
     assert 4 <= counts["arithmetic"] <= 8
     # The check can fail: the same lobe written with pow() keeps its Pow through the optimizer.
-    with_pow = source.replace("return b * b;", "return pow(b, 2.0);")
+    with_pow = source.replace("float b2 = b * b;", "float b2 = pow(b, 2.0);")
+    assert with_pow != source
     assert _main_instructions(with_pow)["ops"].get("Pow") == 1
 
 
@@ -157,3 +158,43 @@ def test_twin_u_is_one_minus_t_and_the_edge_for_a_back_facing_half_vector(export
     # Back-facing, and exactly opposite (where |N x H|^2 / (1 + N.H) would divide 0 by 0): the edge.
     assert twin.cosquad_u(N, (0.6, 0.0, -0.8)) == 1.0 and twin.cosquad_u(N, (0.0, 0.0, -1.0)) == 1.0
     assert twin.cosquad_lobe_u(twin.cosquad_u(N, (0.0, 0.0, -1.0)), 100.0) == 0.0
+
+
+@pytest.mark.parametrize("power", (3, 4))
+def test_exported_family_lobe_at_other_powers(power, tmp_path):
+    """At m = 3, 4 the exported lobe is (k (t - 1) + 1)^m written in multiplies: the Python twin
+    matches the pipeline's lobe, its pdf is the sampler's, and compiled GLSL (where
+    glslangValidator and spirv-opt are installed) holds no transcendental instruction."""
+    import pipeline
+    from pipeline.engine import paths
+    from pipeline.optics.sampling import lobe_pdf
+    config = pipeline.load_config(paths.ROOT / "configs" / "power_4.toml", (f"lobe.power={power}",))
+    a, b = 0.3105065, 0.0668804
+    files = shader.render_sources(config, a, b, 0.15, 1.0, "test", "coef note")
+    assert "pow(b" not in files["cosquad.glsl"] and "b * b" in files["cosquad.glsl"]
+    (tmp_path / "twin.py").write_text(files["cosquad_twin.py"])
+    spec = importlib.util.spec_from_file_location("twin_power", tmp_path / "twin.py")
+    twin = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(twin)
+    rng = np.random.default_rng(1)
+    for n in (2.0, 10.0, 300.0, 1000.0):
+        k = a * n + b
+        for t in np.concatenate([rng.uniform(0, 1, 20), [0.0, 1.0, 1 - 1 / k]]):
+            assert twin.cosquad_lobe(t, n) == pytest.approx(float(linear_power_u(1 - t, k, power)), rel=1e-12, abs=1e-15)
+            assert twin.cosquad_lobe_u(1 - t, n) == pytest.approx(float(linear_power_u(1 - t, k, power)), rel=1e-12,
+                                                                   abs=1e-15)
+            assert twin.cosquad_pdf(t, n) == pytest.approx(float(lobe_pdf(t, k, power)), rel=1e-12, abs=1e-15)
+    from pipeline.optics import spirv as shader_cost
+    try:
+        shader_cost.tool("spirv-opt")
+    except shader_cost.ToolMissing as e:
+        pytest.skip(str(e))
+    source = "#version 450\n" + files["cosquad.glsl"] + """
+layout(location = 0) in float t_in;
+layout(location = 0) out vec4 color;
+layout(binding = 0) uniform Material { float n; };
+void main() { color = vec4(cosquad_lobe(t_in, n)); }
+"""
+    counts = _main_instructions(source)
+    assert counts["transcendental"] == 0 and counts["division"] == 0
+    assert counts["ops"]["OpFMul"] >= shader.registry.multiplies(power)
