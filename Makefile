@@ -10,6 +10,7 @@ INSTALLED := $(VENV)/.installed
 TEST_INSTALLED := $(VENV)/.installed-test
 PIP := $(BIN)/pip install --quiet --disable-pip-version-check -c constraints.txt
 LLVM_READY := $(VENV)/.llvm
+RADV_READY := $(VENV)/.radv
 # Runs a command with DRJIT_LIBLLVM_PATH set to LLVM 19 where one is installed.
 WITH_LLVM = lib=$$(ls /usr/lib/*/libLLVM.so.19* /usr/lib/llvm-19/lib/libLLVM.so* 2>/dev/null | head -n 1); \
 	if [ -n "$$lib" ]; then export DRJIT_LIBLLVM_PATH=$$lib; fi;
@@ -45,16 +46,31 @@ $(LLVM_READY): $(INSTALLED)
 	fi
 	touch $(LLVM_READY)
 
-reproduce: $(INSTALLED) $(LLVM_READY)
+# Best effort: the gpu_isa stage compiles the lobes to AMD machine code with Mesa's RADV driver (no
+# GPU needed); without it the stage says why and the report gives SPIR-V counts only.
+$(RADV_READY): $(INSTALLED)
+	@if ls /usr/share/vulkan/icd.d/radeon_icd*.json 2>/dev/null | grep -q . && ldconfig -p | grep -q libvulkan.so.1; then \
+		echo "Mesa's RADV found: the gpu_isa stage compiles to AMD machine code"; \
+	elif [ "$$(id -u)" = 0 ] && command -v apt-get >/dev/null; then \
+		echo "installing Debian's mesa-vulkan-drivers and libvulkan1 for the machine-code cost ..."; \
+		DEBIAN_FRONTEND=noninteractive apt-get install -y -q mesa-vulkan-drivers libvulkan1 >/dev/null 2>&1 \
+		|| (apt-get update -q >/dev/null 2>&1 && DEBIAN_FRONTEND=noninteractive apt-get install -y -q mesa-vulkan-drivers libvulkan1 >/dev/null 2>&1) \
+		|| echo "mesa-vulkan-drivers could not be installed: the machine-code cost is not measured"; \
+	else \
+		echo "no RADV and no apt-get as root: the machine-code cost is not measured"; \
+	fi
+	touch $(RADV_READY)
+
+reproduce: $(INSTALLED) $(LLVM_READY) $(RADV_READY)
 	$(WITH_LLVM) $(BIN)/pipeline reproduce
 
-refit: $(INSTALLED) $(LLVM_READY)
+refit: $(INSTALLED) $(LLVM_READY) $(RADV_READY)
 	$(WITH_LLVM) $(BIN)/pipeline refit --config $(CONFIG) $(foreach s,$(SET),--set $(s)) $(if $(ONLY),--only $(ONLY))
 
-test: $(TEST_INSTALLED) $(LLVM_READY)
+test: $(TEST_INSTALLED) $(LLVM_READY) $(RADV_READY)
 	$(WITH_LLVM) $(BIN)/python -m pytest -q -n 2 --dist loadfile
 
-bench: $(TEST_INSTALLED) $(LLVM_READY)
+bench: $(TEST_INSTALLED) $(LLVM_READY) $(RADV_READY)
 	$(WITH_LLVM) $(BIN)/python bench/bench.py
 
 keys: $(INSTALLED)

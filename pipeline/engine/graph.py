@@ -333,6 +333,28 @@ STAGES: tuple[Stage, ...] = (
         "lobes": "per lobe: GLSL body, optimized-SPIR-V instruction counts (arithmetic, division, "
                  "transcendental) and each opcode [list, instructions per pixel]",
     }),
+    _stage("gpu_isa", "beyond", POWER + ("front.powers",), (), {
+        "available": "whether Mesa's RADV compiler ran (Vulkan loader, RADV driver, the vulkan package) [bool]",
+        "reason": "why not, where it did not [text]",
+        "devices": "the driver's device name per chip family (gfx1100 RDNA3, navi21 RDNA2, vega10 GCN5) [dict]",
+        "rows": "per shader and chip family: lobe, what (the lobe alone, or with a normalization and n per pixel), "
+                "instructions by kind (vector ALU, transcendental, scalar, other), ACO's latency and cycles per "
+                "wave, the same net of the wrapper shader, and the listing [list]",
+        "pow_transcendental": "transcendental instructions of cos^n = pow(t, n) (fewest over the chips; -1: not "
+                              "measured) [count]",
+        "family_transcendental_max": "most transcendental instructions of any power of the family (f_Q2, f_Q3, ...; "
+                                     "-1: not measured) [count]",
+    }),
+    _stage("power_front", "beyond",
+           RANGE + ("derivation.metric", "derivation.Q", "derivation.fit", "front.powers", "scan.coarse_step",
+                    "scan.fine_step", "solver.*", "albedo.quadrature_nodes", "comparison.albedo_angles"),
+           ("zone.level",), {
+        "powers": "the front's powers m [list]",
+        "members": "per power: name f_Qm, its best Q and fitted line, max d and D over n and per n range, the "
+                   "largest albedo with its exact coef (Phong, Blinn), the multiplies of its power [list]",
+        "d_curves": "d per n of each power, in the order of `powers` [array powers x n, fraction]",
+        "D_curves": "D per n of each power [array powers x n, absolute]",
+    }),
     _stage("render", "beyond", ("render.*",) + RANGE + POWER,
            ("zone.level", "linear_coefficient.slope_used", "linear_coefficient.intercept_used",
             "f2_errors.d_f_2_curve", "accuracy.d_f_Q2_curve"), {

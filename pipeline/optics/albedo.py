@@ -101,11 +101,11 @@ def directional_albedo(form: str, lobe, n, u_end, coef, theta_i, nodes, weights)
 
 # Tables are computed in blocks of N_BLOCK exponents (SMALL_N_BLOCK for tables of a few exponents)
 # x THETA_BLOCK angles, by one compiled program per (form, nodes, block): array sizes, the lobe's
-# shape and its parameters are all traced or padded.
+# shape, its parameters and the family's power are all traced or padded.
 N_BLOCK, SMALL_N_BLOCK, THETA_BLOCK = 64, 8, 16
 
 
-@functools.partial(jax.jit, static_argnames=("form", "nodes", "power"))
+@functools.partial(jax.jit, static_argnames=("form", "nodes"))
 def _block(form, nodes, shape_index, n, p, u_end, theta_i, power):
     x, w = np.polynomial.legendre.leggauss(nodes)
 
@@ -135,7 +135,7 @@ def albedo_table(form: str, shape: str, n, p, u_end, theta_i, nodes: int, power:
     index = SHAPE_NAMES.index(shape)
     # Every block is dispatched before any is read back, so that computation overlaps dispatch.
     blocks = {(i, j): _block(form, nodes, index, *(v[i:i + rows] for v in per_n), angles[j:j + THETA_BLOCK],
-                             int(power))
+                             np.float64(power))
               for i in range(0, len(per_n[0]), rows) for j in range(0, len(angles), THETA_BLOCK)}
     out = np.empty((len(per_n[0]), len(angles)))
     for (i, j), block in blocks.items():

@@ -119,7 +119,7 @@ def _cross_quadrature(n, k, c, power):
     """int_0^c (1 - k u)^m (1 - u)^n du by Gauss-Legendre on [0, c] (a smooth integrand)."""
     x, w = np.polynomial.legendre.leggauss(RMS_NODES)
     u = 0.5 * c * (x + 1.0)
-    return 0.5 * c * jnp.sum(w * (1.0 - k * u) ** power * (1.0 - u) ** n)
+    return 0.5 * c * jnp.sum(w * linear_power_u(u, k, power) * (1.0 - u) ** n)
 
 
 def rms_relative(n, k, power: int = 2):
@@ -130,10 +130,8 @@ def rms_relative(n, k, power: int = 2):
     a, b = 1.0 - k, k
     ff = (1.0 - (1.0 - k * c) ** (2 * power + 1)) / ((2 * power + 1) * k)   # int_0^c (1 - k u)^(2m) du
     fb = 1.0 / (2.0 * n + 1.0)                            # int_0^1 (1 - u)^(2n) du
-    if power == 2:
-        cross = _power_moment(a, b, n, v0)                # int_0^c (1 - k u)^2 (1 - u)^n du
-    else:
-        cross = _cross_quadrature(n, k, c, power)
+    # int_0^c (1 - k u)^m (1 - u)^n du: closed form at m = 2 (the power may be traced: both are cheap).
+    cross = jnp.where(power == 2, _power_moment(a, b, n, v0), _cross_quadrature(n, k, c, power))
     ratio = (ff - 2.0 * cross + fb) / fb
     # Where the lobe is exact (n = 2, k = 1) the ratio is 0; keep sqrt's gradient finite there.
     positive = ratio > 0.0

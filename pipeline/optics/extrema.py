@@ -16,6 +16,7 @@ import functools
 
 from .numerics import jax
 import jax.numpy as jnp
+import numpy as np
 
 from .lobes import SHAPE_NAMES, lobe_of_shape
 from .roots import SolverSettings, bracketed_root
@@ -66,8 +67,8 @@ def lobe_errors(lobe, n, level, cells: int, settings: SolverSettings):
                 D_w=jnp.where(D_over >= D_under, D_w_over, D_w_under), ok=ok_d & ok_D)
 
 
-@functools.partial(jax.jit, static_argnames=("cells", "settings", "power"))
-def _error_curves(shape_index, n, p, level, cells: int, settings: SolverSettings, power: int):
+@functools.partial(jax.jit, static_argnames=("cells", "settings"))
+def _error_curves(shape_index, n, p, level, cells: int, settings: SolverSettings, power):
     return jax.vmap(lambda n_, p_: lobe_errors(lambda u, _: lobe_of_shape(shape_index, u, p_, power), n_, level,
                                                cells, settings))(n, p)
 
@@ -75,4 +76,4 @@ def _error_curves(shape_index, n, p, level, cells: int, settings: SolverSettings
 def error_curves(shape: str, n, p, level, cells: int, settings: SolverSettings, power: int = 2):
     """`lobe_errors` of the lobe `SHAPES[shape](u, p, power)` for every n of the array n (p per n):
     one compiled program for every shape (per power of the family)."""
-    return _error_curves(SHAPE_NAMES.index(shape), n, p, level, cells, settings, int(power))
+    return _error_curves(SHAPE_NAMES.index(shape), n, p, level, cells, settings, np.float64(power))

@@ -7,8 +7,10 @@ zero crossing cos x = 1 - 1/k (u = 1/k). They differ only in k(n), whose formula
 declares (`pipeline.optics.registry`: k_2 = n / 2, the level-matched k_Q, the line
 k_Q2 = slope n + intercept). The reference lobe f_b (Phong / Blinn-Phong) is cos(x)^n.
 
-The power is a static (Python int) argument: `base ** m` with an int m is m - 1 multiplies or
-fewer (squarings), never a pow, and each m compiles its own program.
+The power is either a Python int (then `base ** m` is at most m - 1 multiplies, squarings, never
+a pow) or a traced float, as the jitted functions that scan, measure and integrate lobes pass it,
+so that one compiled program serves every power (there base^m is exp(m log base), within a few
+ulp of the product in float64).
 """
 
 import functools
@@ -40,10 +42,14 @@ def f_b_u(u, n):
     return (1.0 - u) ** n
 
 
-def linear_power_u(u, k, power: int = 2):
+def linear_power_u(u, k, power=2):
     """The family's lobe (1 - k u)^m at u = 1 - cos x, clamped to 0 for u >= 1/k."""
     base = 1.0 - k * u
-    return jnp.where(base > 0.0, base ** int(power), 0.0)
+    positive = base > 0.0
+    if isinstance(power, int):
+        return jnp.where(positive, base ** power, 0.0)
+    # A traced power: the untaken branch must not see log(0) (its gradient would be NaN).
+    return jnp.where(positive, jnp.where(positive, base, 1.0) ** power, 0.0)
 
 
 def f_b(x, n):
@@ -111,8 +117,8 @@ def support_end(shape: str, p):
     return 1.0 / p if shape == "linear_power" else np.full_like(p, 2.0)
 
 
-def lobe_of_shape(shape_index, u, p, power: int = 2):
-    """`SHAPES[SHAPE_NAMES[shape_index]](u, p, power)` with a traced index: one compiled program
-    serves every shape (the index is the same for a whole call, so only its branch runs)."""
-    branches = tuple(functools.partial(fn, power=int(power)) for fn in SHAPES.values())
+def lobe_of_shape(shape_index, u, p, power=2):
+    """`SHAPES[SHAPE_NAMES[shape_index]](u, p, power)` with a traced index (and power): one compiled
+    program serves every shape (the index is the same for a whole call, so only its branch runs)."""
+    branches = tuple(functools.partial(fn, power=power) for fn in SHAPES.values())
     return jax.lax.switch(shape_index, branches, u, p)

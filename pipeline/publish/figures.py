@@ -72,6 +72,8 @@ FIGURES = (
            "directional_albedo", ("directional_albedo",)),
     Figure("lobe_comparison.png", "Cheap lobes side by side: d and D per n", "lobe_comparison", "lobe_comparison",
            ("lobe_comparison",), RANGE),
+    Figure("error_cost_front.png", "Error against cost: every power of the family and the cheap lobes, per n range",
+           "power_front", "error_cost_front", ("power_front", "lobe_comparison", "gpu_isa"), RANGE),
     Figure("render_n{n}.png", "Renders at n = {n}: reference, f_2, f_Q2", "render", "renders", ("render",),
            ("render.*",)),
     Figure("render_crops_n{n}.png", "Highlight crops at n = {n}: linear luminance, one scale, and a profile",

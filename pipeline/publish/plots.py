@@ -17,7 +17,7 @@ import numpy as np  # noqa: E402
 
 from ..engine.exponents import n_range  # noqa: E402
 from ..optics import registry  # noqa: E402
-from .report_beyond import at_power, family  # noqa: E402
+from .report_beyond import at_power, family, keep  # noqa: E402
 
 PAPER = dict(color="black", marker="*", markersize=12, linestyle="none", zorder=5)
 # PNG compression level 1: files ~1.5x larger than the default 6, written several times faster.
@@ -40,9 +40,8 @@ def _save(fig, out: Path, name: str, dpi: int = 110, tight: bool = True) -> str:
     """Writes the figure to out/name and closes it. tight=False keeps a layout set by hand (for large
     images, where tight_layout would draw everything once more just to measure it). At a power
     m != 2 every text names the fitted lobe f_Qm (`report_beyond.at_power`)."""
-    if POWER != 2:
-        for text in fig.findobj(matplotlib.text.Text):
-            text.set_text(at_power(text.get_text(), POWER))
+    for text in fig.findobj(matplotlib.text.Text):
+        text.set_text(at_power(text.get_text(), POWER))
     if tight:
         fig.tight_layout()
     fig.savefig(out / name, dpi=dpi, pil_kwargs=FAST_PNG)
@@ -555,3 +554,67 @@ def mitsuba_crops(out, config, r):
                  "display level); FLIP on one scale, 0 to 1",
                  fontsize=10)
     return _save(fig, out, "mitsuba_crops.png", dpi=90)
+
+
+def error_cost_front(out, config, r):
+    """Error against cost: per n range (columns) and measure (rows: max d, max D), one point per lobe
+    at its cost per pixel, the family's powers joined by a line, the paper's power starred. Lobes of
+    equal cost are spread sideways a little so that each stays visible."""
+    from .report_beyond import machine_row
+    c, f, n = r["lobe_comparison"], r["power_front"], n_range(config)
+    measured = bool(r["gpu_isa"]["available"])
+
+    def cost(lobe, what, ops):
+        if measured:
+            row = machine_row(r, lobe, what)
+            return None if row is None else float(row["net_cycles_per_wave"])
+        return float(sum(ops.values()))
+    ranges = [m["n_range"] for m in f["members"][0]["by_range"]]
+    others = []     # (label, color, cost, [(d, D) per range])
+    for i, lobe in enumerate(c["lobes"]):
+        if lobe["registry_key"] in (registry.REFERENCE, "f_Q2") or lobe["lobe"] != lobe["registry_key"]:
+            continue
+        per = [(float(c["d_curves"][i][(n >= lo) & (n <= hi)].max()), float(c["D_curves"][i][(n >= lo) & (n <= hi)].max()))
+               for lo, hi in ranges]
+        others.append((lobe["label"], lobe_style(lobe)["color"], cost(lobe["registry_key"], "lobe", lobe["ops_pixel"]), per))
+    family = [(m["name"], cost(m["name"], "family lobe", m["ops_pixel"]), [(b["d"], b["D"]) for b in m["by_range"]])
+              for m in f["members"]]
+    # Equal costs side by side: a small offset per member of a tie, in the order listed.
+    ties: dict = {}
+    spread = 0.12 if measured else 0.08
+    def dodge(x):
+        k = ties.get(x, 0)
+        ties[x] = k + 1
+        return x + spread * ((k + 1) // 2) * (1 if k % 2 else -1)
+    x_family = [dodge(x) if x is not None else None for _, x, _ in family]
+    x_others = [dodge(x) if x is not None else None for _, _, x, _ in others]
+    fig, axes = plt.subplots(2, len(ranges), figsize=(4.4 * len(ranges), 7.4), squeeze=False)
+    for row, (measure, scale) in enumerate((("d", 100.0), ("D", 1.0))):
+        for j, (lo, hi) in enumerate(ranges):
+            ax = axes[row, j]
+            ys = [scale * per[j][row] for _, _, per in family]
+            ax.plot(x_family, ys, color="C0", marker="o", lw=1.4, ms=5)
+            for (name, _, _), x, y in zip(family, x_family, ys):
+                star = name == registry.family_name(2)
+                if star:
+                    ax.plot([x], [y], marker="*", ms=16, color="gold", mec="black", ls="none", zorder=5)
+                ax.annotate(keep(name), (x, y), textcoords="offset points", xytext=(5, 4), fontsize=8, color="C0",
+                            fontweight="bold" if star else "normal")
+            for (label, color, _, per), x in zip(others, x_others):
+                if x is None:
+                    continue
+                y = scale * per[j][row]
+                ax.plot([x], [y], marker="s", ls="none", color=color, ms=5)
+                ax.annotate(label, (x, y), textcoords="offset points", xytext=(5, -8), fontsize=7, color=color)
+            ax.set(yscale="log", title=f"n in [{lo:g}, {hi:g}]" if row == 0 else None)
+            ax.grid(alpha=0.3, which="both")
+            if j == 0:
+                ax.set_ylabel("max relative error d in the epicenter zone (%)" if measure == "d" else
+                              "max absolute error D over [0, pi/2]")
+            if row == 1:
+                ax.set_xlabel("cycles per wave, RDNA3 (ACO's estimate, net of the wrapper)" if measured else
+                              "operations per pixel (sympy count; machine code not measured)", fontsize=8)
+    fig.suptitle("Error against cost: the family (k (cos x - 1) + 1)^m (blue line; the paper's m = 2 starred) "
+                 "and the other cheap lobes (squares)", fontsize=11)
+    fig.tight_layout(rect=(0, 0, 1, 0.96))
+    return _save(fig, out, "error_cost_front.png", tight=False)

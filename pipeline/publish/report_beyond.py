@@ -11,13 +11,21 @@ from ..engine.checks import fmt
 from ..optics import registry
 
 
-_F_Q2 = re.compile(r"(?<![\w.`])f_Q2(?![\w`])")
+_F_Q2 = re.compile(r"(?<![\w.`\x00])f_Q2(?![\w`\x00])")
+KEEP = "\x00"
+
+
+def keep(name: str) -> str:
+    """A name that `at_power` leaves as it is (the family's members by power, f_Q2 among them)."""
+    return f"{KEEP}{name}{KEEP}"
 
 
 def at_power(text: str, power: int) -> str:
     """The report's text at the run's power m: the fitted lobe f_Q2 named f_Q3, f_Q4, ... (names in
-    prose only: field paths such as accuracy.d_f_Q2 and `code` keep the registry's key)."""
-    return text if power == 2 else _F_Q2.sub(registry.family_name(power), text)
+    prose only: field paths such as accuracy.d_f_Q2, `code` and names marked by `keep` stay)."""
+    if power != 2:
+        text = _F_Q2.sub(registry.family_name(power), text)
+    return text.replace(KEEP, "")
 
 
 def family(power: int) -> dict[str, str]:
@@ -235,7 +243,17 @@ def verdict_section(config, r) -> list[str]:
     lines.append("- **Per n, the ranking changes.** " + per_n_text(c) + " ")
     lines.append("- **Half precision** (table above): " + half_text(r["half_precision"]))
     cost = r["shader_cost"]
-    if cost["available"]:
+    q2_code, pow_code = machine_row(r, "f_Q2"), machine_row(r, registry.REFERENCE)
+    if q2_code and pow_code:
+        cheap = q2_code["transcendental"] == 0
+        sg, schlick = machine_row(r, "SG"), machine_row(r, "Schlick")
+        exact_px = machine_row(r, "f_Q2", "lobe and coef, n per pixel", normalization="phong exact_phong")
+        lines.append(f"- **\"No expensive operations\"**: {'yes' if cheap else 'no'}, in the machine code a GPU "
+                     f"runs (RADV, RDNA3, net of the wrapper): f_Q2 is {machine_text(q2_code)}, against "
+                     f"{machine_text(pow_code)} for cos^n (pow is log, multiply, exp), {machine_text(sg)} for a "
+                     f"spherical Gaussian and {machine_text(schlick)} for Schlick's lobe (machine-code table above). "
+                     f"With n per pixel and the exact Phong coef computed per pixel: {machine_text(exact_px)}.")
+    elif cost["available"]:
         spirv = {row["lobe"]: row for row in cost["lobes"]}
         f = spirv["f_Q2"]
         cheap = f["transcendental"] == 0 and f["division"] == 0
@@ -247,7 +265,8 @@ def verdict_section(config, r) -> list[str]:
                      f"{_spirv_text(spirv['Schlick'])} for Schlick's lobe (table above). With n varying per "
                      f"pixel the normalization adds {q2['ops_with_n_text']} with the paper's coef, "
                      f"{rows[('f_Q2', 'phong', 'exact_phong')]['ops_with_n_text']} with the exact one (operation counts of the "
-                     "sympy forms).")
+                     "sympy forms). Machine-code cost not measured: "
+                     + (r["gpu_isa"]["reason"] if r.get("gpu_isa") else "the gpu_isa stage did not run") + ".")
     else:
         lines.append(f"- **\"No expensive operations\"**: not measured: {cost['tools']}.")
     return lines + [""]
@@ -385,9 +404,115 @@ def render_verdict(s) -> str:
             + "; ".join(shares) + "): f_Q2 looks like f_2, not like cos^n.")
 
 
+MAIN_FAMILY = "gfx1100"       # the chip family whose machine code the verdict and the front quote (RDNA3)
+
+
+def machine_row(r, lobe: str, what: str = "lobe", family: str = MAIN_FAMILY, normalization: str = ""):
+    """The gpu_isa row of a shader, or None where the machine code was not measured."""
+    g = r.get("gpu_isa")
+    if not g or not g["available"]:
+        return None
+    return next((row for row in g["rows"] if row["lobe"] == lobe and row["what"] == what and row["family"] == family
+                 and row["normalization"] == normalization), None)
+
+
+def machine_text(row) -> str:
+    """One shader's net machine code in words."""
+    parts = [f"{row['net_vector_alu']} vector ALU"]
+    if row["net_transcendental"]:
+        parts.append(f"{row['net_transcendental']} transcendental")
+    if row["net_scalar"]:
+        parts.append(f"{row['net_scalar']} scalar")
+    return ", ".join(parts) + f" instructions, {row['net_cycles_per_wave']:g} cycles per wave"
+
+
+def machine_code_section(config, r) -> list[str]:
+    g = r.get("gpu_isa")
+    lines = ["## Cost in GPU machine code (Mesa's RADV, ACO back end)", ""]
+    if not g or not g["available"]:
+        reason = g["reason"] if g else "the gpu_isa stage did not run"
+        return lines + [f"Machine-code cost not measured: {reason}. The costs quoted elsewhere are SPIR-V "
+                        "instruction counts, where pow is one instruction.", ""]
+    families = list(g["devices"])
+    lines += ["Each shader compiled by Mesa's RADV driver to the AMD machine code a GPU runs (on RADV's null "
+              "device: " + ", ".join(f"{g['devices'][f]}" for f in families) + "). Counts are per pixel, net of "
+              "the wrapper shader (the same shader whose lobe returns t: interpolation and export); cycles per "
+              "wave are ACO's own throughput estimate (1 / wave64_per_cycle), net of the wrapper's. Transcendental: "
+              "v_log, v_exp, v_rcp, v_rsq, v_sqrt (the quarter-rate unit). `lobe`: n, k and the rate per material "
+              "(push constants); `with coef, n per pixel`: n a varying, k(n) and the normalization computed per "
+              "pixel. Shaders compiled with the paper's constants as stand-ins (each is one literal).", "",
+              "| lobe | shader | " + " | ".join(f"{f} ({r_['architecture']})" for f, r_ in
+                                              ((f, next(x for x in g['rows'] if x['family'] == f)) for f in families))
+              + " |", "|---|---|" + "---|" * len(families)]
+    shaders = [(row["lobe"], row["what"], row["normalization"]) for row in g["rows"]
+               if row["family"] == families[0] and row["what"] != "wrapper uniform" and row["what"] != "wrapper per pixel"]
+    for lobe, what, norm in shaders:
+        cells = []
+        for f in families:
+            row = machine_row(r, lobe, what, f, norm)
+            cells.append(f"{row['net_vector_alu']} + {row['net_transcendental']} T, {row['net_cycles_per_wave']:g} cyc")
+        name = keep(lobe) if what == "family lobe" else lobe
+        shader = {"lobe": "lobe", "family lobe": "lobe (the family at its power)"}.get(what, f"with {norm}, n per pixel")
+        lines.append(f"| {name} | {shader} | " + " | ".join(cells) + " |")
+    pow_row, quad_row = machine_row(r, registry.REFERENCE), machine_row(r, "f_Q2")
+    lines += ["", "Cells: vector ALU + transcendental instructions, cycles per wave. The RDNA3 listings, between "
+              "interpolation and export:", "",
+              "cos^n = pow(t, n):", "", "```"] + pow_row["listing"] + ["```", "", "f_Q2:", "", "```"] \
+        + quad_row["listing"] + ["```", ""]
+    return lines
+
+
+def _range_text(lo_hi) -> str:
+    return f"[{lo_hi[0]:g}, {lo_hi[1]:g}]"
+
+
+def front_section(config, r, figures) -> list[str]:
+    f = r["power_front"]
+    members = f["members"]
+    lines = ["## The family's front: every power of the linear form", "",
+             "The derivation repeated for (k (cos x - 1) + 1)^m at each power m of `front.powers`: each power with "
+             f"its own best Q (metric {config['derivation.metric']}, Q {config['derivation.Q']}) and its own "
+             f"fitted line ({config['derivation.fit']}), on this run's zone and n range. Energy: the largest "
+             "directional albedo over n and incidence angles with that power's exact normalization (Phong and "
+             "Blinn forms). Cost: the multiplies of the power, and the machine code (RDNA3, net of the wrapper).", ""]
+    ranges_ = [row["n_range"] for row in members[0]["by_range"]]
+    lines += ["| lobe | Q | k(n) | max d | max D | " + " | ".join(f"max d, n in {_range_text(x)}" for x in ranges_)
+              + " | largest albedo (Phong, Blinn) | multiplies | machine code (RDNA3) |",
+              "|---|---|---|---|---|" + "---|" * len(ranges_) + "---|---|---|"]
+    for m in members:
+        row = machine_row(r, m["name"], "family lobe")
+        cost = machine_text(row) if row else "not measured"
+        lines.append(f"| {keep(m['name'])} | {m['Q']:.4g} | {m['slope']:.6g} n + {m['intercept']:.4g} | {pct(m['d'])} | "
+                     f"{m['D']:.4f} | " + " | ".join(pct(x["d"]) for x in m["by_range"])
+                     + f" | {m['phong_albedo_max']:.6f}, {m['blinn_albedo_max']:.6f} | {m['multiplies']} | {cost} |")
+    # Which power wins where, and what each squaring buys.
+    by = {m["power"]: m for m in members}
+    wins = []
+    for i, x in enumerate(ranges_):
+        best_d = min(members, key=lambda m: m["by_range"][i]["d"])
+        best_D = min(members, key=lambda m: m["by_range"][i]["D"])
+        wins.append(f"n in {_range_text(x)}: {keep(best_d['name'])} on d ({pct(best_d['by_range'][i]['d'])}), "
+                    f"{keep(best_D['name'])} on D ({best_D['by_range'][i]['D']:.4f})")
+    lines += ["", "**Which power wins where** (smallest max over the range): " + "; ".join(wins) + "."]
+    steps = []
+    powers = sorted(by)
+    for lo, hi in zip(powers, powers[1:]):
+        a_, b_ = by[lo], by[hi]
+        row_a, row_b = machine_row(r, a_["name"], "family lobe"), machine_row(r, b_["name"], "family lobe")
+        extra = (f"{row_b['net_cycles_per_wave'] - row_a['net_cycles_per_wave']:+g} cycles per wave"
+                 if row_a and row_b else f"{b_['multiplies'] - a_['multiplies']:+d} multiplies")
+        steps.append(f"{keep(a_['name'])} to {keep(b_['name'])}: max d {pct(a_['d'])} to {pct(b_['d'])} "
+                     f"({a_['d'] / b_['d']:.2f}x), max D {a_['D']:.4f} to {b_['D']:.4f} ({a_['D'] / b_['D']:.2f}x), "
+                     f"for {extra}")
+    if steps:
+        lines += ["", "**What each step of the power buys**: " + "; ".join(steps) + "."]
+    return lines + [""] + embed(figures, "power_front")
+
+
 def sections(config, r, figures) -> list[str]:
     return (exact_section(config, r, figures) + albedo_section(config, r, figures)
-            + comparison_section(config, r, figures) + cost_section(config, r) + half_section(config, r)
+            + comparison_section(config, r, figures) + cost_section(config, r) + machine_code_section(config, r)
+            + front_section(config, r, figures) + half_section(config, r)
             + verdict_section(config, r)
             + render_section(config, r, figures) + mitsuba_section(config, r, figures))
 

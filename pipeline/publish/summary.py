@@ -8,17 +8,20 @@ results (results.json).
 
 from __future__ import annotations
 
-from .report_beyond import at_power, pct
+from .report_beyond import at_power, machine_row, machine_text, pct
 
 
 def _cost(results, key: str) -> str:
-    """Instructions per evaluation of a lobe after spirv-opt, from the shader_cost stage."""
-    sc = results["shader_cost"]
-    if not sc["available"]:
-        return "not measured (no shader compiler)"
-    row = next(r for r in sc["lobes"] if r["lobe"] == key)
-    return (f"{row['arithmetic']} arithmetic, {row['division']} division, {row['transcendental']} transcendental "
-            "(SPIR-V after spirv-opt)")
+    """A lobe's cost per pixel: its RDNA3 machine code (gpu_isa), with the SPIR-V count after
+    spirv-opt (shader_cost) as the second figure; SPIR-V alone where the machine code was not
+    measured, said so."""
+    sc, row = results["shader_cost"], machine_row(results, key)
+    spirv = next((r for r in sc["lobes"] if r["lobe"] == key), None) if sc["available"] else None
+    spirv_text = (f"SPIR-V: {spirv['arithmetic']} arithmetic, {spirv['division']} division, "
+                  f"{spirv['transcendental']} transcendental" if spirv else "SPIR-V not counted")
+    if row is None:
+        return f"machine-code cost not measured; {spirv_text}"
+    return f"RDNA3: {machine_text(row)} ({spirv_text})"
 
 
 def _half(results):
@@ -72,6 +75,7 @@ def lines(config, results) -> list[str]:
 
 
 def write(path, config, results) -> list[str]:
-    text = at_power("\n".join(lines(config, results)), config["lobe.power"]).split("\n")
-    path.write_text("\n".join(text))
+    """Writes summary.md; returns its lines as written before `at_power` (report.md applies it once)."""
+    text = lines(config, results)
+    path.write_text(at_power("\n".join(text), config["lobe.power"]))
     return text

@@ -12,7 +12,8 @@ from ..optics.roots import SolverError, SolverSettings
 
 
 def lobe_measures(n, k, level, settings: SolverSettings, power: int = 2):
-    """Per-n error measures of the lobe (k (t - 1) + 1)^power with coefficients k (arrays over n).
+    """Per-n error measures of the lobe (k (t - 1) + 1)^power with coefficients k (arrays over n);
+    the power may be traced (`measures` traces it: one program for every power).
 
     Returns a dict of arrays over n: d (relative, epicenter zone) and D (absolute, [0, pi/2]) with
     their signed parts and the u = 1 - cos x where each is attained, the relative RMS error, and
@@ -27,7 +28,12 @@ def lobe_measures(n, k, level, settings: SolverSettings, power: int = 2):
                 rms=jax.vmap(lambda n_, k_: rms_relative(n_, k_, power))(n, k), ok=ok)
 
 
-measures = jax.jit(lobe_measures, static_argnames=("settings", "power"))
+_measures = jax.jit(lobe_measures, static_argnames="settings")
+
+
+def measures(n, k, level, settings: SolverSettings, power=2):
+    """`lobe_measures`, jitted, with the power traced (as a float)."""
+    return _measures(n, k, level, settings, jnp.asarray(float(power)))
 
 
 def require_converged(ok, what: str, **inputs) -> None:
@@ -58,7 +64,6 @@ def family_errors(n, k, level, levels, rtol, atol, max_steps, power=2):
     """Measures of the lobe (k (t - 1) + 1)^power with coefficients k over n: curves of d, D and
     rms, where D is attained (u), and max d at each zone level of `levels`."""
     settings = SolverSettings(rtol, atol, max_steps)
-    power = int(power)
     m = measures(n, k, level, settings, power)
     require_converged(m["ok"], "max D", n=n)
     return dict(d=np.asarray(m["d"]), D=np.asarray(m["D"]), rms=np.asarray(m["rms"]), D_u=np.asarray(m["D_u"]),

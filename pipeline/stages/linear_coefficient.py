@@ -1,57 +1,15 @@
 """Linear coefficient (Fig. 4): k_Q(n) (of the run's power m) replaced by slope * n + intercept.
 
-"least_squares" (the paper's linear regression) minimizes sum_n (slope n + intercept - k_Q(n))^2
-over every integer n in range, with optimistix. "minimax" minimizes the worst relative error
-max_n |(slope n + intercept) / k_Q(n) - 1|, a linear program (scipy's HiGHS).
-This stage also fixes the constants the later stages use: the paper's rounded ones or this fit.
+The fits ("least_squares", the paper's, or "minimax") are `pipeline.stages.family.fit_line`. This stage also fixes the constants the later stages use: the paper's rounded ones or this fit.
 """
 
 from ..optics.numerics import jax
-import jax.numpy as jnp
 import numpy as np
-import optimistix as optx
-from scipy.optimize import linprog
 
 from ..optics.lobes import k_Q
-from ..optics.roots import SolverError
+from ..optics.roots import SolverSettings
 from .common import n_range
-
-
-def _line_residuals(p, args):
-    n_scaled, k = args
-    return p[0] * n_scaled + p[1] - k
-
-
-def least_squares_line(n, k, rtol, atol, max_steps):
-    """(slope, intercept) minimizing sum (slope n + intercept - k)^2, by Gauss-Newton."""
-    scale = float(jnp.max(n))
-    # The slope is solved for in units of 1/max(n), so that both unknowns are O(1).
-    sol = optx.least_squares(_line_residuals, optx.GaussNewton(rtol=rtol, atol=atol), jnp.zeros(2),
-                             args=(n / scale, k), max_steps=max_steps, throw=False)
-    if sol.result != optx.RESULTS.successful:
-        raise SolverError(f"least-squares line through k_Q(n), n in [{float(n[0]):g}, "
-                          f"{float(n[-1]):g}]: {optx.RESULTS[sol.result]}")
-    return float(sol.value[0]) / scale, float(sol.value[1])
-
-
-def minimax_line(n, k):
-    """(slope, intercept) minimizing max |(slope n + intercept) / k - 1|, as a linear program."""
-    n, k = np.asarray(n), np.asarray(k)
-    # Variables (slope, intercept, t); minimize t s.t. -t <= (slope n + intercept)/k - 1 <= t.
-    a = np.column_stack([n / k, 1.0 / k])
-    A_ub = np.block([[a, -np.ones((len(n), 1))], [-a, -np.ones((len(n), 1))]])
-    b_ub = np.concatenate([np.ones(len(n)), -np.ones(len(n))])
-    res = linprog(c=[0.0, 0.0, 1.0], A_ub=A_ub, b_ub=b_ub, bounds=[(None, None)] * 3, method="highs")
-    if res.status != 0:
-        raise SolverError(f"minimax line through k_Q(n), n in [{n[0]:g}, {n[-1]:g}]: {res.message}")
-    return float(res.x[0]), float(res.x[1])
-
-
-def asymptote(Q: float, power: int = 2) -> tuple[float, float]:
-    """(slope, intercept) of the large-n line of k_Q(n) = (Q^(1/m) - 1) / (Q^(1/n) - 1):
-    (1 - Q^(1/m)) / (-ln Q) and (1 - Q^(1/m)) / 2, from Q^(1/n) - 1 = ln Q / n + (ln Q)^2 / (2 n^2) + ..."""
-    drop = float(-np.expm1(np.log(Q) / power))
-    return drop / float(-np.log(Q)), drop / 2.0
+from .family import asymptote, fit_line
 
 
 def run(config, inputs, memo):
@@ -59,12 +17,7 @@ def run(config, inputs, memo):
     Q = inputs["q_choice.Q_used"]
     power = config["lobe.power"]
     k = np.asarray(jax.jit(k_Q, static_argnames="power")(n, Q, power=power))
-    fit = config["derivation.fit"]
-    if fit == "least_squares":
-        slope, intercept = least_squares_line(n, k, config["solver.rtol"], config["solver.atol"],
-                                              config["solver.max_steps"])
-    else:
-        slope, intercept = minimax_line(n, k)
+    slope, intercept = fit_line(n, k, config["derivation.fit"], SolverSettings.from_config(config))
     rel = np.asarray((slope * n + intercept) / k - 1.0)
     paper_slope, paper_intercept = config["paper_model.slope"], config["paper_model.intercept"]
     rel_paper = np.asarray((paper_slope * n + paper_intercept) / k - 1.0)

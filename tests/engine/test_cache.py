@@ -53,9 +53,10 @@ def test_second_run_computes_nothing(light_config, warm_cache):
     # More threshold samples find the same two-term model: the regression reruns, the rest stops there.
     ("regression.threshold_count=21", ["sparse_regression"]),
     # The solver cap: every stage that solves reruns and gets the same values; the render uses no solver.
-    ("solver.max_steps=300", ["zone", "q_scan", "linear_coefficient", "f2_errors", "accuracy", "lobe_comparison"]),
+    ("solver.max_steps=300", ["zone", "q_scan", "linear_coefficient", "f2_errors", "accuracy", "lobe_comparison",
+                              "power_front"]),
     ("zone.sensitivity_levels=[0.6]", ["f2_errors", "accuracy"]),
-    ("comparison.albedo_angles=10", ["lobe_comparison"]),
+    ("comparison.albedo_angles=10", ["lobe_comparison", "power_front"]),
     ("render.resolution=64", ["render"]),
 ])
 def test_a_change_recomputes_only_what_reads_it_and_stops_where_values_repeat(warm_cache, change, recomputed):
@@ -208,7 +209,7 @@ def test_a_damaged_memo_entry_is_reported_by_name_and_recomputed(light_config, w
     results, computed, log = run(light_config, warm_cache)
     assert computed == ["lobe_comparison"]
     said = [line for line in log.splitlines() if "memoized energy_table" in line]
-    assert said and all(line.startswith("[14/18] lobe_comparison") and line.endswith(
+    assert said and all(line.startswith("[14/20] lobe_comparison") and line.endswith(
         "is damaged (values.json does not match its checksum); recomputing") for line in said)
     # Each named entry was rebuilt, and reads back verified.
     for line in said:

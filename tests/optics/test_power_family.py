@@ -16,7 +16,7 @@ from pipeline.optics.lobes import k_Q, linear_power_u
 from pipeline.optics.registry import multiplies, power_steps
 from pipeline.optics.roots import SolverSettings
 from pipeline.optics.sampling import importance_albedo, lobe_cosine, lobe_pdf
-from pipeline.stages.linear_coefficient import asymptote
+from pipeline.stages.family import asymptote
 
 from ..oracles import dense_max_errors, quadratic_np
 

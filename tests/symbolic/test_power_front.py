@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from pipeline.stages.energy_dataset import integrals
-from pipeline.stages.linear_coefficient import asymptote
+from pipeline.stages.family import asymptote
 from pipeline.stages.symbolic_regression import EXACT_FORM_COMPLEXITY, N, exact_constants, partial_fractions
 from pipeline.symbolic import search
 

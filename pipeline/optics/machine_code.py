@@ -1,0 +1,254 @@
+"""What each lobe costs in a GPU's own machine code: the lobe in a fragment shader, compiled by
+glslang to SPIR-V (unoptimized: the driver's own optimizer sees the shader as written), then by
+Mesa's RADV driver and its ACO back end to AMD machine code, for RDNA3 (gfx1100), RDNA2 (navi21) and GCN5
+(vega10), on RADV's null device: no GPU is needed (`pipeline.optics.vulkan_pipeline` creates the
+pipelines).
+
+From each fragment shader's final listing (`RADV_DEBUG=shaders`) the instructions are counted by
+kind: vector ALU (v_*, interpolation excluded), transcendental (v_log, v_exp, v_rcp, v_rsq,
+v_sqrt, v_sin, v_cos: the quarter-rate unit), scalar (s_*); and ACO's own estimates
+(`ACO_DEBUG=perfinfo`): the latency of one wave in cycles and the throughput, as cycles per wave
+(1 / wave64_per_cycle). Every count is also given net of the shader's fixed wrapper (the same
+shader whose lobe returns t: interpolation, export), which is measured on the same chip and
+subtracted.
+
+Two shaders per lobe: the lobe alone with n, k and the rate as push constants (per material, so
+nothing folds at compile time, and what depends on n alone is computed once per material on the
+CPU), and the lobe times each normalization of its registry entry with n per pixel (a varying, so
+k(n) and coef(n) are computed per pixel too).
+"""
+
+from __future__ import annotations
+
+import ctypes.util
+import os
+import re
+import subprocess
+import sys
+import tempfile
+from concurrent.futures import ThreadPoolExecutor
+from pathlib import Path
+
+import sympy as sp
+
+from . import registry, spirv
+
+FAMILIES = {"gfx1100": "RDNA3", "navi21": "RDNA2", "vega10": "GCN5"}
+ICD_FOLDERS = ("/usr/share/vulkan/icd.d", "/etc/vulkan/icd.d")
+TRANSCENDENTAL = re.compile(r"^v_(exp|log|rcp|rsq|sqrt|sin|cos)_(f16|f32|legacy_f32)")
+TIMEOUT_S = 120
+
+VERTEX = """#version 450
+layout(location = 0) out float t_out;
+layout(location = 1) out float n_out;
+void main()
+{
+    vec2 p = vec2(gl_VertexIndex & 1, gl_VertexIndex >> 1);
+    t_out = p.x;
+    n_out = 1.0 + 999.0 * p.y;
+    gl_Position = vec4(2.0 * p - 1.0, 0.0, 1.0);
+}
+"""
+# The lobe alone: n, k and the rate per material (push constants).
+UNIFORM = """#version 450
+layout(location = 0) in float t_in;
+layout(location = 0) out vec4 color;
+layout(push_constant) uniform Material {{ float n; float k; float rate; }};
+float lobe(float t)
+{{
+    {body}
+}}
+void main() {{ color = vec4(lobe(t_in)); }}
+"""
+# The lobe and its normalization with n per pixel (a varying): its parameter and coef per pixel.
+PER_PIXEL = """#version 450
+layout(location = 0) in float t_in;
+layout(location = 1) in float n_in;
+layout(location = 0) out vec4 color;
+float lobe(float t, float n, float k, float rate)
+{{
+    {body}
+}}
+void main()
+{{
+    float n = n_in;
+    float p = {parameter};
+    color = vec4(({coef}) * lobe(t_in, n, p, p));
+}}
+"""
+WRAPPER_UNIFORM = UNIFORM.format(body="return t;")
+WRAPPER_PER_PIXEL = """#version 450
+layout(location = 0) in float t_in;
+layout(location = 1) in float n_in;
+layout(location = 0) out vec4 color;
+void main() { color = vec4(t_in, n_in, 0.0, 0.0); }
+"""
+
+
+class CompilerMissing(RuntimeError):
+    """The Vulkan loader, Mesa's RADV driver or the `vulkan` package is not installed."""
+
+
+def radv_icd() -> str:
+    """Path of Mesa's radeon ICD json, or CompilerMissing saying what is missing."""
+    if ctypes.util.find_library("vulkan") is None:
+        raise CompilerMissing("the Vulkan loader libvulkan.so.1 is not installed (Debian: libvulkan1)")
+    for folder in ICD_FOLDERS:
+        for path in sorted(Path(folder).glob("radeon_icd*.json")):
+            return str(path)
+    raise CompilerMissing("Mesa's RADV driver is not installed (Debian: mesa-vulkan-drivers; "
+                          f"no radeon_icd*.json in {', '.join(ICD_FOLDERS)})")
+
+
+def check_available() -> str:
+    """The RADV ICD json path if the compiler can run here; else raises CompilerMissing."""
+    try:
+        import vulkan  # noqa: F401
+    except (ImportError, OSError) as e:
+        raise CompilerMissing(f"the Python package vulkan cannot be loaded: {e}") from None
+    spirv.tool("glslangValidator")
+    return radv_icd()
+
+
+def glsl_expression(expr) -> str:
+    """A sympy expression in n as GLSL, integer powers written as products (as a shader author
+    writes them) and pi as a number."""
+    expr = sp.sympify(expr).subs(sp.pi, sp.Float(float(sp.pi), 17))
+    expr = expr.replace(lambda e: e.is_Pow and e.exp.is_Integer and 1 < e.exp <= 8,
+                        lambda e: sp.Mul(*([e.base] * int(e.exp)), evaluate=False))
+    return sp.glsl_code(expr)
+
+
+def spirv_binary(source: str, folder: Path, name: str, stage: str = "frag") -> Path:
+    """GLSL `source` compiled by glslangValidator to SPIR-V, as folder/name."""
+    src, out = folder / f"{name}.{stage}", folder / name
+    src.write_text(source)
+    done = subprocess.run([spirv.tool("glslangValidator"), "-V", "-S", stage, str(src), "-o", str(out)],
+                          capture_output=True, text=True)
+    if done.returncode != 0:
+        raise RuntimeError(f"glslangValidator failed on shader {name}:\n{done.stdout}{done.stderr}\n{source}")
+    return out
+
+
+def compile_family(family: str, folder: Path, icd: str) -> str:
+    """The driver's stderr for every pipeline of `folder`, compiled for one chip family."""
+    env = dict(os.environ, VK_ICD_FILENAMES=icd, RADV_FORCE_FAMILY=family, RADV_DEBUG="shaders,nocache",
+               ACO_DEBUG="perfinfo", MESA_SHADER_CACHE_DISABLE="true",
+               XDG_RUNTIME_DIR=os.environ.get("XDG_RUNTIME_DIR") or tempfile.gettempdir())
+    done = subprocess.run([sys.executable, "-m", "pipeline.optics.vulkan_pipeline", str(folder)], env=env,
+                          capture_output=True, text=True, timeout=TIMEOUT_S)
+    if done.returncode != 0 or "@@@ END" not in done.stderr:
+        tail = "\n".join(done.stderr.strip().splitlines()[-5:])
+        raise CompilerMissing(f"RADV could not compile for {family} (exit {done.returncode}): {tail}")
+    return done.stderr
+
+
+def split_shaders(stderr: str) -> dict[str, str]:
+    """The driver's output per shader, by the markers `vulkan_pipeline` writes."""
+    parts = re.split(r"\n@@@ (SHADER \S+|END)\n", stderr)
+    return {parts[i][len("SHADER "):]: parts[i + 1] for i in range(1, len(parts) - 1, 2)
+            if parts[i].startswith("SHADER ")}
+
+
+def parse_fragment(text: str) -> dict:
+    """Counts and ACO's estimates of the fragment shader in one pipeline's output."""
+    stage = [m.start() for m in re.finditer(r"ACO shader stage: fragment_fs", text)]
+    disasm = re.search(r"Pixel Shader\ndisasm:\n(.*?)(?:\n\s*\n|\s*\Z)", text, re.S)
+    if not stage or disasm is None:
+        raise ValueError("no fragment shader listing in RADV's output (RADV_DEBUG=shaders, ACO_DEBUG=perfinfo)")
+    perf = text[stage[-1]:disasm.start()]
+    latency = re.search(r"\nlatency: ([\d.]+)", perf)
+    per_cycle = re.search(r"\nwave64_per_cycle: ([\d.]+)", perf)
+    if latency is None or per_cycle is None:
+        raise ValueError("no ACO cycle estimate in RADV's output (ACO_DEBUG=perfinfo)")
+    listing = []
+    for line in disasm.group(1).splitlines():
+        line = line.strip().split(";")[0].strip()
+        repeated = re.fullmatch(r"\(then repeated (\d+) times\)", line)
+        if repeated:            # the disassembler folds repeats of the instruction above
+            listing += [listing[-1]] * int(repeated.group(1))
+        elif line and not line.endswith(":"):
+            listing.append(line)
+    counts = dict(vector_alu=0, transcendental=0, scalar=0, other=0)
+    for line in listing:
+        op = line.split()[0]
+        if TRANSCENDENTAL.match(op):
+            counts["transcendental"] += 1
+        elif op.startswith("v_") and not op.startswith("v_interp"):
+            counts["vector_alu"] += 1
+        elif op.startswith("s_"):
+            counts["scalar"] += 1
+        else:
+            counts["other"] += 1
+    # ACO prints wave64_per_cycle to 6 decimals: its inverse is good to ~0.01 cycle; kept to 0.1.
+    return dict(counts, instructions=len(listing), latency_cycles=float(latency.group(1)),
+                cycles_per_wave=round(1.0 / float(per_cycle.group(1)), 1), listing=listing)
+
+
+NET_FIELDS = ("vector_alu", "transcendental", "scalar", "other", "instructions", "latency_cycles", "cycles_per_wave")
+
+
+def _net(row: dict, wrapper: dict) -> dict:
+    return {f"net_{field}": round(row[field] - wrapper[field], 1) if isinstance(row[field], float)
+            else row[field] - wrapper[field] for field in NET_FIELDS}
+
+
+def shader_sources(p: registry.Parameters, powers) -> dict[str, tuple[str, str, str, str]]:
+    """name -> (GLSL, lobe, what, normalization) of every shader to compile: each registry lobe
+    alone ("lobe", by its key) and with each of its normalizations ("lobe and coef, n per pixel"),
+    the family at each power of `powers` alone ("family lobe", by its name f_Q2, f_Q3, ...), and
+    the two wrappers."""
+    from .normalizations import normalizations
+    _, n = registry.symbols()
+    norms = normalizations(p)
+    out = {"wrapper_uniform": (WRAPPER_UNIFORM, "", "wrapper", ""),
+           "wrapper_per_pixel": (WRAPPER_PER_PIXEL, "", "wrapper", "")}
+    for index, lobe in enumerate(registry.LOBES.values()):
+        body = lobe.glsl_of(p)
+        out[f"lobe{index:02d}"] = (UNIFORM.format(body=body), lobe.key, "lobe", "")
+        parameter = glsl_expression(lobe.parameter(registry.SYMPY, n, p))
+        for j, (form, key) in enumerate(lobe.energy):
+            source = PER_PIXEL.format(body=body, parameter=parameter, coef=glsl_expression(norms[key].expr))
+            out[f"lobe{index:02d}_norm{j:02d}"] = (source, lobe.key, "lobe and coef, n per pixel", f"{form} {key}")
+    for power in powers:
+        body = registry.linear_power_glsl(power)
+        out[f"family{power:02d}"] = (UNIFORM.format(body=body), registry.family_name(power), "family lobe", "")
+    return out
+
+
+def costs(p: registry.Parameters, powers=(2,), families=tuple(FAMILIES)) -> dict:
+    """Machine-code costs of every shader of `shader_sources` on each chip family: a dict with the
+    rows (lobe, what, normalization, family, architecture, counts, estimates and their net values)
+    and the driver's name per family. Raises CompilerMissing where the compiler cannot run."""
+    icd = check_available()
+    sources = shader_sources(p, powers)
+    with tempfile.TemporaryDirectory() as tmp:
+        folder = Path(tmp)
+        with ThreadPoolExecutor(os.cpu_count() or 2) as pool:
+            jobs = [pool.submit(spirv_binary, VERTEX, folder, "vert.spv", "vert")]
+            jobs += [pool.submit(spirv_binary, source, folder, f"{name}.frag.spv") for name, (source, *_) in sources.items()]
+            for job in jobs:
+                job.result()
+            outputs = dict(zip(families, pool.map(lambda f: compile_family(f, folder, icd), families)))
+    rows, devices = [], {}
+    for family, stderr in outputs.items():
+        device = re.search(r"@@@ DEVICE (.*)\n", stderr)
+        devices[family] = device.group(1).strip() if device else family
+        shaders = {name: parse_fragment(text) for name, text in split_shaders(stderr).items()}
+        missing = set(sources) - set(shaders)
+        if missing:
+            raise ValueError(f"RADV ({family}) printed no listing for shaders {sorted(missing)}")
+        for name, (source, lobe, what, norm) in sources.items():
+            if what == "wrapper":
+                continue
+            parsed = shaders[name]
+            wrapper = shaders["wrapper_per_pixel" if "per pixel" in what else "wrapper_uniform"]
+            rows.append(dict(lobe=lobe, what=what, normalization=norm, family=family, architecture=FAMILIES[family],
+                             **{k: v for k, v in parsed.items() if k != "listing"}, **_net(parsed, wrapper),
+                             listing=parsed["listing"]))
+        for name in ("wrapper_uniform", "wrapper_per_pixel"):
+            parsed = shaders[name]
+            rows.append(dict(lobe="", what=name.replace("_", " "), normalization="", family=family,
+                             architecture=FAMILIES[family], **{k: v for k, v in parsed.items() if k != "listing"},
+                             **{f"net_{f}": 0 for f in NET_FIELDS}, listing=parsed["listing"]))
+    return dict(rows=rows, devices=devices)
