@@ -336,8 +336,10 @@ STAGES: tuple[Stage, ...] = (
     _stage("gpu_isa", "beyond", POWER + ("front.powers",), (), {
         "available": "whether Mesa's RADV compiler ran (Vulkan loader, RADV driver, the vulkan package) [bool]",
         "reason": "why not, where it did not [text]",
+        "power": "the run's power m, whose family row is the run's fitted lobe [count]",
         "devices": "the driver's device name per chip family (gfx1100 RDNA3, navi21 RDNA2, vega10 GCN5) [dict]",
-        "rows": "per shader and chip family: lobe, what (the lobe alone, or with a normalization and n per pixel), "
+        "rows": "per shader and chip family: lobe, what (a registry lobe alone at the paper's power 2, with a "
+                "normalization and n per pixel, or the family at one power), "
                 "instructions by kind (vector ALU, transcendental, scalar, other), ACO's latency and cycles per "
                 "wave, the same net of the wrapper shader, and the listing [list]",
         "pow_transcendental": "transcendental instructions of cos^n = pow(t, n) (fewest over the chips; -1: not "
@@ -346,7 +348,7 @@ STAGES: tuple[Stage, ...] = (
                                      "-1: not measured) [count]",
     }),
     _stage("power_front", "beyond",
-           RANGE + ("derivation.metric", "derivation.Q", "derivation.fit", "front.powers", "scan.coarse_step",
+           RANGE + ("derivation.metric", "derivation.fit", "front.powers", "scan.coarse_step",
                     "scan.fine_step", "solver.*", "albedo.quadrature_nodes", "comparison.albedo_angles"),
            ("zone.level",), {
         "powers": "the front's powers m [list]",
@@ -367,10 +369,52 @@ STAGES: tuple[Stage, ...] = (
                       "highlight, absolute error, PSNR) [list]",
         "flip_maps": "FLIP error maps: scene x n x candidate x H x W [array, float16 in [0, 1]]",
         "visible_areas": "per scene and n: pixels of each lobe's visible highlight [list, pixels]",
+        "visible_area_ratio_f_Q2": "f_Q2's visible highlight over the reference's, first scene, largest n [ratio]",
+        "visible_area_ratio_n": "that n [1]",
+        "visible_area_scene": "that scene [text]",
         "flip_f_Q2_max": "worst mean FLIP of f_Q2 over the visible highlight [in [0, 1]]",
         "flip_f_2_max": "worst mean FLIP of f_2 over the visible highlight [in [0, 1]]",
         "psnr_f_Q2_min": "worst PSNR of f_Q2's displayed images [dB]",
         "psnr_f_2_min": "worst PSNR of f_2's displayed images [dB]",
+    }),
+    _stage("ndf", "beyond", RANGE + POWER,
+           ("zone.level", "linear_coefficient.slope_used", "linear_coefficient.intercept_used",
+            "exact_normalization.coef_blinn"), {
+        "alpha": f"Beckmann roughness matched to n, sqrt(2 / (n + 2)) [{PER_N}]",
+        **{f"coef_{k}": f"NDF normalization of {k} (int D (n.h) dw_h = 1: the Phong-form coef) [{PER_N}, 1/sr]"
+           for k in ("f_b", "f_2", "f_Q2")},
+        **{f"projected_area_max_abs_dev_{k}": f"max over n of |int D (n.h) dw_h - 1| for {k}, by quadrature [fraction]"
+           for k in ("f_b", "f_2", "f_Q2")},
+        **{f"d_{k}_vs_beckmann": f"max over n of d of {k} as an NDF against Beckmann at the matched alpha [fraction]"
+           for k in ("f_b", "f_2", "f_Q2", "ggx")},
+        **{f"D_{k}_vs_beckmann": f"max over n of D of {k} against Beckmann, as a fraction of Beckmann's peak [fraction]"
+           for k in ("f_b", "f_2", "f_Q2", "ggx")},
+        **{f"d_{k}_vs_beckmann_at_n_max": f"d of {k} against Beckmann at n_max [fraction]"
+           for k in ("f_b", "f_2", "f_Q2", "ggx")},
+        **{f"D_{k}_vs_beckmann_at_n_max": f"D of {k} against Beckmann at n_max [fraction]"
+           for k in ("f_b", "f_2", "f_Q2", "ggx")},
+        "beckmann_projected_area_max_abs_dev": "the same quadrature on Beckmann's D, a check of it [fraction]",
+        "lobes": "the lobes compared as NDFs (then GGX in the curves) [list]",
+        "d_curves": "d per n against Beckmann: f_b, f_2, f_Q2, GGX [array 4 x n, fraction]",
+        "D_curves": "D per n against Beckmann [array 4 x n, fraction of the peak]",
+        "blinn_to_ndf_coef_ratio_at_n_max": "the Blinn-form coef over the NDF coef of f_Q2 at n_max: how much darker "
+                                            "the Blinn-form coef would make the NDF [ratio]",
+    }),
+    _stage("microfacet_render", "beyond", POWER + ("mitsuba.*", "albedo.quadrature_nodes"),
+           ("linear_coefficient.slope_used", "linear_coefficient.intercept_used"), {
+        "variant": "Mitsuba variant that ran [text]",
+        "spp": "samples per pixel of each render [count]",
+        "render_seconds": "time of the renders [s]",
+        "exponents": "n of the three spheres [list]",
+        "alphas": "the matched Beckmann/GGX roughness of each sphere [list]",
+        "ndfs": "the rendered NDFs: beckmann (the reference), ggx, f_b, f_2, f_Q2 [list]",
+        "display": "8-bit display images, in the order of ndfs [array]",
+        "flip_maps": "FLIP maps of each candidate against Beckmann [array]",
+        "statistics": "per candidate NDF and n: mean FLIP over the sun highlight against Beckmann, the FLIP of "
+                      "Beckmann's two seeds there (noise), and whether the candidate is distinguishable [list]",
+        "flip_f_Q2_vs_beckmann_max": "largest mean FLIP of f_Q2 as an NDF against Beckmann over a highlight [in [0, 1]]",
+        "flip_ggx_vs_beckmann_max": "largest mean FLIP of GGX against Beckmann over a highlight [in [0, 1]]",
+        "f_Q2_distinguishable_count": "spheres where f_Q2 as an NDF is distinguishable from Beckmann [count]",
     }),
     _stage("mitsuba_render", "beyond", POWER + ("mitsuba.*", "albedo.quadrature_nodes"),
            ("linear_coefficient.slope_used", "linear_coefficient.intercept_used", "zone.level"), {

@@ -29,10 +29,15 @@ import math
 import os
 import subprocess
 import sys
+import threading
 
 from ..optics.registry import power_steps
 
 NAME = "cosquad_lobe"
+# Mitsuba's variant and Dr.Jit's state are process-wide, and two stage threads rendering at once
+# were seen to livelock in Dr.Jit's reference counting: every stage that uses Mitsuba holds this
+# lock for all of its Mitsuba work.
+MITSUBA = threading.RLock()
 FAST_VARIANT, FALLBACK_VARIANT = "llvm_ad_rgb", "scalar_rgb"
 
 _PROBE = ("import mitsuba as mi\n"

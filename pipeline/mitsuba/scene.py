@@ -60,6 +60,13 @@ def render(lobes, width: int, height: int, spp: int, seed: int, sun: bool = True
 
 def sun_geometry(width: int, height: int, lobes) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(N.H and N.L of the sun at each pixel centre, index of the sphere seen there or -1)."""
+    g = pixel_geometry(width, height, lobes)
+    return g["t"], g["cos_light"], g["sphere"]
+
+
+def pixel_geometry(width: int, height: int, lobes) -> dict:
+    """At each pixel centre: t = N.H of the sun, N.L, N.V (V towards the camera), and the index of
+    the sphere seen there or -1 (0 where no sphere is seen)."""
     import mitsuba as mi
 
     aov = {"type": "aov", "aovs": "pp:position,nn:sh_normal"}
@@ -78,4 +85,7 @@ def sun_geometry(width: int, height: int, lobes) -> tuple[np.ndarray, np.ndarray
     half /= np.maximum(np.linalg.norm(half, axis=-1, keepdims=True), 1e-12)
     t = np.sum(half * normal, axis=-1)
     cos_light = np.sum(-SUN * normal, axis=-1)
-    return np.where(sphere >= 0, t, 0.0), np.where(sphere >= 0, cos_light, 0.0), sphere
+    cos_view = np.sum(view * normal, axis=-1)
+    on = sphere >= 0
+    return dict(t=np.where(on, t, 0.0), cos_light=np.where(on, cos_light, 0.0), cos_view=np.where(on, cos_view, 0.0),
+                sphere=sphere)

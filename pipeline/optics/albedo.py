@@ -143,8 +143,13 @@ def albedo_table(form: str, shape: str, n, p, u_end, theta_i, nodes: int, power:
     return out[: len(n), : len(theta_i)]
 
 
-@functools.partial(jax.jit, static_argnames=("form", "shape", "samples", "power"))
-def monte_carlo_albedo(form: str, shape: str, p, u_end, coef, theta_i, key, samples: int, power: int = 2):
+def monte_carlo_albedo(form: str, shape: str, p, u_end, coef, theta_i, key, samples: int, power=2):
+    """`_monte_carlo_albedo` with the power traced: one compiled program for every power."""
+    return _monte_carlo_albedo(form, shape, p, u_end, coef, theta_i, key, samples, np.float64(power))
+
+
+@functools.partial(jax.jit, static_argnames=("form", "shape", "samples"))
+def _monte_carlo_albedo(form: str, shape: str, p, u_end, coef, theta_i, key, samples: int, power):
     """(estimate, standard error) of a(theta_i) by uniform sampling of the lobe's cap u in [0, u_end].
 
     The direction (V for Phong, H for Blinn) is drawn uniformly in solid angle on the cap of the
@@ -182,9 +187,13 @@ def random_directions(key, count: int):
     return v.at[:, 2].set(jnp.abs(v[:, 2]))
 
 
-@functools.partial(jax.jit, static_argnames=("form", "shape", "power"))
-def reciprocity_error(form: str, shape: str, p, coef, L, V, power: int = 2):
+def reciprocity_error(form: str, shape: str, p, coef, L, V, power=2):
     """max |f(L, V) - f(V, L)| / f(L, V) over the direction pairs (rows of L, V) where f(L, V) > 0."""
+    return _reciprocity_error(form, shape, p, coef, L, V, np.float64(power))
+
+
+@functools.partial(jax.jit, static_argnames=("form", "shape"))
+def _reciprocity_error(form: str, shape: str, p, coef, L, V, power):
     def lobe(u, _):
         return SHAPES[shape](u, p, power)
     f_lv = brdf(form, lobe, 0.0, coef, L, V)

@@ -77,6 +77,13 @@ void main()
 }}
 """
 WRAPPER_UNIFORM = UNIFORM.format(body="return t;")
+# Normal distributions D(t = N.H) as an engine writes them, the per-material values as push
+# constants (rate: alpha^2 for Beckmann and GGX, the normalization coef for the lobes).
+NDF_BODIES = {
+    "Beckmann": "float t2 = t * t;\n    return exp((t2 - 1.0) / (rate * t2)) / (3.14159265 * rate * t2 * t2);",
+    "GGX": "float d = t * t * (rate - 1.0) + 1.0;\n    return rate / (3.14159265 * d * d);",
+    "f_b": "return rate * pow(t, n);",
+}
 WRAPPER_PER_PIXEL = """#version 450
 layout(location = 0) in float t_in;
 layout(location = 1) in float n_in;
@@ -196,8 +203,9 @@ def _net(row: dict, wrapper: dict) -> dict:
 def shader_sources(p: registry.Parameters, powers) -> dict[str, tuple[str, str, str, str]]:
     """name -> (GLSL, lobe, what, normalization) of every shader to compile: each registry lobe
     alone ("lobe", by its key) and with each of its normalizations ("lobe and coef, n per pixel"),
-    the family at each power of `powers` alone ("family lobe", by its name f_Q2, f_Q3, ...), and
-    the two wrappers."""
+    the family at each power of `powers` alone ("family lobe", by its name f_Q2, f_Q3, ...), the
+    normal distributions D of a microfacet BRDF ("NDF": Beckmann, GGX, cos^n and the family, each
+    with its per-material constants), and the two wrappers."""
     from .normalizations import normalizations
     _, n = registry.symbols()
     norms = normalizations(p)
@@ -213,6 +221,12 @@ def shader_sources(p: registry.Parameters, powers) -> dict[str, tuple[str, str, 
     for power in powers:
         body = registry.linear_power_glsl(power)
         out[f"family{power:02d}"] = (UNIFORM.format(body=body), registry.family_name(power), "family lobe", "")
+        steps, result = registry.power_steps("b", power)
+        ndf = "\n    ".join(["float b = max(k * t + (1.0 - k), 0.0);"] + [f"float {a} = {e};" for a, e in steps]
+                             + [f"return rate * {result};"])
+        out[f"ndf_family{power:02d}"] = (UNIFORM.format(body=ndf), registry.family_name(power), "NDF", "")
+    for index, (name, body) in enumerate(NDF_BODIES.items()):
+        out[f"ndf{index:02d}"] = (UNIFORM.format(body=body), name, "NDF", "")
     return out
 
 

@@ -93,10 +93,18 @@ def _surface(scene: Scene, resolution: int):
     return hit, albedo, lit, t
 
 
-@functools.partial(jax.jit, static_argnames=("scene", "resolution", "shape", "power"))
-def shade(scene: Scene, resolution: int, shape: str, p, coef, power: int = 2):
+@functools.partial(jax.jit, static_argnames=("scene", "resolution", "shape"))
+def _shade(scene: Scene, resolution: int, shape: str, p, coef, power):
+    return _radiance(scene, resolution, shape, p, coef, power)
+
+
+def shade(scene: Scene, resolution: int, shape: str, p, coef, power=2):
     """Linear RGB radiance [res, res, 3] with the Blinn-form lobe `SHAPES[shape](u, p, power)`
-    normalized by coef."""
+    normalized by coef; one compiled program per scene, resolution and shape, for every power."""
+    return _shade(scene, resolution, shape, p, coef, np.float64(power))
+
+
+def _radiance(scene: Scene, resolution: int, shape: str, p, coef, power):
     hit, albedo, lit, t = _surface(scene, resolution)
     specular = SPECULAR * coef * SHAPES[shape](1.0 - t, p, power)
     radiance = lit[..., None] * (albedo / np.pi + specular[..., None])

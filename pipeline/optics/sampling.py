@@ -35,11 +35,15 @@ def _w0(k):
     return jnp.maximum(1.0 - 2.0 * k, 0.0)
 
 
-def lobe_cosine(xi, k, power: int = 2):
-    """The cosine c to the lobe's axis, from one uniform number xi in [0, 1)."""
+def lobe_cosine(xi, k, power=2):
+    """The cosine c to the lobe's axis, from one uniform number xi in [0, 1) (the power an int or
+    traced: the cube root at m = 2 either way)."""
     w0 = _w0(k) ** (power + 1)
     mixed = w0 + xi * (1.0 - w0)
-    w = jnp.cbrt(mixed) if power == 2 else mixed ** (1.0 / (power + 1))
+    if isinstance(power, int):
+        w = jnp.cbrt(mixed) if power == 2 else mixed ** (1.0 / (power + 1))
+    else:
+        w = jnp.where(power == 2, jnp.cbrt(mixed), mixed ** (1.0 / (power + 1)))
     return 1.0 + (w - 1.0) / k
 
 
@@ -106,8 +110,13 @@ def pdf_blinn(wi, wo, k, power: int = 2):
     return (lobe_pdf(c, k, power) + lobe_pdf(-c, k, power)) / (4.0 * jnp.abs(jnp.sum(wo * h, axis=-1)))
 
 
-@functools.partial(jax.jit, static_argnames=("form", "samples", "power"))
-def importance_albedo(form: str, k, coef, theta_i, key, samples: int, power: int = 2):
+def importance_albedo(form: str, k, coef, theta_i, key, samples: int, power=2):
+    """`_importance_albedo` with the power traced: one compiled program for every power."""
+    return _importance_albedo(form, k, coef, theta_i, key, samples, np.float64(power))
+
+
+@functools.partial(jax.jit, static_argnames=("form", "samples"))
+def _importance_albedo(form: str, k, coef, theta_i, key, samples: int, power):
     """(estimate, standard error) of the directional albedo a(theta_i) of coef times the family's lobe,
     by its own sampler: the mean of f cos(theta_o) / pdf over `samples` directions drawn by
     `sample_phong` or `sample_blinn`; a direction below the surface has weight 0."""

@@ -74,6 +74,10 @@ FIGURES = (
            ("lobe_comparison",), RANGE),
     Figure("error_cost_front.png", "Error against cost: every power of the family and the cheap lobes, per n range",
            "power_front", "error_cost_front", ("power_front", "lobe_comparison", "gpu_isa"), RANGE),
+    Figure("ndf_comparison.png", "The lobes as microfacet NDFs against Beckmann: d and D per n, and the "
+           "distributions at n = 100", "ndf", "ndf_comparison", ("ndf", "linear_coefficient"), RANGE),
+    Figure("microfacet_renders.png", "Mitsuba renders with each NDF (Cook-Torrance) and FLIP against Beckmann",
+           "ndf", "microfacet_renders", ("microfacet_render",)),
     Figure("render_n{n}.png", "Renders at n = {n}: reference, f_2, f_Q2", "render", "renders", ("render",),
            ("render.*",)),
     Figure("render_crops_n{n}.png", "Highlight crops at n = {n}: linear luminance, one scale, and a profile",

@@ -36,12 +36,17 @@ def paper_value(config, result_path):
 POWER = 2       # the run's lobe.power, set before each figure is drawn (`figures.draw_into_cache`)
 
 
+def _names_at_power(fig) -> None:
+    """Every text of the figure through `at_power` (before any layout measures the texts)."""
+    for text in fig.findobj(matplotlib.text.Text):
+        text.set_text(at_power(text.get_text(), POWER))
+
+
 def _save(fig, out: Path, name: str, dpi: int = 110, tight: bool = True) -> str:
     """Writes the figure to out/name and closes it. tight=False keeps a layout set by hand (for large
     images, where tight_layout would draw everything once more just to measure it). At a power
     m != 2 every text names the fitted lobe f_Qm (`report_beyond.at_power`)."""
-    for text in fig.findobj(matplotlib.text.Text):
-        text.set_text(at_power(text.get_text(), POWER))
+    _names_at_power(fig)
     if tight:
         fig.tight_layout()
     fig.savefig(out / name, dpi=dpi, pil_kwargs=FAST_PNG)
@@ -616,5 +621,75 @@ def error_cost_front(out, config, r):
                               "operations per pixel (sympy count; machine code not measured)", fontsize=8)
     fig.suptitle("Error against cost: the family (k (cos x - 1) + 1)^m (blue line; the paper's m = 2 starred) "
                  "and the other cheap lobes (squares)", fontsize=11)
+    _names_at_power(fig)
     fig.tight_layout(rect=(0, 0, 1, 0.96))
     return _save(fig, out, "error_cost_front.png", tight=False)
+
+
+NDF_LABELS = {"beckmann": "Beckmann (Mitsuba roughconductor)", "ggx": "GGX (Mitsuba roughconductor)",
+              "f_b": "cos^n as NDF", "f_2": "f_2 as NDF", "f_Q2": "f_Q2 as NDF"}
+
+
+def microfacet_renders(out, config, r):
+    """Each NDF's render (Cook-Torrance, F = 1) and, beside it, its FLIP map against Beckmann."""
+    s = r["microfacet_render"]
+    stats = {(x["ndf"], x["n"]): x for x in s["statistics"]}
+    names = s["ndfs"]
+    fig, axes = plt.subplots(len(names), 2, figsize=(12, 2.9 * len(names)), squeeze=False)
+    for i, name in enumerate(names):
+        axes[i, 0].imshow(s["display"][i], interpolation="nearest")
+        axes[i, 0].set_title(f"{NDF_LABELS[name]}: {s['spp']} spp x 2 seeds", fontsize=9)
+        if i == 0:
+            axes[i, 1].text(0.5, 0.5, "the reference:\nspheres n = " + ", ".join(f"{n:g}" for n in s["exponents"])
+                            + "\nalpha = " + ", ".join(f"{a:.3f}" for a in s["alphas"]), ha="center", va="center",
+                            fontsize=10, transform=axes[i, 1].transAxes)
+        else:
+            im = axes[i, 1].imshow(s["flip_maps"][i - 1].astype(np.float32), cmap="magma", vmin=0.0, vmax=1.0,
+                                   interpolation="nearest")
+            means = ", ".join(f"{stats[(name, n)]['flip_highlight']:.3f}" for n in s["exponents"])
+            axes[i, 1].set_title(f"FLIP against Beckmann; mean over each sun highlight: {means}", fontsize=9)
+            fig.colorbar(im, ax=axes[i, 1], fraction=0.03, pad=0.02)
+    for ax in axes.flat:
+        ax.set_axis_off()
+    fig.suptitle("The lobes as microfacet NDFs (Cook-Torrance, F = 1, Smith G of Beckmann) beside Mitsuba's "
+                 "Beckmann and GGX at alpha = sqrt(2 / (n + 2))", fontsize=10)
+    fig.tight_layout(rect=(0, 0, 1, 0.97))
+    return _save(fig, out, "microfacet_renders.png", dpi=90, tight=False)
+
+
+def ndf_comparison(out, config, r):
+    """d and D per n of each normalized lobe as an NDF against Beckmann at the matched alpha, GGX for
+    scale; and the distributions themselves at n = 100 against theta / alpha."""
+    from ..optics import distributions as ndf_mod
+    s, n = r["ndf"], n_range(config)
+    fig, axes = plt.subplots(1, 3, figsize=(15, 4.6))
+    labels = list(s["lobes"]) + ["ggx"]
+    colors = {"f_b": "black", "f_2": "C1", "f_Q2": "C0", "ggx": "C3"}
+    for key, d, D in zip(labels, s["d_curves"], s["D_curves"]):
+        axes[0].plot(n, 100 * d, color=colors[key], label=NDF_LABELS.get(key, key).replace(" as NDF", ""))
+        axes[1].plot(n, D, color=colors[key], label=NDF_LABELS.get(key, key).replace(" as NDF", ""))
+    for ax in axes[:2]:
+        ax.set(xscale="log", xlabel="n (alpha = sqrt(2 / (n + 2)))", xlim=(n[0], n[-1]))
+        ax.grid(alpha=0.3, which="both")
+        ax.legend(fontsize=8)
+    axes[0].set(ylabel="max relative error where D_Beckmann >= L peak (%)",
+                title="d against Beckmann, per n")
+    axes[1].set(ylabel="max |D - D_Beckmann| / Beckmann's peak", title="D against Beckmann, per n")
+    i = int(np.argmin(np.abs(n - 100.0)))
+    alpha = float(s["alpha"][i])
+    theta = np.linspace(0.0, 3.0 * alpha, 600)
+    t = np.cos(theta)
+    peak = 1.0 / (np.pi * alpha * alpha)
+    axes[2].plot(theta / alpha, ndf_mod.beckmann(t, alpha) / peak, color="0.3", lw=2.4, label="Beckmann")
+    axes[2].plot(theta / alpha, ndf_mod.ggx(t, alpha) / peak, color="C3", label="GGX")
+    axes[2].plot(theta / alpha, s["coef_f_b"][i] * t ** n[i] / peak, color="black", ls="--", label="cos^n as NDF")
+    k = r["linear_coefficient"]["slope_used"] * n[i] + r["linear_coefficient"]["intercept_used"]
+    m = config["lobe.power"]
+    axes[2].plot(theta / alpha, s["coef_f_Q2"][i] * np.maximum(k * (t - 1.0) + 1.0, 0.0) ** m / peak, color="C0",
+                 label="f_Q2 as NDF")
+    axes[2].set(xlabel="theta_h / alpha", ylabel="D / Beckmann's peak", title=f"the distributions at n = {n[i]:g}")
+    axes[2].grid(alpha=0.3)
+    axes[2].legend(fontsize=8)
+    fig.suptitle("The lobes as normalized microfacet NDFs (int D (n.h) dw_h = 1) against Beckmann at the matched "
+                 "roughness", fontsize=11)
+    return _save(fig, out, "ndf_comparison.png")

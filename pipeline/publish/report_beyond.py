@@ -408,10 +408,13 @@ MAIN_FAMILY = "gfx1100"       # the chip family whose machine code the verdict a
 
 
 def machine_row(r, lobe: str, what: str = "lobe", family: str = MAIN_FAMILY, normalization: str = ""):
-    """The gpu_isa row of a shader, or None where the machine code was not measured."""
+    """The gpu_isa row of a shader, or None where the machine code was not measured. The run's
+    fitted lobe ("f_Q2", alone) is the family's row at the run's power."""
     g = r.get("gpu_isa")
     if not g or not g["available"]:
         return None
+    if lobe == "f_Q2" and what == "lobe":
+        lobe, what = registry.family_name(g["power"]), "family lobe"
     return next((row for row in g["rows"] if row["lobe"] == lobe and row["what"] == what and row["family"] == family
                  and row["normalization"] == normalization), None)
 
@@ -440,7 +443,8 @@ def machine_code_section(config, r) -> list[str]:
               "wave are ACO's own throughput estimate (1 / wave64_per_cycle), net of the wrapper's. Transcendental: "
               "v_log, v_exp, v_rcp, v_rsq, v_sqrt (the quarter-rate unit). `lobe`: n, k and the rate per material "
               "(push constants); `with coef, n per pixel`: n a varying, k(n) and the normalization computed per "
-              "pixel. Shaders compiled with the paper's constants as stand-ins (each is one literal).", "",
+              "pixel. The registry's lobes at the paper's power m = 2; the family's rows give each power. Shaders "
+              "compiled with the paper's constants as stand-ins (each is one literal).", "",
               "| lobe | shader | " + " | ".join(f"{f} ({r_['architecture']})" for f, r_ in
                                               ((f, next(x for x in g['rows'] if x['family'] == f)) for f in families))
               + " |", "|---|---|" + "---|" * len(families)]
@@ -451,8 +455,9 @@ def machine_code_section(config, r) -> list[str]:
         for f in families:
             row = machine_row(r, lobe, what, f, norm)
             cells.append(f"{row['net_vector_alu']} + {row['net_transcendental']} T, {row['net_cycles_per_wave']:g} cyc")
-        name = keep(lobe) if what == "family lobe" else lobe
-        shader = {"lobe": "lobe", "family lobe": "lobe (the family at its power)"}.get(what, f"with {norm}, n per pixel")
+        name = keep(lobe)
+        shader = {"lobe": "lobe (m = 2)", "family lobe": "lobe (the family at its power)",
+                  "NDF": "microfacet D, its constants per material"}.get(what, f"with {norm}, n per pixel (m = 2)")
         lines.append(f"| {name} | {shader} | " + " | ".join(cells) + " |")
     pow_row, quad_row = machine_row(r, registry.REFERENCE), machine_row(r, "f_Q2")
     lines += ["", "Cells: vector ALU + transcendental instructions, cycles per wave. The RDNA3 listings, between "
@@ -471,7 +476,7 @@ def front_section(config, r, figures) -> list[str]:
     members = f["members"]
     lines = ["## The family's front: every power of the linear form", "",
              "The derivation repeated for (k (cos x - 1) + 1)^m at each power m of `front.powers`: each power with "
-             f"its own best Q (metric {config['derivation.metric']}, Q {config['derivation.Q']}) and its own "
+             f"its own best Q (the best of the paper's grids for the metric {config['derivation.metric']}) and its own "
              f"fitted line ({config['derivation.fit']}), on this run's zone and n range. Energy: the largest "
              "directional albedo over n and incidence angles with that power's exact normalization (Phong and "
              "Blinn forms). Cost: the multiplies of the power, and the machine code (RDNA3, net of the wrapper).", ""]
@@ -509,12 +514,74 @@ def front_section(config, r, figures) -> list[str]:
     return lines + [""] + embed(figures, "power_front")
 
 
+def ndf_section(config, r, figures) -> list[str]:
+    nd, mr = r["ndf"], r["microfacet_render"]
+    n_lo, n_hi = config["derivation.n_min"], config["derivation.n_max"]
+    lines = ["## The lobe as a microfacet NDF (Cook-Torrance)", "",
+             "As the normal distribution D of a microfacet BRDF f = D G F / (4 N.L N.V), a lobe of t = N.H is "
+             "normalized by int D (N.h) dw_h = 1: for the family that is the Phong-form integral, so the NDF coef is "
+             f"the exact Phong-form coef (exported as `cosquad_ndf`). The Blinn-form coef would be "
+             f"{nd['blinn_to_ndf_coef_ratio_at_n_max']:.3f}x of it at n = {n_hi}: an NDF about 4x too dark. The "
+             "projected area, by quadrature over the hemisphere, is 1 within "
+             f"{nd['projected_area_max_abs_dev_f_Q2']:.1e} (f_Q2), {nd['projected_area_max_abs_dev_f_2']:.1e} (f_2), "
+             f"{nd['projected_area_max_abs_dev_f_b']:.1e} (cos^n with (n + 2)/(2 pi)), and Beckmann's own "
+             f"{nd['beckmann_projected_area_max_abs_dev']:.1e} (the quadrature's error).", "",
+             "Against Beckmann's D at the matched roughness alpha = sqrt(2 / (n + 2)) (Walter et al. 2007; the "
+             "distributions agree at the peak for cos^n): d, the largest relative error where Beckmann's D is at "
+             f"least L = {r['zone']['level']:.4f} of its peak; D, the largest absolute error as a fraction of the "
+             "peak; on 4001 angles per n up to 12 alpha. GGX at the same alpha for scale.", "",
+             f"| NDF | max d over n in [{n_lo}, {n_hi}] | d at n = {n_hi} | max D | D at n = {n_hi} |",
+             "|---|---|---|---|---|"]
+    for key, label in (("f_b", "cos^n"), ("f_2", "f_2"), ("f_Q2", "f_Q2"), ("ggx", "GGX")):
+        lines.append(f"| {label} | {pct(nd[f'd_{key}_vs_beckmann'])} | {pct(nd[f'd_{key}_vs_beckmann_at_n_max'])} | "
+                     f"{nd[f'D_{key}_vs_beckmann']:.4f} | {nd[f'D_{key}_vs_beckmann_at_n_max']:.4f} |")
+    lines += ["", "cos^n as an NDF tends to Beckmann as n grows. f_Q2 does not: normalized to the same projected "
+              "area, it ends where Beckmann still has mass, so its peak is higher (the figure's right panel).", ""]
+    code = {name: machine_row(r, name, "NDF") for name in ("Beckmann", "GGX", "f_b", registry.family_name(
+        r["gpu_isa"].get("power", 2)))} if r["gpu_isa"]["available"] else {}
+    if code and all(code.values()):
+        q = code[registry.family_name(r["gpu_isa"]["power"])]
+        lines += [f"D alone in machine code (RDNA3, net of the wrapper, constants per material): f_Q2 "
+                  f"{machine_text(q)}; Beckmann {machine_text(code['Beckmann'])}; GGX {machine_text(code['GGX'])}; "
+                  f"cos^n {machine_text(code['f_b'])} (all three chips in the machine-code table).", ""]
+    lines += [f"**Rendered** with Mitsuba 3 ({mr['variant']}, {mr['spp']} spp x 2 seeds, {mr['render_seconds']:.1f} s): "
+              "the three spheres with a Cook-Torrance BSDF whose D is each normalized lobe (`pipeline/mitsuba/"
+              "microfacet.py`: F = 1 and Smith's G of Beckmann, Mitsuba's own, so that the images differ by D alone) "
+              "beside Mitsuba's `roughconductor` with Beckmann and GGX (`material = \"none\"`: F = 1). FLIP over each "
+              "sun highlight against Beckmann, beside the FLIP of Beckmann's two seeds there (noise): a candidate is "
+              "distinguishable where its FLIP is more than twice the noise's.", "",
+              "| NDF | " + " | ".join(f"n = {n:g} (alpha {a:.3f})" for n, a in zip(mr["exponents"], mr["alphas"])) + " |",
+              "|---|" + "---|" * len(mr["exponents"])]
+    by = {(x["ndf"], x["n"]): x for x in mr["statistics"]}
+    for name in mr["ndfs"][1:]:
+        cells = [f"{by[(name, n)]['flip_highlight']:.3f} vs noise {by[(name, n)]['flip_noise']:.3f}"
+                 + (" (distinguishable)" if by[(name, n)]["distinguishable"] else " (not distinguishable)")
+                 + f", {by[(name, n)]['highlight_pixels']} px" for n in mr["exponents"]]
+        lines.append(f"| {NDF_NAMES.get(name, name)} | " + " | ".join(cells) + " |")
+    lines.append("")
+    if code and all(code.values()):
+        q = code[registry.family_name(r["gpu_isa"]["power"])]
+        saving = code["GGX"]["net_cycles_per_wave"] - q["net_cycles_per_wave"]
+        lines += [f"**For an engine that already ships GGX**: f_Q2 as its D saves {saving:g} cycles per wave per "
+                  "light on RDNA3 (D alone, of a BRDF whose G, F and lights cost more), and gives another look: it "
+                  f"ends near 1.5 alpha where GGX has its long tail, and it is "
+                  + ("farther from" if mr["flip_f_Q2_vs_beckmann_max"] > mr["flip_ggx_vs_beckmann_max"] else "no farther from")
+                  + f" Beckmann (FLIP up to {mr['flip_f_Q2_vs_beckmann_max']:.3f}) than GGX is (up to "
+                  f"{mr['flip_ggx_vs_beckmann_max']:.3f}). "
+                  "Not a replacement for GGX; a cheaper highlight of its own shape.", ""]
+    return lines + embed(figures, "ndf")
+
+
+NDF_NAMES = {"ggx": "GGX", "f_b": "cos^n", "f_2": "f_2", "f_Q2": "f_Q2"}
+
+
 def sections(config, r, figures) -> list[str]:
     return (exact_section(config, r, figures) + albedo_section(config, r, figures)
             + comparison_section(config, r, figures) + cost_section(config, r) + machine_code_section(config, r)
             + front_section(config, r, figures) + half_section(config, r)
             + verdict_section(config, r)
-            + render_section(config, r, figures) + mitsuba_section(config, r, figures))
+            + render_section(config, r, figures) + mitsuba_section(config, r, figures)
+            + ndf_section(config, r, figures))
 
 
 def mitsuba_section(config, r, figures) -> list[str]:

@@ -27,12 +27,13 @@ HEADLINE = (
     "render.flip_f_Q2_max", "render.flip_f_2_max", "render.psnr_f_Q2_min", "render.psnr_f_2_min",
     "symbolic_regression.sr_exact_complexity",
     "mitsuba_render.flip_f_Q2_max", "mitsuba_render.flip_f_2_max",
+    "ndf.d_f_Q2_vs_beckmann", "microfacet_render.flip_f_Q2_vs_beckmann_max", "gpu_isa.family_transcendental_max",
 )
 
 
 # Wall-clock times: the one kind of field that differs between two runs of the same config on one
 # machine (everything else repeats bit for bit). results.json keeps them apart, under "timings".
-TIMINGS = ("mitsuba_render.render_seconds",)
+TIMINGS = ("mitsuba_render.render_seconds", "microfacet_render.render_seconds")
 
 
 def headline(results: dict[str, dict[str, Any]]) -> dict[str, Any]:

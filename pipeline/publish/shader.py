@@ -52,6 +52,9 @@ DOCS = {
     "coef": "the run's normalization scale (offset + n) (the paper's 0.214 (0.807 + n))",
     "coef_exact": "exact Phong-form normalization 1 / (2 pi Int(n)): albedo 1 at normal incidence",
     "coef_blinn": "exact Blinn-form normalization (t = dot(N, H)), at normal view",
+    "ndf": "the lobe as a microfacet normal distribution D(h), t = dot(N, H): normalized so that "
+           "int D (N.H) dw_h = 1 (the Phong-form exact coef, not the Blinn-form one); use in "
+           "f = D G F / (4 N.L N.V)",
 }
 
 
@@ -204,6 +207,11 @@ def render_sources(config, slope, intercept, coef_scale, coef_offset, version_ta
                    "    c = (N[1] * H[2] - N[2] * H[1], N[2] * H[0] - N[0] * H[2], N[0] * H[1] - N[1] * H[0])",
                    "    return sum(x * x for x in c) / (1.0 + t)", "", ""]
     sampler = dict(p=PREFIX, m=power, m1=power + 1, result=result)
+    for lines in (glsl, hlsl):
+        lines += [f"// {docs['ndf']}", f"float {PREFIX}ndf(float t, float n)", "{",
+                  f"    return {PREFIX}coef_exact(n) * {PREFIX}lobe(t, n);", "}", ""]
+    py += [f"def {PREFIX}ndf(t, n):", f'    """{docs["ndf"]}"""', f"    return {PREFIX}coef_exact(n) * {PREFIX}lobe(t, n)",
+           "", ""]
     glsl.append(SAMPLER.format(v2="vec2", v3="vec3", steps="\n    ".join(c_steps), **sampler))
     hlsl.append(SAMPLER.format(v2="float2", v3="float3", steps="\n    ".join(c_steps), **sampler))
     py.append(SAMPLER_PY.format(steps="\n    ".join(py_steps), **sampler))

@@ -25,11 +25,16 @@ def hemispherical_integral(k, nodes, weights, power: int = 2):
     return 0.5 * top * jnp.sum(weights * linear_power(g, k, power) * jnp.cos(g) * jnp.sin(g))
 
 
-@functools.partial(jax.jit, static_argnames=("nodes", "power"))
-def integrals(k, nodes: int, power: int = 2):
-    """Int for every k of the array k, by `nodes`-point Gauss-Legendre quadrature."""
+@functools.partial(jax.jit, static_argnames="nodes")
+def _integrals(k, nodes: int, power):
     x, w = np.polynomial.legendre.leggauss(nodes)
     return jax.vmap(lambda k_: hemispherical_integral(k_, x, w, power))(k)
+
+
+def integrals(k, nodes: int, power=2):
+    """Int for every k of the array k, by `nodes`-point Gauss-Legendre quadrature (one compiled
+    program for every power)."""
+    return _integrals(k, nodes, np.float64(power))
 
 
 def run(config, inputs, memo):

@@ -53,6 +53,11 @@ def render_no_sun(lobes, width, height, spp, seed, variant) -> dict:
 
 
 def run(config, inputs, memo):
+    with bsdf.MITSUBA:        # one stage at a time uses Mitsuba (`pipeline.mitsuba.bsdf.MITSUBA`)
+        return _run(config, inputs, memo)
+
+
+def _run(config, inputs, memo):
     a, b = inputs["linear_coefficient.slope_used"], inputs["linear_coefficient.intercept_used"]
     level = inputs["zone.level"]
     exponents = [float(n) for n in config["mitsuba.exponents"]]

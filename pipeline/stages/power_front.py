@@ -1,6 +1,7 @@
 """The family's accuracy/cost front (beyond the paper): the paper's derivation repeated for every
-power m of `front.powers` (f_Q2, f_Q3, f_Q4, f_Q8 by default), each with its own best Q (the run's
-metric and choice of Q) and its own fitted line (the run's fit), on the run's zone and n range:
+power m of `front.powers` (f_Q2, f_Q3, f_Q4, f_Q8 by default), each with its own best Q (the best of
+the paper's grids for the run's metric, whatever Q the run itself uses) and its own fitted line (the
+run's fit), on the run's zone and n range:
 max d and max D over n and per n range, the energy with the exact normalization of that power
 (the largest directional albedo over n and incidence angles, Phong and Blinn forms), and the
 multiplies the power costs. Each power is one memoized call: a change of `lobe.power` or of the
@@ -20,13 +21,11 @@ from .family import best_Q, fit_line
 RANGES = ((2, 10), (10, 100), (100, 1000))
 
 
-def member(n, level, metric, Q_choice, fit, power, coarse_step, fine_step, rtol, atol, max_steps, nodes, angles):
+def member(n, level, metric, fit, power, coarse_step, fine_step, rtol, atol, max_steps, nodes, angles):
     """One power's derivation: best Q, line, d and D per n, and the exact-coef albedo maxima."""
     settings = SolverSettings(rtol, atol, int(max_steps))
     power = int(power)
-    # The continuous optimum only where the run uses it (each search compiles its own program).
-    found = best_Q(n, level, settings, metric, power, coarse_step, fine_step, continuous=Q_choice == "optimize")
-    Q = {"scan": found["Q_scan_best"], "optimize": found["Q_continuous_best"]}.get(Q_choice, Q_choice)
+    Q = best_Q(n, level, settings, metric, power, coarse_step, fine_step, continuous=False)["Q_scan_best"]
     k_Q_n = np.asarray(jax.jit(k_Q, static_argnames="power")(n, float(Q), power=power))
     slope, intercept = fit_line(n, k_Q_n, fit, settings)
     k = slope * n + intercept
@@ -58,7 +57,7 @@ def run(config, inputs, memo):
     members, d_curves, D_curves = [], [], []
     for power in powers:
         m = memo("front_member", member, n=n, level=level, metric=config["derivation.metric"],
-                 Q_choice=config["derivation.Q"], fit=config["derivation.fit"], power=power,
+                 fit=config["derivation.fit"], power=power,
                  coarse_step=config["scan.coarse_step"], fine_step=config["scan.fine_step"],
                  rtol=config["solver.rtol"], atol=config["solver.atol"], max_steps=config["solver.max_steps"],
                  nodes=config["albedo.quadrature_nodes"], angles=config["comparison.albedo_angles"])

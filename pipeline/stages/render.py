@@ -111,8 +111,12 @@ def run(config, inputs, memo):
                 area[registry.REFERENCE], area[name] = st.pop("reference_visible_pixels"), st.pop("visible_pixels")
                 stats.append(dict(scene=scene.name, n=n, lobe=name, coef=float(coef), d_bound=d_bound(name, n), **st))
             areas.append(area)
+    # The first scene at the largest exponent: f_Q2's visible highlight against the reference's.
+    last = next(a for a in areas if a["scene"] == SCENES[0].name and a["n"] == max(exponents))
     return dict(lobes=list(LOBES), scenes=[s.name for s in SCENES], display=display, luminance=lum,
                 flip_maps=flip_maps, statistics=stats, visible_areas=areas,
+                visible_area_ratio_n=float(last["n"]), visible_area_scene=last["scene"],
+                visible_area_ratio_f_Q2=last["f_Q2"] / max(last[registry.REFERENCE], 1),
                 flip_f_Q2_max=max(s["flip_highlight"] for s in stats if s["lobe"] == "f_Q2"),
                 flip_f_2_max=max(s["flip_highlight"] for s in stats if s["lobe"] == "f_2"),
                 psnr_f_Q2_min=min(s["psnr"] for s in stats if s["lobe"] == "f_Q2"),

@@ -209,7 +209,9 @@ def test_a_damaged_memo_entry_is_reported_by_name_and_recomputed(light_config, w
     results, computed, log = run(light_config, warm_cache)
     assert computed == ["lobe_comparison"]
     said = [line for line in log.splitlines() if "memoized energy_table" in line]
-    assert said and all(line.startswith("[14/20] lobe_comparison") and line.endswith(
+    from pipeline.engine import graph
+    index = [s.name for s in graph.STAGES].index("lobe_comparison") + 1
+    assert said and all(line.startswith(f"[{index}/{len(graph.STAGES)}] lobe_comparison") and line.endswith(
         "is damaged (values.json does not match its checksum); recomputing") for line in said)
     # Each named entry was rebuilt, and reads back verified.
     for line in said:

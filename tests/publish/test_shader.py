@@ -38,6 +38,10 @@ def test_exported_python_twin_matches_the_pipeline(exported, paper_run, n_all):
     for i, n in enumerate(n_all[:: 37]):
         assert twin.cosquad_coef_exact(n) == pytest.approx(e["coef_exact"][:: 37][i], rel=1e-12)
         assert twin.cosquad_coef_blinn(n) == pytest.approx(e["coef_blinn"][:: 37][i], rel=1e-12)
+        # The NDF: the exact Phong-form coef times the lobe (projected area 1, tests/optics/test_ndf.py).
+        k = 0.448 * n + 0.099
+        assert twin.cosquad_ndf(0.999, n) == pytest.approx(e["coef_exact"][:: 37][i] * float(linear_power_u(0.001, k)),
+                                                           rel=1e-12)
     header = (exported / "cosquad.glsl").read_text().splitlines()[:2]
     assert "cosquad-pipeline" in header[0] and "run 'paper'" in header[1] and "configs/paper.toml" in header[1]
 

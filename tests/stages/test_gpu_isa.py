@@ -8,7 +8,7 @@ from pipeline.stages import gpu_isa
 
 def test_without_radv_the_stage_says_why_and_the_report_says_not_measured(monkeypatch, tmp_path, paper_run):
     monkeypatch.setattr(machine_code, "ICD_FOLDERS", (str(tmp_path),))
-    out = gpu_isa.run({"lobe.power": 2, "front.powers": [2, 3]}, {}, None)
+    out = gpu_isa.run({"lobe.power": 2, "front.powers": [2, 3]}, {}, lambda name, fn, **kw: fn(**kw))
     assert out["available"] is False and out["rows"] == []
     assert "mesa-vulkan-drivers" in out["reason"]
     r = dict(paper_run, gpu_isa=out)
