@@ -432,6 +432,11 @@ STAGES: tuple[Stage, ...] = (
         "flip_f_Q2_max": "largest mean FLIP of f_Q2 over a sphere's highlight [in [0, 1]]",
         "flip_f_2_max": "largest mean FLIP of f_2 over a sphere's highlight [in [0, 1]]",
         "f_Q2_closer_count": "spheres whose highlight f_Q2 renders closer to cos^n than f_2, by FLIP [count]",
+        "zoom": "the sphere of the largest n rendered zoomed: its n, the scale, the crop window, its highlight "
+                "pixels (>= 1500 where the scale allows) and per lobe the mean FLIP over them [dict]",
+        "zoom_display": "the zoomed 8-bit displays: cos^n, f_2, f_Q2 [array]",
+        "zoom_flip_maps": "FLIP maps of f_2 and f_Q2 against cos^n in the zoom [array]",
+        "zoom_highlight": "per zoomed pixel, the sphere whose visible highlight it is in, or -1 [array]",
         "noise_to_difference_max": "largest ratio of Monte Carlo noise to the lobe difference over a highlight [ratio]",
     }),
 )

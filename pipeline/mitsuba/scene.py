@@ -22,16 +22,21 @@ SAMPLER = "multijitter"     # stratified pixel positions: far less noise across 
 
 
 def scene_dict(lobes, width: int, height: int, spp: int, integrator: dict | None = None, sun: bool = True,
-               sampler: dict | None = None) -> dict:
-    """The scene with one BSDF dict per sphere (`lobes`, three); without the sun if `sun` is False."""
+               sampler: dict | None = None, crop=None) -> dict:
+    """The scene with one BSDF dict per sphere (`lobes`, three); without the sun if `sun` is False;
+    `crop` = (x, y, width, height) renders only that window of the width x height frame."""
     import mitsuba as mi
 
+    film = {"type": "hdrfilm", "width": width, "height": height, "rfilter": {"type": "box"}}
+    if crop is not None:
+        x, y, w, h = (int(v) for v in crop)
+        film |= {"crop_offset_x": x, "crop_offset_y": y, "crop_width": w, "crop_height": h}
     scene = {
         "type": "scene",
         "integrator": integrator or {"type": "path", "max_depth": 4},
         "sensor": {"type": "perspective", "fov": 35,
                    "to_world": mi.ScalarTransform4f().look_at(origin=list(CAMERA), target=list(TARGET), up=[0, 1, 0]),
-                   "film": {"type": "hdrfilm", "width": width, "height": height, "rfilter": {"type": "box"}},
+                   "film": film,
                    "sampler": sampler or {"type": SAMPLER, "sample_count": spp}},
         "sky": {"type": "constant", "radiance": {"type": "rgb", "value": [0.25, 0.3, 0.4]}},
         "sun": {"type": "directional", "direction": SUN.tolist(), "irradiance": {"type": "rgb", "value": SUN_IRRADIANCE.tolist()}},
@@ -50,11 +55,11 @@ def lobe_dict(shape: str, n: float, k: float, coef: float, sampler: str = "lobe"
             "coef": float(coef), "sampler": sampler, "power": int(power)}
 
 
-def render(lobes, width: int, height: int, spp: int, seed: int, sun: bool = True) -> np.ndarray:
-    """Linear RGB radiance (height, width, 3), float64."""
+def render(lobes, width: int, height: int, spp: int, seed: int, sun: bool = True, crop=None) -> np.ndarray:
+    """Linear RGB radiance (height, width, 3), float64 (of the crop window where one is given)."""
     import mitsuba as mi
 
-    scene = mi.load_dict(scene_dict(lobes, width, height, spp, sun=sun))
+    scene = mi.load_dict(scene_dict(lobes, width, height, spp, sun=sun, crop=crop))
     return np.asarray(mi.render(scene, spp=spp, seed=seed), dtype=np.float64)
 
 
@@ -64,17 +69,17 @@ def sun_geometry(width: int, height: int, lobes) -> tuple[np.ndarray, np.ndarray
     return g["t"], g["cos_light"], g["sphere"]
 
 
-def pixel_geometry(width: int, height: int, lobes) -> dict:
-    """At each pixel centre: t = N.H of the sun, N.L, N.V (V towards the camera), and the index of
-    the sphere seen there or -1 (0 where no sphere is seen)."""
+def pixel_geometry(width: int, height: int, lobes, crop=None) -> dict:
+    """At each pixel centre (of the crop window where one is given): t = N.H of the sun, N.L, N.V
+    (V towards the camera), and the index of the sphere seen there or -1 (0 where no sphere is seen)."""
     import mitsuba as mi
 
     aov = {"type": "aov", "aovs": "pp:position,nn:sh_normal"}
     centres = {"type": "stratified", "sample_count": 1, "jitter": False}     # one ray through each pixel centre
-    scene = mi.load_dict(scene_dict(lobes, width, height, 1, integrator=aov, sampler=centres))
+    scene = mi.load_dict(scene_dict(lobes, width, height, 1, integrator=aov, sampler=centres, crop=crop))
     image = np.asarray(mi.render(scene, spp=1, seed=0), dtype=np.float64)
     position, normal = image[..., -6:-3], image[..., -3:]
-    sphere = np.full((height, width), -1)
+    sphere = np.full(image.shape[:2], -1)
     hit = np.linalg.norm(normal, axis=-1) > 0.5          # the sky leaves position and normal 0
     for i, x in enumerate(SPHERE_X):
         distance = np.linalg.norm(position - np.array([x, RADIUS, 0.0]), axis=-1)

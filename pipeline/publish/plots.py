@@ -693,3 +693,29 @@ def ndf_comparison(out, config, r):
     fig.suptitle("The lobes as normalized microfacet NDFs (int D (n.h) dw_h = 1) against Beckmann at the matched "
                  "roughness", fontsize=11)
     return _save(fig, out, "ndf_comparison.png")
+
+
+def mitsuba_zoom(out, config, r):
+    """The sphere of the largest n, rendered zoomed: each lobe's display and the FLIP maps, with the
+    highlight outlined."""
+    s = r["mitsuba_render"]
+    z = s["zoom"]
+    stats = {x["lobe"]: x for x in z["statistics"]}
+    fig, axes = plt.subplots(1, 5, figsize=(16, 3.8))
+    mask = s["zoom_highlight"] >= 0
+    panels = [(s["zoom_display"][l], registry.LOBES[name].label(), None) for l, name in enumerate(MITSUBA_LOBES)]
+    panels += [(s["zoom_flip_maps"][l].astype(np.float32),
+                f"FLIP of {name}: {stats[name]['flip_highlight']:.3f}\nmean over the highlight", "magma")
+               for l, name in enumerate(MITSUBA_LOBES[1:])]
+    for ax, (image, title, cmap) in zip(axes, panels):
+        if cmap:
+            ax.imshow(image, cmap=cmap, vmin=0.0, vmax=1.0, interpolation="nearest")
+        else:
+            ax.imshow(image, interpolation="nearest")
+        ax.contour(mask, levels=[0.5], colors="cyan", linewidths=0.6)
+        ax.set_title(title, fontsize=9)
+        ax.set_axis_off()
+    fig.suptitle(f"Sphere n = {z['n']:g} rendered at {z['scale']}x the frame's resolution around its sun highlight "
+                 f"({z['highlight_pixels']} highlight pixels, cyan)", fontsize=10)
+    fig.tight_layout(rect=(0, 0, 1, 0.9))
+    return _save(fig, out, "mitsuba_zoom.png", tight=False)

@@ -616,6 +616,12 @@ def mitsuba_section(config, r, figures) -> list[str]:
               f"most {s['noise_to_difference_max']:.2f} of the difference it is set beside"
               + ("." if s["noise_to_difference_max"] < 0.3 else
                  ": **too noisy to conclude** (raise mitsuba.spp, or run where the fast variant runs)."), "",
+              (lambda z: f"**The sphere n = {z['n']:g} zoomed** (the frame at {z['scale']}x its resolution, in a "
+               f"window around the highlight): {z['highlight_pixels']} highlight pixels, against "
+               f"{by[('f_Q2', z['n'])]['highlight_pixels']} in the frame; mean FLIP over them "
+               + ", ".join(f"{x['lobe']} {x['flip_highlight']:.3f}" for x in z["statistics"])
+               + f" (in the frame: f_2 {by[('f_2', z['n'])]['flip_highlight']:.3f}, f_Q2 "
+               f"{by[('f_Q2', z['n'])]['flip_highlight']:.3f}).")(s["zoom"]), "",
               "**What importance sampling buys** (f_Q2 at the same samples per pixel, per-pixel variance over each "
               "sphere, where the reflected sky is found by sampling the BSDF; the sun, a delta light, is sampled "
               "as a light):", "", "| n | variance, lobe sampler | variance, cosine-weighted | ratio |",

@@ -15,6 +15,9 @@ form, each with its exact normalization at normal view) on three spheres of expo
   of each highlight's FLIP error in its epicenter.
 - Importance sampling: f_Q2 rendered also with cosine-weighted sampling at the same samples per
   pixel; the per-pixel variance of each over the highlights.
+- The sphere of the largest n zoomed: the frame rendered at an integer scale (up to 8x) in a
+  window around its highlight only, so that its FLIP statistics rest on at least `ZOOM_PIXELS`
+  highlight pixels (about a hundred at the frame's own resolution for n = 1000).
 
 Without a vectorized Mitsuba variant (no LLVM >= 15: `pipeline.mitsuba.bsdf.choose_variant`) the
 scalar variant runs the Python plugins one sample at a time, so the stage renders at
@@ -39,17 +42,35 @@ def _display8(radiance) -> np.ndarray:
     return np.asarray(display_and_luminance(radiance)[0])
 
 
-def render_pair(lobes, width, height, spp, seed, variant) -> dict:
-    """The scene with these sphere BSDFs, rendered with seeds `seed` and `seed + 1`."""
+# The zoomed render of the sphere of the largest n: at least this many highlight pixels.
+ZOOM_PIXELS, ZOOM_SCALE_MAX = 1500, 8
+
+
+def render_pair(lobes, width, height, spp, seed, variant, crop=None) -> dict:
+    """The scene with these sphere BSDFs, rendered with seeds `seed` and `seed + 1` (of the window
+    `crop` of the frame where given)."""
     bsdf.register(variant)
-    return dict(first=scene.render(lobes, width, height, spp, seed),
-                second=scene.render(lobes, width, height, spp, seed + 1))
+    return dict(first=scene.render(lobes, width, height, spp, seed, crop=crop),
+                second=scene.render(lobes, width, height, spp, seed + 1, crop=crop))
 
 
-def render_no_sun(lobes, width, height, spp, seed, variant) -> dict:
+def render_no_sun(lobes, width, height, spp, seed, variant, crop=None) -> dict:
     """The same scene without the sun: the background against which a highlight is visible."""
     bsdf.register(variant)
-    return dict(image=scene.render(lobes, width, height, spp, seed, sun=False))
+    return dict(image=scene.render(lobes, width, height, spp, seed, sun=False, crop=crop))
+
+
+def zoom_window(highlight, index: int, width: int, height: int) -> tuple[int, tuple[int, int, int, int]]:
+    """(scale, crop) of a render zoomed on sphere `index`'s highlight: the frame scaled so that the
+    highlight covers at least `ZOOM_PIXELS` pixels (at most `ZOOM_SCALE_MAX`), and the window around
+    it (half again its extent, at least 8 pixels of the unscaled frame each side)."""
+    ys, xs = np.nonzero(highlight == index)
+    scale = int(min(ZOOM_SCALE_MAX, max(1, np.ceil(np.sqrt(ZOOM_PIXELS / max(len(ys), 1))))))
+    cy, cx = int(ys.mean()), int(xs.mean())
+    half = max(8, int(0.75 * max(ys.max() - ys.min(), xs.max() - xs.min())) + 2)
+    x0, x1 = max(cx - half, 0), min(cx + half, width)
+    y0, y1 = max(cy - half, 0), min(cy + half, height)
+    return scale, (x0 * scale, y0 * scale, (x1 - x0) * scale, (y1 - y0) * scale)
 
 
 def run(config, inputs, memo):
@@ -94,25 +115,31 @@ def _run(config, inputs, memo):
                   seed=seed, variant=variant)["image"]
     seconds = time.perf_counter() - start
 
-    t, cos_light, sphere = scene.sun_geometry(width, height, lobes(REFERENCE))
-    on = sphere >= 0
+    def highlights(no_sun, geometry):
+        """(the sphere index of each pixel in some lobe's visible sun highlight, or -1; the
+        epicenter pixels, where cos^n(N.H) >= L)."""
+        t, cos_light, sphere = geometry["t"], geometry["cos_light"], geometry["sphere"]
+        base8 = _display8(no_sun)
+        seen = np.zeros(sphere.shape, dtype=bool)
+        epicenter = np.zeros(sphere.shape, dtype=bool)
+        for name in LOBES:
+            direct = np.zeros(no_sun.shape)
+            for i, props in enumerate(lobes(name)):
+                here = (sphere == i) & (cos_light > 0.0)
+                value = props["coef"] * lobe_value(props, t) * np.maximum(cos_light, 0.0)
+                direct[here] = (scene.SUN_IRRADIANCE * value[..., None])[here]
+                if name == REFERENCE:
+                    epicenter |= (sphere == i) & (lobe_value(props, t) >= level)
+            seen |= visible(_display8(no_sun + direct), base8)
+        return np.where(seen & (sphere >= 0), sphere, -1).astype(np.int8), epicenter
+
+    geometry = scene.pixel_geometry(width, height, lobes(REFERENCE))
+    sphere = geometry["sphere"]
+    highlight, epicenter = highlights(no_sun, geometry)
     mean = {key: 0.5 * (p[0] + p[1]) for key, p in runs.items()}
     lum = {key: np.asarray(luminance(m)) for key, m in mean.items()}
     noise_var = {key: np.asarray(luminance(p[0]) - luminance(p[1])) ** 2 / 4.0 for key, p in runs.items()}
     display = {key: _display8(m) for key, m in mean.items()}
-    base8 = _display8(no_sun)
-    seen = np.zeros(sphere.shape, dtype=bool)
-    epicenter = np.zeros(sphere.shape, dtype=bool)
-    for name in LOBES:
-        direct = np.zeros(no_sun.shape)
-        for i, props in enumerate(lobes(name)):
-            here = (sphere == i) & (cos_light > 0.0)
-            value = props["coef"] * lobe_value(props, t) * np.maximum(cos_light, 0.0)
-            direct[here] = (scene.SUN_IRRADIANCE * value[..., None])[here]
-            if name == REFERENCE:
-                epicenter |= (sphere == i) & (lobe_value(props, t) >= level)
-        seen |= visible(_display8(no_sun + direct), base8)
-    highlight = np.where(seen & on, sphere, -1).astype(np.int8)
     reference = (REFERENCE, "lobe")
     statistics, flip_frame, maps = [], {}, []
     for name in LOBES[1:]:
@@ -141,8 +168,32 @@ def _run(config, inputs, memo):
         cosine_var = float(np.mean(2.0 * noise_var[("f_Q2", "cosine")][region]))
         sampling.append(dict(n=n, lobe_sampler_variance=lobe_var, cosine_sampler_variance=cosine_var,
                              variance_ratio=cosine_var / max(lobe_var, 1e-300)))
+    # The sphere of the largest n zoomed: the frame rendered at `scale` times the resolution, only
+    # in a window around its highlight, so that its statistics rest on >= ZOOM_PIXELS pixels.
+    index = int(np.argmax(exponents))
+    scale, crop = zoom_window(highlight, index, width, height)
+    zoom_runs = {name: memo("mitsuba_zoom_pair", render_pair, lobes=lobes(name), width=width * scale,
+                            height=height * scale, spp=spp, seed=seed, variant=variant, crop=crop)
+                 for name in LOBES}
+    zoom_no_sun = memo("mitsuba_zoom_no_sun", render_no_sun, lobes=lobes(REFERENCE), width=width * scale,
+                       height=height * scale, spp=spp, seed=seed, variant=variant, crop=crop)["image"]
+    zoom_highlight, _ = highlights(zoom_no_sun, scene.pixel_geometry(width * scale, height * scale,
+                                                                      lobes(REFERENCE), crop))
+    zoom_display = {name: _display8(0.5 * (p["first"] + p["second"])) for name, p in zoom_runs.items()}
+    region = zoom_highlight == index
+    zoom_stats, zoom_maps = [], []
+    for name in LOBES[1:]:
+        fmap = flip_map(zoom_display[REFERENCE], zoom_display[name])
+        zoom_maps.append(fmap.astype(np.float16))
+        zoom_stats.append(dict(lobe=name, n=exponents[index], highlight_pixels=int(region.sum()),
+                               flip_highlight=float(fmap[region].mean())))
+    zoom = dict(n=exponents[index], scale=scale, crop=list(crop), highlight_pixels=int(region.sum()),
+                statistics=zoom_stats)
+
     by = {(s["lobe"], s["n"]): s["flip_highlight"] for s in statistics}
     return dict(
+        zoom=zoom, zoom_display=np.stack([zoom_display[k] for k in LOBES]), zoom_flip_maps=np.stack(zoom_maps),
+        zoom_highlight=zoom_highlight,
         variant=variant, spp=int(spp), render_seconds=seconds, exponents=exponents,
         display=np.stack([display[k] for k in (reference, ("f_2", "lobe"), ("f_Q2", "lobe"), ("f_Q2", "cosine"))]),
         flip_maps=np.stack(maps), highlight=highlight, epicenter=epicenter,
