@@ -83,3 +83,56 @@ def test_a_scheduler_that_does_not_answer_exits_2_in_seconds_naming_it(tmp_path)
     assert done.returncode == 2 and "no Dask scheduler answers at tcp://127.0.0.1:9" in done.stderr, done.stderr
     assert done.stderr.strip().count("\n") == 0
     assert not (tmp_path / "out").exists()
+
+
+# Three points of other Q values (each computes), run on two workers; one worker is killed mid-point.
+KILL_SWEEP = f"""
+[sweep]
+name = "k"
+config = "{LIGHT_CONFIG}"
+only = ["accuracy"]
+[axes]
+"derivation.Q" = [0.57, 0.58, 0.59]
+"""
+
+
+@pytest.mark.slow
+def test_a_worker_killed_mid_point_spoils_no_other_point(refit_cache, tmp_path):
+    """SIGKILL to a Dask worker process while it runs a point: Dask reruns the point on a new worker
+    (or reports it failed with its message); the other points complete, no half-written folder is
+    left, and a rerun computes nothing for the points that completed."""
+    import os
+    import signal
+    import time
+
+    import psutil
+
+    file = tmp_path / "k.toml"
+    file.write_text(KILL_SWEEP)
+    proc = subprocess.Popen([sys.executable, "-m", "pipeline", "sweep", str(file), "--workers", "2"],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=cli_env(tmp_path),
+                            cwd=paths.ROOT)
+    killed = None
+    deadline = time.monotonic() + 120
+    while killed is None and time.monotonic() < deadline and proc.poll() is None:
+        # The workers: the processes under the nannies that compute (busy on a CPU), once a point runs.
+        for child in psutil.Process(proc.pid).children(recursive=True):
+            try:
+                if child.cpu_percent(interval=0.2) > 50 and child.parent().pid != proc.pid:
+                    os.kill(child.pid, signal.SIGKILL)
+                    killed = child.pid
+                    break
+            except psutil.NoSuchProcess:
+                continue
+    out, err = proc.communicate(timeout=600)
+    assert killed is not None, "no worker was seen computing"
+    folder = tmp_path / "out" / "k"
+    lines = [line for line in out.splitlines() if line.startswith("[")]
+    assert len(lines) == 3, out + err                          # every point reported, ok or FAILED
+    complete = {p.name for p in folder.iterdir() if p.is_dir() and (p / "results.json").is_file()}
+    ok = {line.split(" | ")[1].split(":")[0] for line in lines if ": ok (" in line}
+    assert ok <= complete and len(ok) >= 2, out
+    assert not [p.name for p in folder.iterdir() if p.name.startswith(".") and "tmp" in p.name], list(folder.iterdir())
+    again = sweep_cli(file, tmp_path)
+    assert again.returncode == 0, again.stdout + again.stderr
+    assert again.stdout.count(": ok (0 stages computed") >= len(ok), again.stdout
