@@ -106,10 +106,11 @@ def _regress(args) -> int:
     start = time.perf_counter()
     out = Path(args.out) if args.out else paths.OUTPUTS / "regress" / Path(args.file).stem
     front = regress(Path(args.file), args.x, args.y, out, args.max_complexity, parse_operations(args.ops),
-                    seed=args.seed)
-    print("complexity  RMS          expression")
+                    seed=args.seed, noise=args.noise)
+    print("complexity  RMS          DL (nats)  expression")
     for m in front:
-        print(f"{m['complexity']:>10}  {m['rms']:<11.6g}  {m['canonical']}")
+        print(f"{m['complexity']:>10}  {m['rms']:<11.6g}  {m['description_length']:<9.4g}  {m['canonical']}"
+              + ("   <- selected" if m["selected"] else ""))
     print(f"wrote {out / 'front.csv'} and {out / 'front.png'}; {time.perf_counter() - start:.1f} s")
     return 0
 
@@ -212,6 +213,9 @@ def _main(argv: list[str] | None) -> int:
                      help="largest complexity searched (constants, x, +, -, * count 1; / counts 2); default 12")
     reg.add_argument("--ops", default="+,-,*,/", help='operations, default "+,-,*,/"')
     reg.add_argument("--seed", type=int, default=0, help="seed of the random starts (default 0)")
+    reg.add_argument("--noise", type=float, default=None, metavar="SIGMA",
+                     help="the data's noise level, for model selection (default: the rounding floor of y where y "
+                          "is rounded, else unknown)")
     reg.add_argument("--out", default=None, metavar="DIR",
                      help="output folder (default outputs/regress/<file name without .csv>)")
     cmp = sub.add_parser("compare", help="runs side by side: the config values that differ against the headline "

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import contextlib
 import fcntl
+import os
 import shutil
 import time
 from collections.abc import Callable
@@ -19,16 +20,35 @@ from .cache import temporary_folder
 @contextlib.contextmanager
 def output_lock(out_dir: Path, log):
     """An exclusive lock on `.<name>.lock` beside `out_dir`, held by the one run that writes it. A
-    second run asking for it is told that it waits, and for what."""
+    second run asking for it is told that it waits, and for what. The holder removes the lock file
+    when it is done (nothing is left beside the folder); a waiter that then holds the lock of a
+    removed file sees it (the path no longer names its file) and locks the path afresh."""
     out_dir.parent.mkdir(parents=True, exist_ok=True)
-    with open(out_dir.parent / f".{out_dir.name}.lock", "a") as lock:
+    path = out_dir.parent / f".{out_dir.name}.lock"
+    told = False
+    while True:
+        lock = open(path, "a")
         try:
             fcntl.flock(lock, fcntl.LOCK_EX | fcntl.LOCK_NB)
         except BlockingIOError:
-            log(f"{out_dir} is being written by another run: waiting for it to finish")
+            if not told:
+                log(f"{out_dir} is being written by another run: waiting for it to finish")
+                told = True
             fcntl.flock(lock, fcntl.LOCK_EX)
-            log(f"the other run has finished; this run goes on into {out_dir}")
+        try:
+            current = os.stat(path).st_ino == os.fstat(lock.fileno()).st_ino
+        except FileNotFoundError:
+            current = False
+        if current:
+            break
+        lock.close()
+    if told:
+        log(f"the other run has finished; this run goes on into {out_dir}")
+    try:
         yield
+    finally:
+        path.unlink(missing_ok=True)        # still held: a waiter on this file re-locks the path
+        lock.close()
 
 
 def publish(out_dir: Path, stamp_key: str, log, write: Callable[[Path], str], locked: bool = False) -> None:

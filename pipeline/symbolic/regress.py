@@ -2,7 +2,16 @@
 own two-column data, read from a CSV file with a header row.
 
 Writes `front.csv` (one front member per row) and `front.png` into the output folder, both at once
-(nothing is written if anything fails). Bad input raises `RegressError` naming the problem.
+(nothing is written if anything fails, and no lock file is left beside it). Bad input raises
+`RegressError` naming the problem: a file that is not a table of numbers, a column of one repeated
+value, values whose squares overflow float64.
+
+Model selection: each front member's description length in nats, as exhaustive symbolic regression
+counts it (Bartlett et al. 2022), to first order: the data given the model, SSE / (2 sigma^2) where
+the noise level sigma is known (`noise`, or for data rounded to d decimals the rounding floor
+10^-d / sqrt(12)), else (N / 2) ln(SSE / N); its p fitted constants, (p / 2) ln N; its form,
+complexity x ln(the grammar's symbols: the operations, the variable and the constant). The member of
+least description length is marked selected (front.csv's `selected` column, the figure).
 """
 
 from __future__ import annotations
@@ -17,6 +26,9 @@ import numpy as np
 from . import grammar
 
 MAX_COMPLEXITY = 14
+# Squares of values beyond this overflow float64 sums (1e308) over any realistic number of points.
+LARGEST_VALUE = 1e150
+ROUNDING_DECIMALS_MAX = 8
 
 
 class RegressError(ValueError):
@@ -67,6 +79,42 @@ def read_columns(path: Path, x_column: str, y_column: str) -> tuple[np.ndarray, 
     return columns[x_column], columns[y_column]
 
 
+def check_columns(path: Path, x, y, x_column: str, y_column: str) -> None:
+    """Refuses what no search can fit: a column of one value, values whose squares overflow."""
+    for values, name, option in ((x, x_column, "--x"), (y, y_column, "--y")):
+        if values.size and np.all(values == values[0]):
+            what = "there is nothing to fit against" if option == "--x" else "the fit is that constant: nothing to search"
+            raise RegressError(f"{path}: column {name!r} ({option}) has the one value {values[0]:g} on every row: {what}")
+        largest = float(np.max(np.abs(values))) if values.size else 0.0
+        if largest > LARGEST_VALUE:
+            row = int(np.argmax(np.abs(values)))
+            raise RegressError(f"{path}: column {name!r} ({option}) holds {values[row]:g} (data row {row + 1}): values "
+                               f"beyond {LARGEST_VALUE:g} overflow the sums of squares in float64; rescale the column")
+
+
+def rounding_noise(y) -> float | None:
+    """sigma = 10^-d / sqrt(12) if every y is a multiple of 10^-d for some d <= 8 (data rounded to d
+    decimals), else None."""
+    for d in range(ROUNDING_DECIMALS_MAX + 1):
+        scaled = y * 10.0 ** d
+        if np.all(np.abs(scaled - np.round(scaled)) <= 1e-9 * np.maximum(np.abs(scaled), 1.0)):
+            return 10.0 ** -d / np.sqrt(12.0)
+    return None
+
+
+def select(front, n_points: int, noise: float | None, symbols: int) -> int:
+    """Adds `description_length` (nats) to each member and returns the index of the least."""
+    for m in front:
+        sse = n_points * m["rms"] ** 2
+        data = sse / (2.0 * noise ** 2) if noise else 0.5 * n_points * np.log(max(sse / n_points, 1e-300))
+        m["description_length"] = float(data + 0.5 * m["constants"] * np.log(n_points)
+                                        + m["complexity"] * np.log(symbols))
+    best = int(np.argmin([m["description_length"] for m in front]))
+    for i, m in enumerate(front):
+        m["selected"] = i == best
+    return best
+
+
 def variable_name(column: str) -> str:
     """The column's name if it can name a variable in an expression, else x."""
     return column if re.fullmatch(r"[A-Za-z_][A-Za-z0-9_]*", column) and column != "c" else "x"
@@ -74,11 +122,15 @@ def variable_name(column: str) -> str:
 
 def regress(path: Path, x_column: str, y_column: str, out: Path, max_complexity: int = 12, ops: str = "+-*/",
             starts: int = 1, iterations: int = 20, refine: int = 8, polish_starts: int = 4, seed: int = 0,
-            log=print) -> list[dict]:
-    """Runs the search on the file's two columns; writes out/front.csv and out/front.png; returns the front."""
+            log=print, noise: float | None = None) -> list[dict]:
+    """Runs the search on the file's two columns; writes out/front.csv and out/front.png; returns the
+    front, its selected member marked (`select`; `noise` the data's standard deviation if known)."""
     if not 1 <= max_complexity <= MAX_COMPLEXITY:
         raise RegressError(f"--max-complexity {max_complexity}: give an integer in [1, {MAX_COMPLEXITY}]")
+    if noise is not None and not (math.isfinite(noise) and noise > 0):
+        raise RegressError(f"--noise {noise}: give the data's noise level, a number > 0")
     x, y = read_columns(Path(path), x_column, y_column)
+    check_columns(Path(path), x, y, x_column, y_column)
     forms = grammar.enumerate_forms(max_complexity, ops)
     if not forms:
         raise RegressError(f"no expression of complexity <= {max_complexity} uses only the operations {' '.join(ops)}")
@@ -101,7 +153,14 @@ def regress(path: Path, x_column: str, y_column: str, out: Path, max_complexity:
         front.append(dict(complexity=int(found["complexity"][i]), rms=float(found["rms"][i]),
                           form=search.show(e, name), expression=search.show(e, name, c),
                           canonical=search.canonical(search.to_sympy(e, c, symbol), symbol),
-                          converged=found["converged"].get(i, False)))
+                          converged=found["converged"].get(i, False), constants=int(len(c))))
+    sigma = noise if noise is not None else rounding_noise(y)
+    best = select(front, x.size, sigma, len(ops) + 2)
+    how = (f"noise {sigma:.3g} given" if noise is not None else
+           f"noise {sigma:.3g}, the rounding floor of y" if sigma else "noise unknown")
+    log(f"selected by description length ({how}): complexity {front[best]['complexity']}, "
+        f"{front[best]['expression']}")
+
     _write(Path(out), front, f"{Path(path).name}: {y_column} against {x_column}", x, y, found, name)
     return front
 
@@ -121,7 +180,7 @@ def _write(out: Path, front, title, x, y, found, name) -> None:
 
 
 FRONT_COLUMNS = ("complexity", "rms", "form", "expression", "canonical", "max_rel_to_exact",
-                 "max_energy_excess", "equivalent_to_exact")
+                 "max_energy_excess", "equivalent_to_exact", "constants", "description_length", "selected")
 
 
 def write_front_csv(path, front) -> None:
@@ -149,6 +208,9 @@ def symbolic_front_figure(path, front, found, title) -> None:
     xs, ys = [m["complexity"] for m in front], [max(m["rms"], floor) for m in front]
     ax.step(xs + [sizes[-1] + 1], ys + [ys[-1]], where="post", color="C0", label="front")
     ax.plot(xs, ys, "o", color="C0", ms=7)
+    chosen = [(x_, y_) for m, x_, y_ in zip(front, xs, ys) if m.get("selected")]
+    if chosen:
+        ax.plot(*chosen[0], "o", ms=15, mfc="none", mec="C3", mew=2, label="selected (least description length)")
     lines = ["front (complexity, RMS, sympy's canonical form):"]
     lines += [f"{m['complexity']:>2}  {m['rms']:.3g}  {m['canonical'].replace('**', '^').replace('*', ' ')}" for m in front]
     ax.text(0.98, 0.97, "\n".join(lines), transform=ax.transAxes, fontsize=7.5, family="monospace", va="top",

@@ -22,8 +22,8 @@ def test_a_folder_is_written_whole_and_an_unchanged_one_is_not_rewritten(tmp_pat
     assert len(calls) == 1 and (out / "a.txt").read_text() == "first" and "up to date" in log[-1]
     publish(out, "key2", log.append, writer("second", calls))
     assert (out / "a.txt").read_text() == "second" and (out / ".stamp").read_text() == "key2"
-    # Only the folder and its lock are left beside it: no temporary or old copy.
-    assert sorted(p.name for p in tmp_path.iterdir()) == [".run.lock", "run"]
+    # Only the folder is left beside it: no temporary or old copy, no lock file.
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["run"]
 
 
 def test_a_failed_write_leaves_the_previous_folder_as_it_was(tmp_path):
@@ -37,7 +37,7 @@ def test_a_failed_write_leaves_the_previous_folder_as_it_was(tmp_path):
     with pytest.raises(OSError, match="disk full"):
         publish(out, "key2", lambda s: None, broken)
     assert (out / "a.txt").read_text() == "first" and (out / ".stamp").read_text() == "key1"
-    assert sorted(p.name for p in tmp_path.iterdir()) == [".run.lock", "run"]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["run"]
 
 
 def test_what_a_killed_write_left_is_swept_by_the_next(tmp_path):
@@ -46,4 +46,32 @@ def test_what_a_killed_write_left_is_swept_by_the_next(tmp_path):
     (tmp_path / ".run.old").mkdir()             # ... or the previous folder it had moved aside
     (tmp_path / ".other.tmp.x").mkdir()         # another run's: not touched
     publish(out, "key", lambda s: None, writer("x", []))
-    assert sorted(p.name for p in tmp_path.iterdir()) == [".other.tmp.x", ".run.lock", "run"]
+    assert sorted(p.name for p in tmp_path.iterdir()) == [".other.tmp.x", "run"]
+
+
+def test_a_waiting_writer_locks_afresh_when_the_holder_removes_the_lock_file(tmp_path):
+    """Two writers of one folder at once: the second waits, says so, and writes after the first; the
+    lock file is gone after both."""
+    import threading
+    import time
+
+    from pipeline.engine.publishing import output_lock
+
+    out, order, said = tmp_path / "run", [], []
+    first_in = threading.Event()
+
+    def first():
+        with output_lock(out, said.append):
+            first_in.set()
+            time.sleep(0.5)
+            order.append("first")
+
+    thread = threading.Thread(target=first)
+    thread.start()
+    first_in.wait()
+    with output_lock(out, said.append):
+        order.append("second")
+    thread.join()
+    assert order == ["first", "second"]
+    assert any("is being written by another run" in s for s in said)
+    assert not (tmp_path / ".run.lock").exists()

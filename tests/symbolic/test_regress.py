@@ -60,3 +60,47 @@ def test_regress_command_rejects_too_few_points(tmp_path):
     run = subprocess.run([sys.executable, "-m", "pipeline", "regress", str(few), "--x", "t", "--y", "w"],
                          capture_output=True, text=True, env=cli_env(tmp_path))
     assert run.returncode == 2 and "no column 'w' (--y)" in run.stderr
+
+
+@pytest.mark.parametrize("rows, message", [
+    ([(1.0, v) for v in np.linspace(1, 2, 12)], "column 't' (--x) has the one value 1 on every row: there is nothing"),
+    ([(t, 3.0) for t in range(12)], "column 'v' (--y) has the one value 3 on every row: the fit is that constant"),
+    ([(t, 1e300 if t == 5 else t) for t in range(12)], "holds 1e+300 (data row 6): values beyond 1e+150 overflow"),
+])
+def test_regress_refuses_columns_no_search_can_fit(tmp_path, rows, message):
+    """Exit 2 with one line naming the column and what is wrong; nothing written, no lock file."""
+    data = tmp_path / "bad.csv"
+    data.write_text("t,v\n" + "".join(f"{float(a)!r},{float(b)!r}\n" for a, b in rows))
+    out = tmp_path / "out" / "bad"
+    run = subprocess.run([sys.executable, "-m", "pipeline", "regress", str(data), "--x", "t", "--y", "v", "--out",
+                          str(out), "--max-complexity", "5"], capture_output=True, text=True, env=cli_env(tmp_path))
+    assert run.returncode == 2, run.stderr
+    assert len(run.stderr.strip().splitlines()) == 1 and message in run.stderr, run.stderr
+    assert not out.exists() and (not (tmp_path / "out").exists() or not list((tmp_path / "out").iterdir()))
+
+
+def test_model_selection_marks_the_true_family_and_outliers_are_named(tmp_path):
+    """On 3 t / (t + 2) with Gaussian noise (sigma 0.01, given) the member of least description length is the true form's
+    family (the larger members fit the noise). After a successful run no lock file is left beside
+    the output folder."""
+    rng = np.random.default_rng(4)
+    t = np.linspace(0.5, 20.0, 60)
+    v = 3 * t / (t + 2) + rng.normal(0, 0.01, t.size)
+    data = tmp_path / "noisy.csv"
+    data.write_text("t,v\n" + "".join(f"{float(a)!r},{float(b)!r}\n" for a, b in zip(t, v)))
+    out, said = tmp_path / "out" / "noisy", []
+    front = regress(data, "t", "v", out, max_complexity=10, log=said.append, noise=0.01)
+    chosen = [m for m in front if m["selected"]]
+    assert len(chosen) == 1 and chosen[0]["complexity"] == 8, [(m["complexity"], m["description_length"]) for m in front]
+    assert not any(m["selected"] for m in front if m["complexity"] > 8)
+    with open(out / "front.csv") as f:
+        rows = list(csv.DictReader(f))
+    assert [r["selected"] for r in rows].count("True") == 1
+    assert sorted(p.name for p in out.parent.iterdir()) == ["noisy"]
+
+
+def test_rounded_data_takes_its_rounding_floor_as_noise():
+    from pipeline.symbolic.regress import rounding_noise
+    assert rounding_noise(np.array([0.634, 0.833, 1.04])) == pytest.approx(0.001 / np.sqrt(12))
+    assert rounding_noise(np.array([1.0, 2.0, 7.0])) == pytest.approx(1 / np.sqrt(12))
+    assert rounding_noise(np.array([np.pi, np.e])) is None
