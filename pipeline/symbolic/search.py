@@ -11,6 +11,11 @@ Fitting runs every register program of a block at once (vmapped), on fixed block
 a search compiles three XLA programs whatever its size: a cheap fixed-step Levenberg-Marquardt
 screens every form, and optimistix's Levenberg-Marquardt refits the best of each complexity to
 convergence.
+
+Any number of points, in bounded memory: beyond `SCREEN_POINTS` points the screening runs on a
+subsample that spans x (evenly spaced in x's order), the refits run on every point, and every
+other form's screened constants are evaluated on every point; the rows of a block shrink as the
+points grow (`_rows_for`), so that no block holds more than about `BLOCK_VALUES` values.
 """
 
 from __future__ import annotations
@@ -30,6 +35,8 @@ POLISH_ROWS = 256
 SMALL_CONSTANTS = 2
 MIN_STEPS = 12      # programs are at least this long ...
 MIN_WIDTH = 5       # ... and fits have at least this many constants: searches up to 12 share shapes
+SCREEN_POINTS = 256     # screening subsample beyond this many points
+BLOCK_VALUES = 2**22    # rows x points x program steps of one block, at most (about)
 
 
 def evaluate(program, c, x):
@@ -119,6 +126,33 @@ def _run(function, block, starts, x, y, rows, *extra):
     return [np.concatenate(parts) for parts in zip(*out)]
 
 
+def spanning_subsample(x, size: int) -> np.ndarray:
+    """Indices of `size` points evenly spaced in the order of x (its smallest and largest included)."""
+    order = np.argsort(x, kind="stable")
+    return np.unique(order[np.round(np.linspace(0, x.size - 1, size)).astype(int)])
+
+
+def _rows_for(rows: int, points: int, steps: int) -> int:
+    """Rows of a block: `rows`, or fewer (a power of two) where the points would overflow BLOCK_VALUES."""
+    while rows > 8 and rows * points * steps > BLOCK_VALUES:
+        rows //= 2
+    return rows
+
+
+@jax.jit
+def _sse_block(block, c, x, y):
+    return jax.vmap(lambda p, c_: _sum_of_squares(p, c_, x, y))(block, c)
+
+
+def sums_of_squares(program, constants_, x, y) -> np.ndarray:
+    """The sum of squares of each program with its constants on every point, in blocks."""
+    rows = _rows_for(BLOCK_ROWS, x.size, program.shape[-1])
+    out = []
+    for part, count in _blocks(program.shape[0], rows):
+        out.append(np.asarray(_sse_block(_pad(program[part], rows), _pad(constants_[part], rows, 1.0), x, y))[:count])
+    return np.concatenate(out) if out else np.zeros(0)
+
+
 def search(x, y, max_complexity: int, ops: str = "+-*/", starts: int = 1, iterations: int = 20,
            refine: int = 8, polish_starts: int = 4, seed: int = 0, progress=None, forms=None):
     """The exhaustive search: every kept form up to `max_complexity` screened from `starts` random
@@ -139,6 +173,9 @@ def search(x, y, max_complexity: int, ops: str = "+-*/", starts: int = 1, iterat
                          f"lower the maximum complexity or give more points")
     program = programs(forms, max(max_complexity, MIN_STEPS))
     rng = np.random.default_rng(seed)
+    # Screening on a subsample that spans x where the points are many (then re-evaluated on all).
+    sub = spanning_subsample(x, SCREEN_POINTS) if x.size > SCREEN_POINTS else np.arange(x.size)
+    x_s, y_s = x[sub], y[sub]
     sum_sq = np.full(len(forms), np.inf)
     fitted = np.zeros((len(forms), max(count.max(), MIN_WIDTH)))
     groups = [(count <= SMALL_CONSTANTS, SMALL_CONSTANTS), (count > SMALL_CONSTANTS, fitted.shape[1])]
@@ -148,28 +185,47 @@ def search(x, y, max_complexity: int, ops: str = "+-*/", starts: int = 1, iterat
             continue
         rows = np.repeat(index, starts)
         c0 = rng.uniform(-2.0, 2.0, (rows.size, width))
-        c, s = _run(screen_block, program[rows], c0, x, y, BLOCK_ROWS, iterations)
+        c, s = _run(screen_block, program[rows], c0, x_s, y_s, BLOCK_ROWS, iterations)
         s = np.where(np.isfinite(s), s, np.inf).reshape(index.size, starts)
         best = np.argmin(s, axis=1)
         sum_sq[index] = s[np.arange(index.size), best]
         fitted[index, :width] = c.reshape(index.size, starts, width)[np.arange(index.size), best]
         if progress:
-            progress(f"screened {index.size} forms with <= {width} constants")
+            progress(f"screened {index.size} forms with <= {width} constants"
+                     + (f" on {sub.size} of the {x.size} points" if sub.size < x.size else ""))
+    subsampled = sub.size < x.size
+    if subsampled:              # every form's screened constants on every point
+        sum_sq = sums_of_squares(program, fitted, x, y)
+        sum_sq = np.where(np.isfinite(sum_sq), sum_sq, np.inf)
     chosen = np.concatenate([np.flatnonzero(size == k)[np.argsort(sum_sq[size == k], kind="stable")[:refine]]
                              for k in np.unique(size)])
     rows = np.repeat(chosen, polish_starts)
     c0 = rng.uniform(-2.0, 2.0, (rows.size, fitted.shape[1]))
     c0[::polish_starts] = fitted[chosen]
-    c, s, ok = _run(polish_block, program[rows], c0, np.tile(x, (rows.size, 1)), np.tile(y, (rows.size, 1)),
+    # Refits: on the subsample where there is one (then each complexity's best once more on every
+    # point, below), else on every point.
+    c, s, ok = _run(polish_block, program[rows], c0, np.tile(x_s, (rows.size, 1)), np.tile(y_s, (rows.size, 1)),
                     POLISH_ROWS)
     s = np.where(np.isfinite(s) & ok, s, np.inf).reshape(chosen.size, polish_starts)
     best = np.argmin(s, axis=1)
     polished = s[np.arange(chosen.size), best]
+    candidate = c.reshape(chosen.size, polish_starts, -1)[np.arange(chosen.size), best]
+    if subsampled:
+        polished = np.where(np.isfinite(polished), sums_of_squares(program[chosen], candidate, x, y), np.inf)
     improved = polished <= sum_sq[chosen]
     sum_sq[chosen] = np.where(improved, polished, sum_sq[chosen])
-    fitted[chosen] = np.where(improved[:, None], c.reshape(chosen.size, polish_starts, -1)[np.arange(chosen.size), best],
-                              fitted[chosen])
+    fitted[chosen] = np.where(improved[:, None], candidate, fitted[chosen])
     converged = {int(i): bool(np.isfinite(p)) for i, p in zip(chosen, polished)}
+    if subsampled:
+        # Each complexity's best refitted on every point, in small blocks (memory: rows x points).
+        tops = np.array([np.flatnonzero(size == k)[np.argmin(sum_sq[size == k])] for k in np.unique(size)])
+        c, s, ok = _run(polish_block, program[tops], fitted[tops], np.tile(x, (tops.size, 1)),
+                        np.tile(y, (tops.size, 1)), _rows_for(POLISH_ROWS, x.size, 4 * program.shape[-1]))
+        s = np.where(np.isfinite(s) & ok, s, np.inf)
+        better = s <= sum_sq[tops]
+        sum_sq[tops] = np.where(better, s, sum_sq[tops])
+        fitted[tops] = np.where(better[:, None], c, fitted[tops])
+        converged |= {int(i): bool(good) or converged.get(int(i), False) for i, good in zip(tops, np.isfinite(s))}
     rms = np.sqrt(sum_sq / x.size)
     return dict(forms=forms, complexity=size, constant_count=count, rms=rms, constants=fitted,
                 converged=converged, front=pareto_front(size, rms, 1e-12 * (np.std(y) + np.max(np.abs(y)))),
