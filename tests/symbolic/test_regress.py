@@ -104,3 +104,14 @@ def test_rounded_data_takes_its_rounding_floor_as_noise():
     assert rounding_noise(np.array([0.634, 0.833, 1.04])) == pytest.approx(0.001 / np.sqrt(12))
     assert rounding_noise(np.array([1.0, 2.0, 7.0])) == pytest.approx(1 / np.sqrt(12))
     assert rounding_noise(np.array([np.pi, np.e])) is None
+
+
+def test_regress_takes_complexity_up_to_16_and_says_how_long_first(tmp_path):
+    data = tmp_path / "d.csv"
+    t = np.arange(1.0, 21.0)
+    data.write_text("t,v\n" + "".join(f"{float(a)!r},{float(b)!r}\n" for a, b in zip(t, 1.5 * t)))
+    with pytest.raises(RegressError, match=r"give an integer in \[1, 16\]"):
+        regress(data, "t", "v", tmp_path / "out", max_complexity=17, log=lambda s: None)
+    said = []
+    regress(data, "t", "v", tmp_path / "out", max_complexity=5, log=said.append)
+    assert "searching" in said[0] and "expressions up to complexity 5" in said[0] and "s on a 2-core machine" in said[0]
