@@ -239,6 +239,9 @@ STAGES: tuple[Stage, ...] = (
                                  "where k >= 1) below which a member counts as the exact form: the rounding step of y [1/sr]",
         "rounding_rms_floor": "RMS that rounding y alone leaves, step / sqrt(12) (0 if y is not rounded) [1/sr]",
         "sr_exact_complexity": "smallest complexity whose front member is the exact coef within that tolerance (-1: none) [count]",
+        "selected_complexity": "the front member of least description length (data at y's rounding noise, constants, "
+                               "form; `pipeline regress`'s model selection) [count]",
+        "selected_expression": "that member [text]",
         "sr_exact_expression": "that member [text]",
         "sr_exact_scale": "its scale in the form scale (offset + n + residue/(n - pole)) [1/sr]",
         "sr_exact_offset": "its offset [n]",

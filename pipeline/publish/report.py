@@ -115,6 +115,9 @@ def _symbolic(config, r) -> list[str]:
                   f"{sr['sr_exact_residue']:.6f}, pole {sr['sr_exact_pole']:.6f} against the exact "
                   f"{sr['exact_scale']:.6f}, {sr['exact_offset']:.6f}, {sr['exact_residue']:.6f}, "
                   f"{sr['exact_pole']:.6f}; it stays within {m['max_abs_to_exact']:.2g} of the exact coef."]
+    lines += ["", f"**Which member the sample supports.** By description length (the data at the noise of y's "
+              f"rounding, the constants, the form; as `pipeline regress` selects), the size-"
+              f"{sr['selected_complexity']} member {sr['selected_expression']}."]
     lines += ["", f"**What choosing size 5 cost.** The paper kept {config['paper_model.coef_scale']:g} "
               f"({config['paper_model.coef_offset']:g} + n) (P15). Against the exact coef it "
               f"reflects {_pct(-ex['paper_coef_max_abs_dev'])} at n = {ex['paper_coef_n_at_max_abs_dev']:g} and "

@@ -21,6 +21,7 @@ import numpy as np
 import sympy as sp
 
 from ..symbolic import search
+from ..symbolic.regress import select
 from ..optics.roots import SolverError
 from .common import alternative_samples, n_range, same_kind
 
@@ -93,7 +94,15 @@ def run(config, inputs, memo):
         member["max_abs_to_closed_form"] = float(np.max(np.abs(on_n - closed_form)))
         member["equivalent_to_exact"] = bool(member["max_abs_to_closed_form"] <= tolerance)
         member["partial_fractions"] = partial_fractions(expression)
+        member["constants_count"] = len(c)
         front.append(member)
+    # Which member the data support: the least description length (`pipeline.symbolic.regress.select`)
+    # with the noise of y's rounding (or, unrounded, the unknown-noise form).
+    chosen = select([dict(rms=m["rms"], constants=m["constants_count"], complexity=m["complexity"]) for m in front],
+                    len(n_s), 10.0 ** -decimals / np.sqrt(12.0) if decimals >= 0 else None,
+                    len(config["symbolic.operations"]) + 2)
+    for i, m in enumerate(front):
+        m["selected"] = i == chosen
 
     exact = exact_constants(a, b, config["lobe.power"])
     equivalent = [m for m in front if m["equivalent_to_exact"]]
@@ -150,6 +159,7 @@ def run(config, inputs, memo):
         rounding_rms_floor=tolerance / np.sqrt(12.0) if decimals >= 0 else 0.0,
         best_rms_by_complexity={int(k): float(np.min(rms[found["complexity"] == k])) for k in np.unique(found["complexity"])},
         sr_exact_complexity=equivalent[0]["complexity"] if equivalent else -1,
+        selected_complexity=front[chosen]["complexity"], selected_expression=front[chosen]["expression"],
         sr_exact_expression=equivalent[0]["expression"] if equivalent else "",
         **{f"sr_exact_{name}": float(v) for name, v in found_constants.items()},
         **{f"exact_{name}": float(v) for name, v in exact.items()},

@@ -66,3 +66,13 @@ def test_the_exact_form_is_found_for_another_line(a, b):
         assert constants[name] == pytest.approx(value, rel=1e-6), name
 
 
+
+
+def test_the_selected_member_is_the_exact_coef_within_the_rounding(paper_run):
+    """Model selection on the paper's sample (y rounded to 3 decimals, so the noise is the rounding
+    floor): exactly one member is selected, and it is one that matches the exact coef within the
+    rounding step at every n, not a larger member fitting the rounding."""
+    sr = paper_run["symbolic_regression"]
+    chosen = [m for m in sr["front"] if m["selected"]]
+    assert len(chosen) == 1 and chosen[0]["complexity"] == sr["selected_complexity"]
+    assert chosen[0]["equivalent_to_exact"]
