@@ -63,6 +63,24 @@ def render(lobes, width: int, height: int, spp: int, seed: int, sun: bool = True
     return np.asarray(mi.render(scene, spp=spp, seed=seed), dtype=np.float64)
 
 
+def render_pair(lobes, width, height, spp, seed, variant, crop=None) -> dict:
+    """The scene with these sphere BSDFs, rendered with seeds `seed` and `seed + 1` (of the window
+    `crop` of the frame where given), with the pipeline's plugins registered for `variant`."""
+    from . import microfacet
+
+    microfacet.register(variant)
+    return dict(first=render(lobes, width, height, spp, seed, crop=crop),
+                second=render(lobes, width, height, spp, seed + 1, crop=crop))
+
+
+def render_no_sun(lobes, width, height, spp, seed, variant, crop=None) -> dict:
+    """The same scene without the sun: the background against which a highlight is visible."""
+    from . import microfacet
+
+    microfacet.register(variant)
+    return dict(image=render(lobes, width, height, spp, seed, sun=False, crop=crop))
+
+
 def sun_geometry(width: int, height: int, lobes) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(N.H and N.L of the sun at each pixel centre, index of the sphere seen there or -1)."""
     g = pixel_geometry(width, height, lobes)

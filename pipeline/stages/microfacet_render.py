@@ -29,18 +29,6 @@ def _display8(radiance) -> np.ndarray:
     return np.asarray(display_and_luminance(radiance)[0])
 
 
-def render_pair(spheres, width, height, spp, seed, variant) -> dict:
-    """The scene with these sphere BSDFs, rendered with seeds `seed` and `seed + 1`."""
-    microfacet.register(variant)
-    return dict(first=scene.render(spheres, width, height, spp, seed),
-                second=scene.render(spheres, width, height, spp, seed + 1))
-
-
-def render_no_sun(spheres, width, height, spp, seed, variant) -> dict:
-    microfacet.register(variant)
-    return dict(image=scene.render(spheres, width, height, spp, seed, sun=False))
-
-
 def run(config, inputs, memo):
     with bsdf.MITSUBA:        # one stage at a time uses Mitsuba (`pipeline.mitsuba.bsdf.MITSUBA`)
         return _run(config, inputs, memo)
@@ -85,10 +73,10 @@ def _run(config, inputs, memo):
     start = time.perf_counter()
     runs = {}
     for name in ("beckmann",) + CANDIDATES:
-        pair = memo("microfacet_pair", render_pair, spheres=spheres(name), width=width, height=height, spp=spp,
+        pair = memo("microfacet_pair", scene.render_pair, lobes=spheres(name), width=width, height=height, spp=spp,
                     seed=seed, variant=variant)
         runs[name] = (pair["first"], pair["second"])
-    no_sun = memo("microfacet_no_sun", render_no_sun, spheres=spheres("beckmann"), width=width, height=height,
+    no_sun = memo("microfacet_no_sun", scene.render_no_sun, lobes=spheres("beckmann"), width=width, height=height,
                   spp=spp, seed=seed, variant=variant)["image"]
     seconds = time.perf_counter() - start
 

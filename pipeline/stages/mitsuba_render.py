@@ -46,20 +46,6 @@ def _display8(radiance) -> np.ndarray:
 ZOOM_PIXELS, ZOOM_SCALE_MAX = 1500, 8
 
 
-def render_pair(lobes, width, height, spp, seed, variant, crop=None) -> dict:
-    """The scene with these sphere BSDFs, rendered with seeds `seed` and `seed + 1` (of the window
-    `crop` of the frame where given)."""
-    bsdf.register(variant)
-    return dict(first=scene.render(lobes, width, height, spp, seed, crop=crop),
-                second=scene.render(lobes, width, height, spp, seed + 1, crop=crop))
-
-
-def render_no_sun(lobes, width, height, spp, seed, variant, crop=None) -> dict:
-    """The same scene without the sun: the background against which a highlight is visible."""
-    bsdf.register(variant)
-    return dict(image=scene.render(lobes, width, height, spp, seed, sun=False, crop=crop))
-
-
 def zoom_window(highlight, index: int, width: int, height: int) -> tuple[int, tuple[int, int, int, int]]:
     """(scale, crop) of a render zoomed on sphere `index`'s highlight: the frame scaled so that the
     highlight covers at least `ZOOM_PIXELS` pixels (at most `ZOOM_SCALE_MAX`), and the window around
@@ -108,10 +94,10 @@ def _run(config, inputs, memo):
     runs = {}
     # Memoized per lobe: a Q refit renders f_Q2 again and reuses f_b and f_2.
     for name, sampler in [(lobe, "lobe") for lobe in LOBES] + [("f_Q2", "cosine")]:
-        pair = memo("mitsuba_pair", render_pair, lobes=lobes(name, sampler), width=width, height=height, spp=spp,
+        pair = memo("mitsuba_pair", scene.render_pair, lobes=lobes(name, sampler), width=width, height=height, spp=spp,
                     seed=seed, variant=variant)
         runs[(name, sampler)] = [pair["first"], pair["second"]]
-    no_sun = memo("mitsuba_no_sun", render_no_sun, lobes=lobes(REFERENCE), width=width, height=height, spp=spp,
+    no_sun = memo("mitsuba_no_sun", scene.render_no_sun, lobes=lobes(REFERENCE), width=width, height=height, spp=spp,
                   seed=seed, variant=variant)["image"]
     seconds = time.perf_counter() - start
 
@@ -172,10 +158,10 @@ def _run(config, inputs, memo):
     # in a window around its highlight, so that its statistics rest on >= ZOOM_PIXELS pixels.
     index = int(np.argmax(exponents))
     scale, crop = zoom_window(highlight, index, width, height)
-    zoom_runs = {name: memo("mitsuba_zoom_pair", render_pair, lobes=lobes(name), width=width * scale,
+    zoom_runs = {name: memo("mitsuba_zoom_pair", scene.render_pair, lobes=lobes(name), width=width * scale,
                             height=height * scale, spp=spp, seed=seed, variant=variant, crop=crop)
                  for name in LOBES}
-    zoom_no_sun = memo("mitsuba_zoom_no_sun", render_no_sun, lobes=lobes(REFERENCE), width=width * scale,
+    zoom_no_sun = memo("mitsuba_zoom_no_sun", scene.render_no_sun, lobes=lobes(REFERENCE), width=width * scale,
                        height=height * scale, spp=spp, seed=seed, variant=variant, crop=crop)["image"]
     zoom_highlight, _ = highlights(zoom_no_sun, scene.pixel_geometry(width * scale, height * scale,
                                                                       lobes(REFERENCE), crop))
