@@ -7,6 +7,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from ..optics.error_measures import absolute_parts, relative_parts, rms_relative
+from ..mitsuba import bsdf
 from ..engine.exponents import n_range  # noqa: F401  (the stages' one n range)
 from ..optics.roots import SolverError, SolverSettings
 
@@ -45,6 +46,19 @@ def require_converged(ok, what: str, **inputs) -> None:
     named = ", ".join(f"{name}={np.asarray(v)[tuple(where[:np.ndim(v)])]:.6g}" for name, v in inputs.items())
     raise SolverError(f"{what}: the root finder did not converge at {named} "
                       f"({int((~ok).sum())} failures); raise solver.max_steps or loosen solver.rtol/atol")
+
+
+def mitsuba_settings(config, register) -> dict:
+    """The settings the Mitsuba stages share: the spheres' exponents, the frame, the seed, the
+    variant (chosen by `register`, which registers the stage's plugins) and its samples per pixel,
+    the quadrature nodes of the normalizations."""
+    wanted = config["mitsuba.variant"]
+    variant = register(None if wanted == "auto" else wanted)
+    fast = variant == bsdf.FAST_VARIANT
+    return dict(exponents=[float(n) for n in config["mitsuba.exponents"]], width=config["mitsuba.width"],
+                height=config["mitsuba.height"], seed=config["mitsuba.seed"], variant=variant,
+                spp=config["mitsuba.spp"] if fast else config["mitsuba.fallback_spp"],
+                nodes=config["albedo.quadrature_nodes"])
 
 
 def runs_of(mask, n):

@@ -19,6 +19,7 @@ import numpy as np
 from ..mitsuba import bsdf, microfacet, scene
 from ..optics import distributions as ndf, registry
 from ..optics.images import display_and_luminance, flip_map, visible
+from .common import mitsuba_settings
 
 LOBES = (registry.REFERENCE, "f_2", "f_Q2")
 CANDIDATES = ("ggx",) + LOBES
@@ -36,12 +37,9 @@ def run(config, inputs, memo):
 
 def _run(config, inputs, memo):
     a, b = inputs["linear_coefficient.slope_used"], inputs["linear_coefficient.intercept_used"]
-    exponents = [float(n) for n in config["mitsuba.exponents"]]
-    width, height, seed = config["mitsuba.width"], config["mitsuba.height"], config["mitsuba.seed"]
-    wanted = config["mitsuba.variant"]
-    variant = microfacet.register(None if wanted == "auto" else wanted)
-    spp = config["mitsuba.spp"] if variant == bsdf.FAST_VARIANT else config["mitsuba.fallback_spp"]
-    nodes = config["albedo.quadrature_nodes"]
+    s = mitsuba_settings(config, microfacet.register)
+    exponents, width, height, seed, variant, spp, nodes = (s[k] for k in ("exponents", "width", "height", "seed",
+                                                                          "variant", "spp", "nodes"))
     params = registry.Parameters(slope=a, intercept=b, power=config["lobe.power"])
     alphas = [float(ndf.alpha_of_n(n)) for n in exponents]
 

@@ -32,6 +32,7 @@ from ..mitsuba import bsdf, scene
 from ..optics import registry
 from ..optics.images import display_and_luminance, flip_map, luminance, visible
 from ..optics.lobes import SHAPES
+from .common import mitsuba_settings
 
 # The rendered lobes (registry keys), the reference first.
 REFERENCE = registry.REFERENCE
@@ -67,12 +68,9 @@ def run(config, inputs, memo):
 def _run(config, inputs, memo):
     a, b = inputs["linear_coefficient.slope_used"], inputs["linear_coefficient.intercept_used"]
     level = inputs["zone.level"]
-    exponents = [float(n) for n in config["mitsuba.exponents"]]
-    width, height, seed = config["mitsuba.width"], config["mitsuba.height"], config["mitsuba.seed"]
-    wanted = config["mitsuba.variant"]
-    variant = bsdf.register(None if wanted == "auto" else wanted)
-    spp = config["mitsuba.spp"] if variant == bsdf.FAST_VARIANT else config["mitsuba.fallback_spp"]
-    nodes = config["albedo.quadrature_nodes"]
+    s = mitsuba_settings(config, bsdf.register)
+    exponents, width, height, seed, variant, spp, nodes = (s[k] for k in ("exponents", "width", "height", "seed",
+                                                                          "variant", "spp", "nodes"))
 
     params = registry.Parameters(slope=a, intercept=b, power=config["lobe.power"])
 

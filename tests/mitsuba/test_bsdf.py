@@ -220,17 +220,23 @@ def test_wrong_samplers_fail_the_same_test(wrong_plugins, lobe, form, n):
         assert not passed, (name, test.messages)
 
 
-def mitsuba_albedo(lobe, form, n, angle, samples=1 << 20, sampler="lobe"):
-    """(mean, standard error) of the sample weight: the directional albedo Mitsuba integrates."""
-    bsdf = mi.load_dict(plugin_dict(lobe, form, n, sampler=sampler))
+def weight_albedo(bsdf_props, angle, samples=1 << 20, seed=7):
+    """(mean, standard error) of the sample weight of the BSDF `bsdf_props` at incidence `angle`:
+    the directional albedo Mitsuba integrates."""
+    plugin = mi.load_dict(bsdf_props)
     theta = math.radians(angle)
     si = dr.zeros(mi.SurfaceInteraction3f, samples)
     si.wi = mi.Vector3f(math.sin(theta), 0.0, math.cos(theta))
     sampler = mi.load_dict({"type": "independent"})
-    sampler.seed(7, samples)
-    _, weight = bsdf.sample(mi.BSDFContext(), si, sampler.next_1d(), sampler.next_2d())
+    sampler.seed(seed, samples)
+    _, weight = plugin.sample(mi.BSDFContext(), si, sampler.next_1d(), sampler.next_2d())
     w = np.asarray(weight.x, dtype=np.float64)
     return w.mean(), w.std() / math.sqrt(samples)
+
+
+def mitsuba_albedo(lobe, form, n, angle, samples=1 << 20, sampler="lobe"):
+    """`weight_albedo` of one of the test's lobes."""
+    return weight_albedo(plugin_dict(lobe, form, n, sampler=sampler), angle, samples)
 
 
 @pytest.mark.parametrize("lobe, form", [(lobe, form) for lobe in LOBES for form in ("phong", "blinn")])

@@ -4,17 +4,15 @@ Mitsuba's own roughconductor: cos^n as an NDF at large n is Beckmann, so their a
 
 import math
 
-import numpy as np
 import pytest
 
 from pipeline.mitsuba import bsdf as mitsuba_bsdf, microfacet
 from pipeline.optics import distributions as ndf
 
 import drjit as dr  # noqa: E402
-import mitsuba as mi  # noqa: E402
 from mitsuba.chi2 import BSDFAdapter, ChiSquareTest  # noqa: E402
 
-from .test_bsdf import LOBES, LobeDomain
+from .test_bsdf import LOBES, LobeDomain, weight_albedo
 
 CASES = [(lobe, n, angle) for lobe in ("f_b", "f_Q2", "f_Q4") for n in (10.0, 100.0, 1000.0) for angle in (0.0, 60.0)]
 
@@ -51,15 +49,7 @@ def test_the_microfacet_sampler_passes_mitsubas_chi2_test(variant, lobe, n, angl
 
 def albedo(bsdf_props, angle, samples=1 << 20):
     """(mean, standard error) of the sample weight at incidence `angle`: the directional albedo."""
-    plugin = mi.load_dict(bsdf_props)
-    theta = math.radians(angle)
-    si = dr.zeros(mi.SurfaceInteraction3f, samples)
-    si.wi = mi.Vector3f(math.sin(theta), 0.0, math.cos(theta))
-    sampler = mi.load_dict({"type": "independent"})
-    sampler.seed(11, samples)
-    _, weight = plugin.sample(mi.BSDFContext(), si, sampler.next_1d(), sampler.next_2d())
-    w = np.asarray(weight.x, dtype=np.float64)
-    return w.mean(), w.std() / math.sqrt(samples)
+    return weight_albedo(bsdf_props, angle, samples, seed=11)
 
 
 @pytest.mark.parametrize("lobe", ("f_b", "f_Q2", "f_Q4"))
