@@ -75,9 +75,10 @@ def _symbolic(config, r) -> list[str]:
         f"Every distinct expression in n built from fitted constants, n, {', '.join(config['symbolic.operations'])} "
         f"up to complexity {config['symbolic.max_complexity']} ({sr['forms_searched']} expressions; "
         "`pipeline/symbolic/grammar.py` lists the rules that drop duplicates) is fitted to the sample by least squares: "
-        f"{config['symbolic.starts']} random starts of {config['symbolic.iterations']} Levenberg-Marquardt steps "
-        f"each, then the best {config['symbolic.refine']} of each complexity refitted to convergence with "
-        f"optimistix's Levenberg-Marquardt from {config['symbolic.polish_starts']} starts. Complexity is "
+        "the constants that enter linearly are solved exactly (variable projection) and the others screened from "
+        f"{config['symbolic.starts']} deterministic starts of {config['symbolic.iterations']} Levenberg-Marquardt "
+        f"steps each (more where the starts disagree), then the best {config['symbolic.refine']} of each complexity "
+        f"refitted to convergence of the RMS from {config['symbolic.polish_starts']} starts. Complexity is "
         "TuringBot's as the paper's table implies it: constants, n, +, - and x count 1, / counts 2. Under this "
         "reading the paper's five rows have exactly their printed sizes: c (1), c n (3), c (c + n) (5), "
         "c n + c + c/n (10), c (c + c/(n - c) + n) (12).", "",

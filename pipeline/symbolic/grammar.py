@@ -1,12 +1,14 @@
-"""The expressions of the symbolic regression: built from fitted constants `c`, one variable `x`
-and the operations +, -, *, /; enumerated up to a complexity, parsed, printed, evaluated. No JAX
-here (`pipeline.symbolic.search` fits them), so that bad input is answered at once.
+"""The expressions of the symbolic regression: built from fitted constants `c`, the variables (`x`,
+and `x1`, `x2` where there are several) and the operations +, -, *, /; enumerated up to a
+complexity, parsed, printed, evaluated. No JAX here (`pipeline.symbolic.search` fits them), so that
+bad input is answered at once.
 
 Complexity is TuringBot's, as the paper's table implies it: every constant, the variable, +, -
 and * count 1 and / counts 2 (c x = 3, c (c + x) = 5, c x + c + c/x = 10,
 c (c + c/(x - c) + x) = 12).
 
-Expressions are nested tuples: ("x",), ("c",) or (op, left, right). Enumeration keeps one
+Expressions are nested tuples: a variable ("x",), ("x1",), ..., a constant ("c",) or (op, left,
+right). Enumeration keeps one
 representative of expressions that are equal for every value of the constants, or reduces them to
 a cheaper one with the same family, by these rules (each removes only expressions that another
 kept expression matches at equal or lower complexity):
@@ -31,9 +33,23 @@ import numpy as np
 
 COST = {"+": 1, "-": 1, "*": 1, "/": 2}
 X, C = ("x",), ("c",)
+VARIABLES_MAX = 3
 # Opcodes of the register programs the fitter runs.
 NOP, VAR, CONST, ADD, SUB, MUL, DIV = range(7)
 OPCODE = {"x": VAR, "c": CONST, "+": ADD, "-": SUB, "*": MUL, "/": DIV}
+
+
+def variable_leaf(k: int) -> tuple:
+    """The k-th variable's leaf: ("x",) for the first, ("x1",), ("x2",) for the others."""
+    return X if k == 0 else (f"x{k}",)
+
+
+def is_variable(e) -> bool:
+    return len(e) == 1 and e != C
+
+
+def variable_index(e) -> int:
+    return 0 if e == X else int(e[0][1:])
 
 
 def complexity(e) -> int:
@@ -49,7 +65,40 @@ def constants(e) -> int:
 
 
 def _has_x(e) -> bool:
-    return e == X or (len(e) == 3 and (_has_x(e[1]) or _has_x(e[2])))
+    return is_variable(e) or (len(e) == 3 and (_has_x(e[1]) or _has_x(e[2])))
+
+
+def linear_constants(e) -> tuple:
+    """Which constants (in order of appearance) the expression is jointly affine in: a largest set
+    of constants none of which sits in a denominator and no two of which are multiplied together
+    (each constant appears once, so the expression is then affine in the set). The fit solves
+    these exactly by linear least squares (variable projection) and iterates only the others."""
+    paths = []
+
+    def walk(node, path):
+        if node == C:
+            paths.append(path)
+        elif len(node) == 3:
+            walk(node[1], path + ((id(node), node[0], 0),))
+            walk(node[2], path + ((id(node), node[0], 1),))
+
+    walk(e, ())
+    linear = [all(not (op == "/" and side == 1) for _, op, side in path) for path in paths]
+
+    def multiplied(i, j):       # the lowest common ancestor of constants i and j is a product
+        a, b = paths[i], paths[j]
+        k = 0
+        while k < min(len(a), len(b)) and a[k] == b[k]:
+            k += 1
+        return a[k][1] in "*/"
+
+    candidates = [i for i, ok in enumerate(linear) if ok]
+    best = ()
+    for mask in range(1 << len(candidates)):
+        chosen = tuple(candidates[b] for b in range(len(candidates)) if mask >> b & 1)
+        if len(chosen) > len(best) and not any(multiplied(i, j) for i in chosen for j in chosen if i < j):
+            best = chosen
+    return tuple(i in best for i in range(len(paths)))
 
 
 def _chain(e, ops) -> list:
@@ -111,33 +160,41 @@ def _canonical(op, a, b) -> bool:
 
 
 @lru_cache(maxsize=None)
-def _forms_of(size: int, ops: str) -> tuple:
+def _forms_of(size: int, ops: str, variables: int) -> tuple:
     if size == 1:
-        return (X, C)
+        return tuple(variable_leaf(k) for k in range(variables)) + (C,)
     out = []
     for op in ops:
         w = COST[op]
         for left in range(1, size - w):
-            for a in _forms_of(left, ops):
-                for b in _forms_of(size - w - left, ops):
+            for a in _forms_of(left, ops, variables):
+                for b in _forms_of(size - w - left, ops, variables):
                     if _canonical(op, a, b):
                         out.append((op, a, b))
     return tuple(out)
 
 
-def enumerate_forms(max_complexity: int, ops: str = "+-*/") -> list:
-    """Every kept expression of complexity 1..max_complexity, by complexity."""
-    return [e for size in range(1, max_complexity + 1) for e in _forms_of(size, ops)]
+def enumerate_forms(max_complexity: int, ops: str = "+-*/", variables: int = 1) -> list:
+    """Every kept expression of complexity 1..max_complexity in `variables` variables, by complexity."""
+    if not 1 <= variables <= VARIABLES_MAX:
+        raise ValueError(f"{variables} variables: the grammar takes 1 to {VARIABLES_MAX}")
+    return [e for size in range(1, max_complexity + 1) for e in _forms_of(size, ops, variables)]
 
 
-def show(e, variable: str = "x", constants=None) -> str:
-    """Infix text, the variable named `variable`, every constant written c (or its value, from
-    `constants` in the order the constants appear)."""
+def _names(variable) -> list:
+    """One name (or symbol) per variable, from a name or a sequence of names."""
+    return list(variable) if isinstance(variable, (list, tuple)) else [variable]
+
+
+def show(e, variable="x", constants=None) -> str:
+    """Infix text, the variables named `variable` (a name, or one name per variable), every
+    constant written c (or its value, from `constants` in the order the constants appear)."""
     values = iter(constants) if constants is not None else None
+    names = _names(variable)
 
     def text(node, top):
-        if node == X:
-            return variable
+        if is_variable(node):
+            return names[variable_index(node)]
         if node == C:
             return "c" if values is None else f"{next(values):.6g}"
         inner = f"{text(node[1], False)} {node[0]} {text(node[2], False)}"
@@ -147,16 +204,17 @@ def show(e, variable: str = "x", constants=None) -> str:
 
 
 def programs(forms, length: int) -> np.ndarray:
-    """Register programs, one row per form: (opcode, left, right, constant index) per step, shape
-    (forms, 4, length). Each step writes one register; the result is the last register. Forms
-    shorter than `length` are padded at the front with no-ops."""
+    """Register programs, one row per form: (opcode, left, right, index) per step, shape (forms, 4,
+    length), the index a constant's (in order of appearance) or a variable's. Each step writes one
+    register; the result is the last register. Forms shorter than `length` are padded at the front
+    with no-ops."""
     out = np.zeros((len(forms), 4, length), dtype=np.int32)
     for row, e in enumerate(forms):
         steps = []
 
         def emit(node, count=[0]):
             if len(node) == 1:
-                steps.append((OPCODE[node[0]], 0, 0, count[0] if node == C else 0))
+                steps.append((CONST, 0, 0, count[0]) if node == C else (VAR, 0, 0, variable_index(node)))
                 count[0] += node == C
             else:
                 a = emit(node[1])
@@ -173,9 +231,10 @@ def programs(forms, length: int) -> np.ndarray:
     return out
 
 
-def parse(text: str, variable: str = "x"):
-    """An expression tree from infix text in the variable, c (or any number, read as a fitted
-    constant), +, -, *, / and parentheses."""
+def parse(text: str, variable="x"):
+    """An expression tree from infix text in the variable (a name, or one name per variable), c (or
+    any number, read as a fitted constant), +, -, *, / and parentheses."""
+    names = _names(variable)
     tokens = text.replace("(", " ( ").replace(")", " ) ")
     for op in "+-*/":
         tokens = tokens.replace(op, f" {op} ")
@@ -198,14 +257,15 @@ def parse(text: str, variable: str = "x"):
             if take() != ")":
                 raise ValueError(f"unbalanced parentheses in {text!r}")
             return e
-        if t == variable:
-            return X
+        if t in names:
+            return variable_leaf(names.index(t))
         if t == "c":
             return C
         try:
             float(t)
         except ValueError:
-            raise ValueError(f"unknown symbol {t!r} in {text!r} (use {variable}, c, numbers, + - * /)") from None
+            raise ValueError(f"unknown symbol {t!r} in {text!r} (use {', '.join(names)}, c, numbers, "
+                             f"+ - * /)") from None
         return C
 
     def product():
@@ -226,14 +286,14 @@ def parse(text: str, variable: str = "x"):
     return e
 
 
-def substitute(e, constants, variable):
-    """e with its constants (in order of appearance) and the variable put in: numbers and a numpy
-    array give its values, sympy Floats and a Symbol its sympy expression."""
+def substitute(e, constants, variables):
+    """e with its constants (in order of appearance) and its variables (a list, one per variable)
+    put in: numbers and numpy arrays give its values, sympy Floats and Symbols its sympy expression."""
     values = iter(constants)
 
     def build(node):
-        if node == X:
-            return variable
+        if is_variable(node):
+            return variables[variable_index(node)]
         if node == C:
             return next(values)
         a, b = build(node[1]), build(node[2])
@@ -247,23 +307,31 @@ def substitute(e, constants, variable):
 
 
 def to_sympy(e, constants, symbol):
-    """The sympy expression of e with its fitted constants."""
+    """The sympy expression of e with its fitted constants, in `symbol` (or a list of symbols, one
+    per variable)."""
     import sympy as sp
 
-    return substitute(e, [sp.Float(float(v), 15) for v in constants], symbol)
+    return substitute(e, [sp.Float(float(v), 15) for v in constants], _names(symbol))
 
 
 def canonical(expression, symbol) -> str:
     """sympy's canonical text of an expression in `symbol`: a polynomial part plus partial
-    fractions, numbers to 6 significant digits."""
+    fractions (in several variables, given as a list: one cancelled fraction), numbers to 6
+    significant digits."""
     import sympy as sp
 
-    simplified = sp.apart(sp.cancel(sp.together(expression)), symbol)
+    simplified = sp.cancel(sp.together(expression))
+    symbols = _names(symbol)
+    if len(symbols) == 1:
+        simplified = sp.apart(simplified, symbols[0])
     return re.sub(r"(?<![\d.])1\.0\*", "", str(simplified.evalf(6)))
 
 
 def evaluate_numpy(e, c, x):
-    """Value of e with constants c (in order of appearance) at x, in numpy."""
-    with np.errstate(divide="ignore", invalid="ignore"):
-        value = substitute(e, [float(v) for v in c], np.asarray(x, dtype=np.float64))
-        return np.broadcast_to(value, np.shape(x)).astype(np.float64)
+    """Value of e with constants c (in order of appearance) at x (the points of one variable, or an
+    array (variables, points)), in numpy."""
+    x = np.asarray(x, dtype=np.float64)
+    columns = x[None] if x.ndim == 1 else x
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        value = substitute(e, [float(v) for v in c], list(columns))
+        return np.broadcast_to(value, columns.shape[1:]).astype(np.float64)

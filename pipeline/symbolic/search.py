@@ -23,33 +23,33 @@ from __future__ import annotations
 import numpy as np
 
 from .grammar import (ADD, CONST, COST, DIV, MUL, SUB, VAR, C, X, canonical, complexity, constants,  # noqa: F401
-                          enumerate_forms, evaluate_numpy, parse, programs, show, to_sympy)
+                      enumerate_forms, evaluate_numpy, linear_constants, parse, programs, show, to_sympy)
 from ..optics.numerics import jax
 import jax.numpy as jnp  # noqa: E402
-import optimistix as optx  # noqa: E402
 
 # Screening and polishing run on fixed block shapes, so that a search compiles a handful of
 # programs whatever its size: rows per block, and the constant counts forms are padded to.
 BLOCK_ROWS = 1024
 POLISH_ROWS = 256
-SMALL_CONSTANTS = 2
+SMALL_CONSTANTS = 2     # forms with at most this many constants are screened in narrower blocks
 MIN_STEPS = 12      # programs are at least this long ...
 MIN_WIDTH = 5       # ... and fits have at least this many constants: searches up to 12 share shapes
+AGREE = 1e-3           # starts within this relative sum of squares of the best reached the same optimum
 SCREEN_POINTS = 256     # screening subsample beyond this many points
 BLOCK_VALUES = 2**22    # rows x points x program steps of one block, at most (about)
 
 
 def evaluate(program, c, x):
-    """Value at the points x of one register program with constants c."""
+    """Value at the points of one register program with constants c; x is (variables, points)."""
     op, left, right, index = program
 
     def step(i, registers):
         a, b = registers[left[i]], registers[right[i]]
         value = jnp.select([op[i] == VAR, op[i] == CONST, op[i] == ADD, op[i] == SUB, op[i] == MUL, op[i] == DIV],
-                           [x, jnp.broadcast_to(c[index[i]], x.shape), a + b, a - b, a * b, a / b], 0.0)
+                           [x[index[i]], jnp.broadcast_to(c[index[i]], x.shape[1:]), a + b, a - b, a * b, a / b], 0.0)
         return registers.at[i].set(value)
 
-    return jax.lax.fori_loop(0, op.shape[0], step, jnp.zeros((op.shape[0], x.shape[0])))[-1]
+    return jax.lax.fori_loop(0, op.shape[0], step, jnp.zeros((op.shape[0],) + x.shape[1:]))[-1]
 
 
 def _sum_of_squares(program, c, x, y):
@@ -58,52 +58,77 @@ def _sum_of_squares(program, c, x, y):
     return jnp.where(jnp.isfinite(s), s, jnp.inf)
 
 
-def _screen_one(program, c0, x, y, iterations):
-    """A fixed number of Levenberg-Marquardt steps (Marquardt's diagonal scaling; a step is kept
-    only if it lowers the sum of squares). Cheap and vectorizable: used to rank every form."""
-    residual = lambda c: evaluate(program, c, x) - y
+def _solve(H, g):
+    """H^-1 g for a symmetric positive semi-definite H, scaled to a unit diagonal first (Jacobi), so
+    that constants of very different scales (1/x against x = 1000) are solved alike."""
+    d = jnp.sqrt(jnp.maximum(jnp.diag(H), 1e-300))
+    scaled = H / d[:, None] / d[None, :] + 1e-13 * jnp.eye(H.shape[0])
+    return jnp.linalg.solve(scaled, g / d) / d
 
-    def step(_, state):
-        c, damping, current = state
-        r, J = residual(c), jax.jacfwd(residual)(c)
-        finite = jnp.all(jnp.isfinite(r)) & jnp.all(jnp.isfinite(J))
-        r, J = jnp.where(finite, r, 0.0), jnp.where(finite, J, 0.0)
+
+def _residual_and_jacobian(program, c, x, y):
+    r = lambda c_: evaluate(program, c_, x) - y
+    J, value = jax.jacfwd(lambda c_: (r(c_), r(c_)), has_aux=True)(c)
+    finite = jnp.all(jnp.isfinite(value)) & jnp.all(jnp.isfinite(J))
+    return jnp.where(finite, value, 0.0), jnp.where(finite, J, 0.0), finite
+
+
+def _project(program, linear, c, x, y, refine):
+    """The constants that enter linearly (`linear`, a 0/1 mask) solved exactly for the others
+    (variable projection: a Gauss-Newton step is exact, the expression being affine in them, and a
+    second one from the residual evaluated afresh, where `refine`, removes the rounding of the
+    first, large where the start was far); returns (constants, residual after, Jacobian, sum of squares after)."""
+    r, J, finite = _residual_and_jacobian(program, c, x, y)
+    Jl = J * linear
+    G = Jl.T @ Jl + jnp.diag(1.0 - linear)
+    step = -_solve(G, Jl.T @ r) * linear
+    # (refine: an unbatched flag, so that under vmap the screening skips the second evaluation)
+    c, r, step = jax.lax.cond(refine, lambda: (c + step, evaluate(program, c + step, x) - y, step),
+                              lambda: (c, r, step))
+    step = jax.lax.cond(refine, lambda: -_solve(G, Jl.T @ r) * linear, lambda: step)
+    r = r + Jl @ step
+    s = jnp.where(finite, jnp.sum(r * r), jnp.inf)
+    return c + step, r, J, jnp.where(jnp.isfinite(s), s, jnp.inf)
+
+
+def _fit_one(program, linear, c0, x, y, iterations, tail, refine):
+    """Levenberg-Marquardt on the nonlinear constants with the linear ones projected out (Kaufman's
+    variable projection: the joint Gauss-Newton system, damped on the nonlinear constants only,
+    then the linear constants solved exactly at the trial point); a step is kept only if it lowers
+    the sum of squares. `iterations` steps, then `tail` more: converged if those no longer lower
+    the sum of squares by more than 1e-9 relative (the objective is judged, not the constants, so
+    that a degenerate optimum, a double pole say, is kept). Returns (constants, sum of squares,
+    converged)."""
+    nonlinear = 1.0 - linear
+
+    def step(i, state):
+        c, damping, r, J, current, before = state
         H, g = J.T @ J, J.T @ r
-        d = jnp.diag(H)
-        regularized = H + damping * jnp.diag(d) + 1e-12 * (jnp.max(d) + 1.0) * jnp.eye(c.shape[0])
-        trial = c - jnp.linalg.solve(regularized, g)
-        trial_cost = _sum_of_squares(program, trial, x, y)
-        better = trial_cost < current
-        return (jnp.where(better, trial, c), jnp.where(better, damping / 3.0, damping * 4.0),
-                jnp.where(better, trial_cost, current))
+        d = jnp.diag(H) * nonlinear
+        trial = c - _solve(H + damping * jnp.diag(d) + 1e-12 * (jnp.max(d) + 1.0) * jnp.diag(nonlinear), g) * nonlinear
+        trial, r_t, J_t, cost = _project(program, linear, trial, x, y, refine)
+        better = cost < current
+        keep = lambda new, old: jnp.where(better, new, old)
+        current = keep(cost, current)
+        return (keep(trial, c), jnp.where(better, damping / 3.0, jnp.minimum(damping * 4.0, 1e30)), keep(r_t, r),
+                keep(J_t, J), current, jnp.where(i == iterations, current, before))
 
-    c, _, s = jax.lax.fori_loop(0, iterations, step, (c0, jnp.asarray(1e-3), _sum_of_squares(program, c0, x, y)))
-    return c, s
-
-
-@jax.jit
-def screen_block(block, c0, x, y, iterations):
-    """(constants, sum of squares) of each program of `block` (rows, 4, steps) from c0 (rows, P)."""
-    return jax.vmap(lambda p, c: _screen_one(p, c, x, y, iterations))(block, c0)
-
-
-_LM = optx.LevenbergMarquardt(rtol=1e-10, atol=1e-12)
-
-
-def _residual(c, args):
-    program, x, y = args
-    r = evaluate(program, c, x) - y
-    return jnp.where(jnp.isfinite(r), r, 1e150)
+    # Step 0 from a zero Jacobian is the projection of c0 itself (one traced copy of the step).
+    zero = jnp.zeros_like(y)
+    start = (c0, jnp.asarray(1e-3), zero, jnp.zeros(y.shape + c0.shape), jnp.asarray(jnp.inf), jnp.asarray(jnp.inf))
+    c, _, _, _, s, before = jax.lax.fori_loop(0, iterations + tail + 1, step, start)
+    return c, s, (before - s) <= 1e-9 * before
 
 
 @jax.jit
-def polish_block(block, c0, x, y):
-    """optimistix Levenberg-Marquardt from c0, each row on its own data x, y (rows, points):
-    (constants, sum of squares, converged)."""
-    def one(program, start, x_, y_):
-        sol = optx.least_squares(_residual, _LM, start, args=(program, x_, y_), max_steps=200, throw=False)
-        return sol.value, _sum_of_squares(program, sol.value, x_, y_), sol.result == optx.RESULTS.successful
-    return jax.vmap(one)(block, c0, x, y)
+def fit_block(block, linear, c0, x, y, iterations, tail, refine):
+    """(constants, sum of squares, converged) of each program of `block` (rows, 4, steps), its linear
+    constants `linear` (rows, P) projected out, from c0 (rows, P); x (variables, points) and y
+    (points) shared by every row, or given per row (rows, variables, points) and (rows, points)."""
+    if y.ndim == 1:
+        return jax.vmap(lambda p, m, c: _fit_one(p, m, c, x, y, iterations, tail, refine))(block, linear, c0)
+    return jax.vmap(lambda p, m, c, x_, y_: _fit_one(p, m, c, x_, y_, iterations, tail, refine))(block, linear, c0,
+                                                                                                 x, y)
 
 
 def _blocks(rows: int, size: int):
@@ -115,19 +140,47 @@ def _pad(a, rows, value=0):
     return np.pad(a, [(0, rows - a.shape[0])] + [(0, 0)] * (a.ndim - 1), constant_values=value)
 
 
-def _run(function, block, starts, x, y, rows, *extra):
-    """`function` over fixed-size blocks of (programs, starts); unpadded numpy results. x and y are
-    shared by every row (1-D) or given per row (2-D)."""
+def _fit(block, linear, starts, x, y, rows, iterations, tail):
+    # the screening (no tail) tracks the linear solve's residual; refits evaluate it afresh
+    """`fit_block` over fixed-size blocks of (programs, linear masks, starts); unpadded numpy
+    results. x (variables, points) and y (points) are shared by every row, or given per row."""
     out = []
     for part, count in _blocks(block.shape[0], rows):
-        data = (x, y) if x.ndim == 1 else (_pad(x[part], rows, 1.0), _pad(y[part], rows))
-        result = function(_pad(block[part], rows), _pad(starts[part], rows, 1.0), *data, *extra)
+        data = (x, y) if y.ndim == 1 else (_pad(x[part], rows, 1.0), _pad(y[part], rows))
+        result = fit_block(_pad(block[part], rows), _pad(linear[part], rows), _pad(starts[part], rows, 1.0), *data,
+                           iterations, tail, tail > 0)
         out.append([np.asarray(r)[:count] for r in result])
     return [np.concatenate(parts) for parts in zip(*out)]
 
 
+def start_constants(count: int, width: int, x, seed: int = 0) -> np.ndarray:
+    """`count` starts for the nonlinear constants, the same for every form (so that a form's fit does
+    not depend on what else is searched): values of unit size and of x's size, each constant of a
+    start a different one of them; beyond the first eight, uniform in [-2, 2] from `seed`."""
+    scale = max(float(np.max(np.abs(x))), 1e-6)
+    pool = np.array([1.0, -1.0, -0.5 * scale, 2.0, -0.5, scale, 0.5, -2.0])
+    k, j = np.arange(count)[:, None], np.arange(width)[None, :]
+    out = pool[(k + 3 * j) % pool.size]
+    extra = np.random.default_rng(seed).uniform(-2.0, 2.0, (count, width))
+    return np.where(k < pool.size, out, extra)
+
+
+def linear_masks(forms, width: int) -> np.ndarray:
+    """(forms, width): 1 where a constant enters linearly (`grammar.linear_constants`), else 0."""
+    out = np.zeros((len(forms), width))
+    for i, e in enumerate(forms):
+        mask = linear_constants(e)
+        out[i, :len(mask)] = mask
+    return out
+
+
 def spanning_subsample(x, size: int) -> np.ndarray:
-    """Indices of `size` points evenly spaced in the order of x (its smallest and largest included)."""
+    """Indices of about `size` points evenly spaced in the order of x (its smallest and largest
+    included); for several variables (rows of x), of each variable in turn, together."""
+    x = np.asarray(x)
+    if x.ndim == 2:
+        share = max(size // x.shape[0], 2)
+        return np.unique(np.concatenate([spanning_subsample(row, share) for row in x]))
     order = np.argsort(x, kind="stable")
     return np.unique(order[np.round(np.linspace(0, x.size - 1, size)).astype(int)])
 
@@ -146,90 +199,127 @@ def _sse_block(block, c, x, y):
 
 def sums_of_squares(program, constants_, x, y) -> np.ndarray:
     """The sum of squares of each program with its constants on every point, in blocks."""
-    rows = _rows_for(BLOCK_ROWS, x.size, program.shape[-1])
+    rows = _rows_for(BLOCK_ROWS, x.shape[-1], program.shape[-1])
     out = []
     for part, count in _blocks(program.shape[0], rows):
         out.append(np.asarray(_sse_block(_pad(program[part], rows), _pad(constants_[part], rows, 1.0), x, y))[:count])
     return np.concatenate(out) if out else np.zeros(0)
 
 
-def search(x, y, max_complexity: int, ops: str = "+-*/", starts: int = 1, iterations: int = 20,
-           refine: int = 8, polish_starts: int = 4, seed: int = 0, progress=None, forms=None):
-    """The exhaustive search: every kept form up to `max_complexity` screened from `starts` random
-    starts with `iterations` cheap steps; the best `refine` forms of each complexity then polished
-    with optimistix from their screened constants and `polish_starts - 1` fresh starts.
+def _best_per_form(form_of_row, s, forms: int):
+    """Index of each form's best row (least sum of squares; -1 for a form with no row)."""
+    order = np.lexsort((s, form_of_row))
+    first = np.ones(order.size, bool)
+    first[1:] = form_of_row[order][1:] != form_of_row[order][:-1]
+    best = np.full(forms, -1)
+    best[form_of_row[order][first]] = order[first]
+    return best
 
-    Returns a dict: forms, complexity, rms (per form: polished where polished), constants
-    (polished forms only, by form index), converged (polished forms), and front (indices of the
-    forms on the Pareto front of complexity against RMS, by complexity)."""
+
+def search(x, y, max_complexity: int, ops: str = "+-*/", starts: int = 2, iterations: int = 10,
+           refine: int = 8, polish_starts: int = 4, seed: int = 0, progress=None, forms=None,
+           polish_iterations: int = 100):
+    """The exhaustive search: every kept form up to `max_complexity` screened with `iterations`
+    steps of the variable-projection fit (`_fit_one`), from one start if all its constants enter
+    linearly, else from `starts` starts and, where only one start reached the best (several
+    optima), from `3 starts` more; the best `refine` forms of each complexity then refitted to
+    convergence from their screened constants and `polish_starts - 1` other starts. x is one
+    variable's points, or (variables, points).
+
+    Returns a dict: forms, complexity, rms (per form: refitted where refitted), constants,
+    converged (refitted forms: the objective no longer improving), and front (indices of the forms
+    on the Pareto front of complexity against RMS, by complexity)."""
     x, y = np.asarray(x, dtype=np.float64), np.asarray(y, dtype=np.float64)
-    forms = enumerate_forms(max_complexity, ops) if forms is None else list(forms)
+    x = x[None] if x.ndim == 1 else x
+    forms = enumerate_forms(max_complexity, ops, x.shape[0]) if forms is None else list(forms)
     if not forms:
         raise ValueError(f"no expression of complexity <= {max_complexity} uses only the operations {ops!r}")
     size = np.array([complexity(e) for e in forms])
     count = np.array([constants(e) for e in forms])
-    if count.max() >= x.size:
-        raise ValueError(f"{x.size} points cannot fit forms with up to {count.max()} constants; "
+    if count.max() >= y.size:
+        raise ValueError(f"{y.size} points cannot fit forms with up to {count.max()} constants; "
                          f"lower the maximum complexity or give more points")
     program = programs(forms, max(max_complexity, MIN_STEPS))
-    rng = np.random.default_rng(seed)
+    width = max(count.max(), MIN_WIDTH)
+    linear = linear_masks(forms, width)
+    nonlinear_count = count - linear.sum(axis=1).astype(int)
+    start = start_constants(8 * starts + polish_starts, width, x, seed)
     # Screening on a subsample that spans x where the points are many (then re-evaluated on all).
-    sub = spanning_subsample(x, SCREEN_POINTS) if x.size > SCREEN_POINTS else np.arange(x.size)
-    x_s, y_s = x[sub], y[sub]
+    sub = spanning_subsample(x, SCREEN_POINTS) if y.size > SCREEN_POINTS else np.arange(y.size)
+    x_s, y_s = x[:, sub], y[sub]
     sum_sq = np.full(len(forms), np.inf)
-    fitted = np.zeros((len(forms), max(count.max(), MIN_WIDTH)))
-    groups = [(count <= SMALL_CONSTANTS, SMALL_CONSTANTS), (count > SMALL_CONSTANTS, fitted.shape[1])]
-    for mask, width in groups:
-        index = np.flatnonzero(mask)
-        if index.size == 0:
-            continue
-        rows = np.repeat(index, starts)
-        c0 = rng.uniform(-2.0, 2.0, (rows.size, width))
-        c, s = _run(screen_block, program[rows], c0, x_s, y_s, BLOCK_ROWS, iterations)
-        s = np.where(np.isfinite(s), s, np.inf).reshape(index.size, starts)
-        best = np.argmin(s, axis=1)
-        sum_sq[index] = s[np.arange(index.size), best]
-        fitted[index, :width] = c.reshape(index.size, starts, width)[np.arange(index.size), best]
+    fitted = np.ones((len(forms), width))
+
+    def screen(index, first, count_):
+        """Screens the forms `index` from starts first .. first + count_ - 1 (one start for a form
+        whose constants are all linear); keeps each form's best."""
+        out = []
+        for group, w in ((index[count[index] <= SMALL_CONSTANTS], SMALL_CONSTANTS),
+                         (index[count[index] > SMALL_CONSTANTS], width)):
+            if group.size == 0:
+                continue
+            repeats = np.where(nonlinear_count[group] > 0, count_, 1)
+            rows = np.repeat(group, repeats)
+            k = first + np.concatenate([np.arange(r) for r in repeats])
+            c, s, _ = _fit(program[rows], linear[rows, :w], start[k, :w], x_s, y_s, BLOCK_ROWS, iterations, 0)
+            s = np.where(np.isfinite(s), s, np.inf)
+            best = _best_per_form(rows, s, len(forms))[group]
+            better = s[best] < sum_sq[group]
+            sum_sq[group[better]] = s[best[better]]
+            fitted[group[better], :w] = c[best[better], :w]
+            out.append((rows, s))
+        return np.concatenate([r for r, _ in out]), np.concatenate([s for _, s in out])
+
+    rows, s = screen(np.arange(len(forms)), 0, starts)
+    # a form whose best was reached from one start only has several optima: more starts
+    near = s <= sum_sq[rows] * (1 + AGREE) + 1e-300
+    agree = np.bincount(rows, near, len(forms)) > 1
+    agree |= nonlinear_count == 0
+    if progress:
+        progress(f"screened {len(forms)} forms" + (f" on {sub.size} of the {y.size} points" if sub.size < y.size else ""))
+    if starts > 1 and not agree.all():
+        again = np.flatnonzero(~agree)
+        screen(again, starts, 3 * starts)
         if progress:
-            progress(f"screened {index.size} forms with <= {width} constants"
-                     + (f" on {sub.size} of the {x.size} points" if sub.size < x.size else ""))
-    subsampled = sub.size < x.size
+            progress(f"screened {again.size} forms with several optima from {3 * starts} more starts")
+    subsampled = sub.size < y.size
     if subsampled:              # every form's screened constants on every point
         sum_sq = sums_of_squares(program, fitted, x, y)
         sum_sq = np.where(np.isfinite(sum_sq), sum_sq, np.inf)
     chosen = np.concatenate([np.flatnonzero(size == k)[np.argsort(sum_sq[size == k], kind="stable")[:refine]]
                              for k in np.unique(size)])
     rows = np.repeat(chosen, polish_starts)
-    c0 = rng.uniform(-2.0, 2.0, (rows.size, fitted.shape[1]))
+    c0 = np.tile(start[4 * starts:4 * starts + polish_starts], (chosen.size, 1))
     c0[::polish_starts] = fitted[chosen]
     # Refits: on the subsample where there is one (then each complexity's best once more on every
     # point, below), else on every point.
-    c, s, ok = _run(polish_block, program[rows], c0, np.tile(x_s, (rows.size, 1)), np.tile(y_s, (rows.size, 1)),
-                    POLISH_ROWS)
-    s = np.where(np.isfinite(s) & ok, s, np.inf).reshape(chosen.size, polish_starts)
-    best = np.argmin(s, axis=1)
-    polished = s[np.arange(chosen.size), best]
-    candidate = c.reshape(chosen.size, polish_starts, -1)[np.arange(chosen.size), best]
+    # (data given per row, so that this compiled fit also serves `fit_forms`)
+    c, s, ok = _fit(program[rows], linear[rows], c0, np.broadcast_to(x_s, (rows.size,) + x_s.shape),
+                    np.broadcast_to(y_s, (rows.size,) + y_s.shape), POLISH_ROWS, polish_iterations, 20)
+    s = np.where(np.isfinite(s), s, np.inf)
+    best = _best_per_form(rows, s, len(forms))[chosen]
+    polished, candidate, done = s[best], c[best], ok[best]
     if subsampled:
         polished = np.where(np.isfinite(polished), sums_of_squares(program[chosen], candidate, x, y), np.inf)
     improved = polished <= sum_sq[chosen]
     sum_sq[chosen] = np.where(improved, polished, sum_sq[chosen])
     fitted[chosen] = np.where(improved[:, None], candidate, fitted[chosen])
-    converged = {int(i): bool(np.isfinite(p)) for i, p in zip(chosen, polished)}
+    converged = {int(i): bool(good and np.isfinite(p)) for i, p, good in zip(chosen, polished, done)}
     if subsampled:
         # Each complexity's best refitted on every point, in small blocks (memory: rows x points).
         tops = np.array([np.flatnonzero(size == k)[np.argmin(sum_sq[size == k])] for k in np.unique(size)])
-        c, s, ok = _run(polish_block, program[tops], fitted[tops], np.tile(x, (tops.size, 1)),
-                        np.tile(y, (tops.size, 1)), _rows_for(POLISH_ROWS, x.size, 4 * program.shape[-1]))
-        s = np.where(np.isfinite(s) & ok, s, np.inf)
+        c, s, ok = _fit(program[tops], linear[tops], fitted[tops], np.broadcast_to(x, (tops.size,) + x.shape),
+                        np.broadcast_to(y, (tops.size,) + y.shape), _rows_for(POLISH_ROWS, y.size, 4 * program.shape[-1]),
+                        polish_iterations, 20)
+        s = np.where(np.isfinite(s), s, np.inf)
         better = s <= sum_sq[tops]
         sum_sq[tops] = np.where(better, s, sum_sq[tops])
         fitted[tops] = np.where(better[:, None], c, fitted[tops])
-        converged |= {int(i): bool(good) or converged.get(int(i), False) for i, good in zip(tops, np.isfinite(s))}
-    rms = np.sqrt(sum_sq / x.size)
+        converged |= {int(i): bool(good and np.isfinite(v)) for i, v, good in zip(tops, s, ok)}
+    rms = np.sqrt(sum_sq / y.size)
     return dict(forms=forms, complexity=size, constant_count=count, rms=rms, constants=fitted,
                 converged=converged, front=pareto_front(size, rms, 1e-12 * (np.std(y) + np.max(np.abs(y)))),
-                width=fitted.shape[1])
+                width=width, linear_count=count - nonlinear_count)
 
 
 def pareto_front(size, rms, floor: float = 0.0, margin: float = 1e-6) -> list[int]:
@@ -247,31 +337,33 @@ def pareto_front(size, rms, floor: float = 0.0, margin: float = 1e-6) -> list[in
     return front
 
 
-def fit_forms(forms, x, y, starts: int = 8, seed: int = 0, steps: int = MIN_STEPS, width: int = MIN_WIDTH):
-    """(constants, rms, converged) of each given form, by the same optimistix fit as the front's
-    (programs of `steps` steps and `width` constants, so that the search's compiled fit serves).
-    With x and y of shape (samples, points), every form is fitted on every sample in one batch and
-    the result is a list per sample."""
+def fit_forms(forms, x, y, starts: int = 8, seed: int = 0, steps: int = MIN_STEPS, width: int = MIN_WIDTH,
+              iterations: int = 200):
+    """(constants, rms, converged) of each given form, by the same fit as the front's refits (programs
+    of `steps` steps and `width` constants, so that the search's compiled fit serves), from
+    `starts` starts. y is one sample's points, x its variable's points or (variables, points); with
+    y of shape (samples, points) and x (samples, points) or (samples, variables, points), every
+    form is fitted on every sample in one batch and the result is a list per sample."""
     x, y = np.asarray(x, dtype=np.float64), np.asarray(y, dtype=np.float64)
-    if x.ndim == 1:
-        return fit_forms(forms, x[None], y[None], starts, seed, steps, width)[0]
+    if y.ndim == 1:
+        return fit_forms(forms, x[None], y[None], starts, seed, steps, width, iterations)[0]
+    x = x[:, None] if x.ndim == 2 else x
     steps = max([steps, MIN_STEPS] + [complexity(e) for e in forms])
     width = max([width, MIN_WIDTH] + [constants(e) for e in forms])
-    samples, per_sample = x.shape[0], len(forms) * starts
+    samples, per_sample = y.shape[0], len(forms) * starts
     block = np.tile(np.repeat(programs(forms, steps), starts, axis=0), (samples, 1, 1))
-    c0 = np.tile(np.random.default_rng(seed).uniform(-2.0, 2.0, (per_sample, width)), (samples, 1))
+    linear = np.tile(np.repeat(linear_masks(forms, width), starts, axis=0), (samples, 1))
+    c0 = np.tile(start_constants(starts, width, x, seed), (samples * len(forms), 1))
     rows_x, rows_y = np.repeat(x, per_sample, axis=0), np.repeat(y, per_sample, axis=0)
-    c, s, ok = _run(polish_block, block, c0, rows_x, rows_y, POLISH_ROWS)
-    s = np.where(np.isfinite(s) & ok, s, np.inf).reshape(samples, len(forms), starts)
-    c = c.reshape(samples, len(forms), starts, width)
+    c, s, ok = _fit(block, linear, c0, rows_x, rows_y, POLISH_ROWS, iterations, 20)
+    s = np.where(np.isfinite(s), s, np.inf).reshape(samples, len(forms), starts)
+    c, ok = c.reshape(samples, len(forms), starts, width), ok.reshape(samples, len(forms), starts)
     out = []
     for j in range(samples):
         row = []
         for i, e in enumerate(forms):
             best = int(np.argmin(s[j, i]))
-            row.append((c[j, i, best, :constants(e)], float(np.sqrt(s[j, i, best] / x.shape[1])),
-                        bool(np.isfinite(s[j, i, best]))))
+            row.append((c[j, i, best, :constants(e)], float(np.sqrt(s[j, i, best] / y.shape[1])),
+                        bool(np.isfinite(s[j, i, best]) and ok[j, i, best])))
         out.append(row)
     return out
-
-

@@ -20,3 +20,12 @@ def test_parse_errors_name_the_problem():
         symbolic.parse("c*(n + c", "n")
 
 
+
+
+@pytest.mark.parametrize("text, linear", [("c*(c + c/(x - c) + x)", (False, True, True, False)),
+                                          ("c*x + c + c/x", (True, True, True)), ("c/(x + c)", (True, False)),
+                                          ("(c*x + c)/(x + c)", (True, True, False)), ("c*x*x1 + c", (True, True))])
+def test_the_constants_that_enter_linearly(text, linear):
+    """Jointly affine: none in a denominator, no two multiplied together (c (c + ...): the outer
+    one or the inner ones, the larger set)."""
+    assert symbolic.linear_constants(symbolic.parse(text, ["x", "x1"])) == linear
