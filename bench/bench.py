@@ -13,6 +13,8 @@ less than a time. Measured, each in a fresh cache and outputs folder:
 - the symbolic-regression stage alone, cold (a refit of `symbolic.seed` with an empty XLA cache:
   its time as the run log states it; target 10 s, absolute, for the 50-point sample up to
   complexity 12);
+- the symbolic search and pyoperon side by side (`bench/symbolic.py`: 5,000 points to complexity 12,
+  200 points to 14, two variables to 10; time, peak memory and best RMS of each);
 - `pipeline keys` and a run with a bad config (answered without importing JAX);
 - `make test` (`python -m pytest -q -n 2 --dist loadfile`), unless BENCH_TESTS=0;
 - the throughput of each cheap lobe compiled by XLA (evaluations per second over 2^24 values of t in
@@ -88,6 +90,7 @@ def lobe_throughput(device, size=2**24, repeats=9) -> list[tuple[str, float, flo
 
 
 def main() -> int:
+    sys.path.insert(0, str(ROOT / "bench"))
     py = sys.executable
     floor = statistics.median(timed([py, "-c", FLOOR], dict(os.environ))[0] for _ in range(3))
     rows = []
@@ -147,6 +150,19 @@ def main() -> int:
         stage = float(line.split("computed in")[1].split("s")[0])
         rows.append(("gpu_isa stage, cold", stage, None,
                      "RADV, 3 chip families; target <= 5 s " + ("ok" if stage <= 5 else "MISSED")))
+        # The symbolic search against pyoperon, each case and engine in its own process (peak memory).
+        from symbolic import CASES
+        for case, depth in CASES.items():
+            measured = {}
+            for engine in ("exhaustive", "operon"):
+                _, out = timed([py, str(ROOT / "bench" / "symbolic.py"), case, engine], env)
+                measured[engine] = [float(v) for v in out.split()[-3:]]
+            (seconds, peak, best), (o_seconds, o_peak, o_best) = measured["exhaustive"], measured["operon"]
+            memory = " and 1 GB" if case.startswith("5000") else ""
+            ok = seconds <= 60 and (peak <= 1.0 or not memory)
+            rows.append((f"regress {case}", seconds, None,
+                         f"peak {peak:.2f} GB, best RMS {best:.3g}; pyoperon {o_seconds:.1f} s, {o_peak:.2f} GB, best RMS "
+                         f"{o_best:.3g}; target <= 60 s{memory} " + ("ok" if ok else "MISSED")))
         seconds, _ = timed([py, "-m", "pipeline", "keys"], env)
         rows.append(("pipeline keys", seconds, None, "target < 1 s"))
         seconds, _ = timed([py, "-m", "pipeline", "refit", "--config", "configs/paper.toml", "--set",

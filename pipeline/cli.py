@@ -106,10 +106,12 @@ def _regress(args) -> int:
     start = time.perf_counter()
     out = Path(args.out) if args.out else paths.OUTPUTS / "regress" / Path(args.file).stem
     front = regress(Path(args.file), args.x, args.y, out, args.max_complexity, parse_operations(args.ops),
-                    seed=args.seed, noise=args.noise)
-    print("complexity  RMS          DL (nats)  expression")
+                    seed=args.seed, noise=args.noise, engine=args.engine)
+    engines = len({m["engine"] for m in front}) > 1 or front[0]["engine"] != "exhaustive"
+    print("complexity  RMS          DL (nats)  " + ("engine      " if engines else "") + "expression")
     for m in front:
-        print(f"{m['complexity']:>10}  {m['rms']:<11.6g}  {m['description_length']:<9.4g}  {m['canonical']}"
+        print(f"{m['complexity']:>10}  {m['rms']:<11.6g}  {m['description_length']:<9.4g}  "
+              + (f"{m['engine']:<10}  " if engines else "") + m["canonical"]
               + ("   <- selected" if m["selected"] else ""))
     print(f"wrote {out / 'front.csv'} and {out / 'front.png'}; {time.perf_counter() - start:.1f} s")
     return 0
@@ -205,14 +207,18 @@ def _main(argv: list[str] | None) -> int:
     exp.add_argument("--only", default=None, metavar="STAGE[,STAGE...]", help=only_help)
     sub.add_parser("keys", help="print every config key with its default and allowed values")
     sub.add_parser("graph", help="print the stage graph: what each stage reads and returns")
-    reg = sub.add_parser("regress", help="exhaustive symbolic regression of one CSV column against another")
+    reg = sub.add_parser("regress", help="symbolic regression of one CSV column against up to three others")
     reg.add_argument("file", metavar="FILE.csv")
-    reg.add_argument("--x", required=True, metavar="COLUMN", help="column of the variable")
+    reg.add_argument("--x", required=True, metavar="COLUMN[,COLUMN...]", help="column(s) of the variable(s), up to 3")
     reg.add_argument("--y", required=True, metavar="COLUMN", help="column to fit")
     reg.add_argument("--max-complexity", type=int, default=12, metavar="N",
                      help="largest complexity searched (constants, x, +, -, * count 1; / counts 2); default 12")
     reg.add_argument("--ops", default="+,-,*,/", help='operations, default "+,-,*,/"')
-    reg.add_argument("--seed", type=int, default=0, help="seed of the random starts (default 0)")
+    reg.add_argument("--seed", type=int, default=0, help="seed of the random starts and of pyoperon (default 0)")
+    reg.add_argument("--engine", default="auto", choices=["auto", "exhaustive", "operon", "both"],
+                     help="exhaustive: every expression up to --max-complexity; operon: pyoperon's genetic "
+                          "programming; both: exhaustive as far as it reaches in a minute, pyoperon beyond, one "
+                          "merged front; auto (default): exhaustive where it reaches, else both")
     reg.add_argument("--noise", type=float, default=None, metavar="SIGMA",
                      help="the data's noise level, for model selection (default: the rounding floor of y where y "
                           "is rounded, else unknown)")

@@ -267,11 +267,11 @@ def _write_outputs(tmp: Path, config, results, keys, checks, baseline, drawer) -
 
     doc = results_mod.write(tmp / "results.json", config, keys, results, checks)
     drawn = drawer.collect(tmp, results, keys)
+    tables.write(tmp, config, results)
     if len(results) < len(graph.STAGES):
         # A targeted run (`--only`): what it computed, and a short report that says what it did not.
         report.write_targeted(tmp / "report.md", config, doc, checks, drawn)
     else:
-        tables.write(tmp, config, results)
         shader.write(tmp, config, results, keys)
         top = summary.write(tmp / "summary.md", config, results)
         report.write(tmp / "report.md", config, doc, results, checks, drawn, baseline, top)

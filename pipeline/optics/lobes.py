@@ -78,8 +78,9 @@ def f_Q2(x, n, slope, intercept, power: int = 2):
 
 
 def gran(k):
-    """Zero crossing x of a lobe of the family: arccos(1 - 1/k); exceeds pi/2 when k < 1."""
-    return jnp.arccos(1.0 - 1.0 / k)
+    """Zero crossing x of a lobe of the family: arccos(1 - 1/k); exceeds pi/2 when k < 1, and is pi
+    when k <= 1/2 (the lobe is then positive over the whole sphere and has no zero crossing)."""
+    return jnp.arccos(jnp.maximum(1.0 - 1.0 / k, -1.0))
 
 
 # The shape families, as functions of (u, p, power) with one parameter p per exponent n: the

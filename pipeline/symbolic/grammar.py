@@ -231,10 +231,13 @@ def programs(forms, length: int) -> np.ndarray:
     return out
 
 
-def parse(text: str, variable="x"):
+def parse(text: str, variable="x", values=None):
     """An expression tree from infix text in the variable (a name, or one name per variable), c (or
-    any number, read as a fitted constant), +, -, *, / and parentheses."""
+    any number, read as a fitted constant; a number after an opening parenthesis or an operator may
+    carry a minus sign), +, -, *, / and parentheses. `values`, a list, receives each constant's
+    number in order of appearance (nan for c)."""
     names = _names(variable)
+    values = [] if values is None else values
     tokens = text.replace("(", " ( ").replace(")", " ) ")
     for op in "+-*/":
         tokens = tokens.replace(op, f" {op} ")
@@ -260,9 +263,13 @@ def parse(text: str, variable="x"):
         if t in names:
             return variable_leaf(names.index(t))
         if t == "c":
+            values.append(float("nan"))
             return C
+        sign = 1.0
+        if t == "-" and peek() is not None:
+            sign, t = -1.0, take()
         try:
-            float(t)
+            values.append(sign * float(t))
         except ValueError:
             raise ValueError(f"unknown symbol {t!r} in {text!r} (use {', '.join(names)}, c, numbers, "
                              f"+ - * /)") from None
@@ -284,6 +291,27 @@ def parse(text: str, variable="x"):
     if peek() is not None:
         raise ValueError(f"unexpected {peek()!r} in {text!r}")
     return e
+
+
+def fold_constants(e, values):
+    """(e, values) with every subtree free of variables (c op c, as another engine may write it)
+    replaced by one constant of its value: the complexity of what the expression is."""
+    values = iter(values)
+
+    def build(node):
+        if node == C:
+            return C, [next(values)]
+        if len(node) == 1:
+            return node, []
+        (a, va), (b, vb) = build(node[1]), build(node[2])
+        if a == C and b == C:
+            x, y = va[0], vb[0]
+            with np.errstate(all="ignore"):
+                v = {"+": x + y, "-": x - y, "*": x * y}.get(node[0], x / y if y != 0 else np.inf)
+            return C, [float(v)]
+        return (node[0], a, b), va + vb
+
+    return build(e)
 
 
 def substitute(e, constants, variables):

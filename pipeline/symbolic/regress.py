@@ -26,9 +26,12 @@ import numpy as np
 from . import grammar
 
 MAX_COMPLEXITY = 16
+ENGINES = ("auto", "exhaustive", "operon", "both")
+# The exhaustive search's reach for `--engine auto|both`: the complexity it completes in this time.
+EXHAUSTIVE_SECONDS = 60.0
 # The screening's rate on the 2-core machine the project is measured on (form x point per second,
 # compile excluded), for the estimate printed before a search starts; and the compile time.
-SCREEN_RATE, COMPILE_S = 90_000.0, 5.0
+SCREEN_RATE, COMPILE_S = 70_000.0, 5.0
 # Squares of values beyond this overflow float64 sums (1e308) over any realistic number of points.
 LARGEST_VALUE = 1e150
 ROUNDING_DECIMALS_MAX = 8
@@ -48,8 +51,9 @@ def parse_operations(text: str) -> str:
     return "".join(ops)
 
 
-def read_columns(path: Path, x_column: str, y_column: str) -> tuple[np.ndarray, np.ndarray]:
-    """The two named columns of a CSV file as float arrays."""
+def read_table(path: Path, columns: list[str], options: list[str]) -> list[np.ndarray]:
+    """The named columns of a CSV file with a header row, as float arrays (`options` names the
+    command-line option of each column, for the messages)."""
     if not path.is_file():
         raise RegressError(f"{path}: no such file")
     try:
@@ -61,13 +65,15 @@ def read_columns(path: Path, x_column: str, y_column: str) -> tuple[np.ndarray, 
     if not rows:
         raise RegressError(f"{path}: the file is empty")
     header = [h.strip() for h in rows[0]]
-    for name, option in ((x_column, "--x"), (y_column, "--y")):
+    for name, option in zip(columns, options):
         if name not in header:
             raise RegressError(f"{path}: no column {name!r} ({option}); the header has " + ", ".join(repr(h) for h in header))
-    if x_column == y_column:
-        raise RegressError(f"--x and --y name the same column {x_column!r}")
-    columns = {}
-    for name in (x_column, y_column):
+    for i, name in enumerate(columns):
+        if name in columns[:i]:
+            raise RegressError(f"{' and '.join(sorted(set([options[columns.index(name)], options[i]])))} name the "
+                               f"same column {name!r} twice")
+    out = []
+    for name in columns:
         j, values = header.index(name), []
         for line, row in enumerate(rows[1:], start=2):
             cell = row[j].strip() if j < len(row) else ""
@@ -78,8 +84,16 @@ def read_columns(path: Path, x_column: str, y_column: str) -> tuple[np.ndarray, 
             if not math.isfinite(v):
                 raise RegressError(f"{path}, line {line}, column {name!r}: {cell!r} is not a finite number")
             values.append(v)
-        columns[name] = np.array(values, dtype=np.float64)
-    return columns[x_column], columns[y_column]
+        out.append(np.array(values, dtype=np.float64))
+    return out
+
+
+def read_columns(path: Path, x_column: str, y_column: str) -> tuple[np.ndarray, np.ndarray]:
+    """The two named columns of a CSV file as float arrays."""
+    if x_column == y_column:
+        raise RegressError(f"--x and --y name the same column {x_column!r}")
+    x, y = read_table(path, [x_column, y_column], ["--x", "--y"])
+    return x, y
 
 
 def check_columns(path: Path, x, y, x_column: str, y_column: str) -> None:
@@ -118,59 +132,142 @@ def select(front, n_points: int, noise: float | None, symbols: int) -> int:
     return best
 
 
-def variable_name(column: str) -> str:
-    """The column's name if it can name a variable in an expression, else x."""
-    return column if re.fullmatch(r"[A-Za-z_][A-Za-z0-9_]*", column) and column != "c" else "x"
+def variable_names(columns: list[str]) -> list[str]:
+    """Each column's name where it can name a variable in an expression (and they differ), else x,
+    x1, x2."""
+    ok = all(re.fullmatch(r"[A-Za-z_][A-Za-z0-9_]*", c) and c != "c" for c in columns) and len(set(columns)) == len(columns)
+    return list(columns) if ok else ["x"] + [f"x{k}" for k in range(1, len(columns))]
 
 
-def regress(path: Path, x_column: str, y_column: str, out: Path, max_complexity: int = 12, ops: str = "+-*/",
-            starts: int = 1, iterations: int = 20, refine: int = 8, polish_starts: int = 4, seed: int = 0,
-            log=print, noise: float | None = None) -> list[dict]:
-    """Runs the search on the file's two columns; writes out/front.csv and out/front.png; returns the
-    front, its selected member marked (`select`; `noise` the data's standard deviation if known)."""
+def estimate_seconds(forms: int, points: int, starts: int = 2, iterations: int = 10) -> float:
+    """About how long the exhaustive search of `forms` forms takes on the 2-core machine measured."""
+    from .search import SCREEN_POINTS
+
+    return COMPILE_S + forms * (starts / 2) * min(points, SCREEN_POINTS) * (iterations / 10) / SCREEN_RATE
+
+
+def exhaustive_reach(variables: int, points: int, max_complexity: int, ops: str, seconds: float) -> int:
+    """The largest complexity up to `max_complexity` whose exhaustive search is estimated to take at
+    most `seconds` (0 if none)."""
+    reach, forms = 0, 0
+    for k in range(1, max_complexity + 1):
+        forms += len(grammar._forms_of(k, ops, variables))
+        if estimate_seconds(forms, points) > seconds:
+            break
+        reach = k
+    return reach
+
+
+def _member(tree, c, rms, converged, names, engine):
+    import sympy as sp
+
+    symbols = [sp.Symbol(n) for n in names]
+    return dict(complexity=int(grammar.complexity(tree)), rms=float(rms), form=grammar.show(tree, names),
+                expression=grammar.show(tree, names, c),
+                canonical=grammar.canonical(grammar.to_sympy(tree, c, symbols), symbols if len(names) > 1 else symbols[0]),
+                converged=bool(converged), constants=int(len(c)), engine=engine)
+
+
+def regress(path: Path, x_column, y_column: str, out: Path, max_complexity: int = 12, ops: str = "+-*/",
+            starts: int = 2, iterations: int = 10, refine: int = 8, polish_starts: int = 4, seed: int = 0,
+            log=print, noise: float | None = None, engine: str = "auto") -> list[dict]:
+    """Runs the search of y on the file's x column(s) (a name, or a list of up to 3); writes
+    out/front.csv and out/front.png; returns the front, its selected member marked (`select`;
+    `noise` the data's standard deviation if known).
+
+    `engine`: "exhaustive" (every form up to max_complexity), "operon" (pyoperon alone), "both"
+    (exhaustive as far as it reaches in EXHAUSTIVE_SECONDS, pyoperon to max_complexity, one
+    merged front) or "auto" (exhaustive where it reaches max_complexity, else both)."""
+    x_columns = [c.strip() for c in x_column.split(",")] if isinstance(x_column, str) else list(x_column)
+    if not 1 <= len(x_columns) <= grammar.VARIABLES_MAX or not all(x_columns):
+        raise RegressError(f"--x {','.join(x_columns)!r}: give 1 to {grammar.VARIABLES_MAX} column names, comma-separated")
+    if engine not in ENGINES:
+        raise RegressError(f"--engine {engine!r}: give one of {', '.join(ENGINES)}")
     if not 1 <= max_complexity <= MAX_COMPLEXITY:
         raise RegressError(f"--max-complexity {max_complexity}: give an integer in [1, {MAX_COMPLEXITY}]")
     if noise is not None and not (math.isfinite(noise) and noise > 0):
         raise RegressError(f"--noise {noise}: give the data's noise level, a number > 0")
-    x, y = read_columns(Path(path), x_column, y_column)
-    check_columns(Path(path), x, y, x_column, y_column)
-    forms = grammar.enumerate_forms(max_complexity, ops)
-    if not forms:
-        raise RegressError(f"no expression of complexity <= {max_complexity} uses only the operations {' '.join(ops)}")
-    most = max(grammar.constants(e) for e in forms)
-    if x.size <= most:
-        raise RegressError(f"{path}: {x.size} data points, but expressions up to complexity {max_complexity} have up "
-                           f"to {most} constants; give at least {most + 1} points or a lower --max-complexity")
-    from .search import SCREEN_POINTS
-    estimate = COMPILE_S + len(forms) * starts * min(x.size, SCREEN_POINTS) * (iterations / 20) / SCREEN_RATE
-    log(f"{path}: {x.size} points; searching {len(forms)} expressions up to complexity {max_complexity} "
-        f"with operations {' '.join(ops)}: about {estimate:.0f} s on a 2-core machine")
-    import sympy as sp
+    if y_column in x_columns:
+        raise RegressError(f"--x and --y name the same column {y_column!r}")
+    *xs, y = read_table(Path(path), x_columns + [y_column], ["--x"] * len(x_columns) + ["--y"])
+    for values, name in zip(xs, x_columns):
+        check_columns(Path(path), values, y, name, y_column)
+    x = np.stack(xs)
+    names = variable_names(x_columns)
+    reach = exhaustive_reach(len(names), y.size, max_complexity, ops, EXHAUSTIVE_SECONDS)
+    if engine == "auto":
+        engine = "exhaustive" if reach >= max_complexity else "both"
+    depth = max_complexity if engine == "exhaustive" else reach if engine == "both" else 0
+    if engine == "both" and depth == 0:
+        engine = "operon"
+    candidates = []         # (tree, constants, rms, converged, engine)
+    found = None
+    if depth:
+        forms = grammar.enumerate_forms(depth, ops, len(names))
+        if not forms:
+            raise RegressError(f"no expression of complexity <= {depth} uses only the operations {' '.join(ops)}")
+        most = max(grammar.constants(e) for e in forms)
+        if y.size <= most:
+            raise RegressError(f"{path}: {y.size} data points, but expressions up to complexity {depth} have up "
+                               f"to {most} constants; give at least {most + 1} points or a lower --max-complexity")
+        log(f"{path}: {y.size} points, {len(names)} variable{'s' * (len(names) > 1)}; searching {len(forms)} "
+            f"expressions up to complexity {depth} with operations {' '.join(ops)}: about "
+            f"{estimate_seconds(len(forms), y.size, starts, iterations):.0f} s on a 2-core machine")
+        from . import search
 
-    from . import search
+        found = search.search(x, y, depth, ops, starts, iterations, refine, polish_starts, seed, progress=log)
+        for i in found["front"]:
+            candidates.append((found["forms"][i], found["constants"][i][:found["constant_count"][i]], found["rms"][i],
+                               found["converged"].get(i, False), "exhaustive"))
+    if engine in ("operon", "both"):
+        from . import operon
 
-    name = variable_name(x_column)
-    symbol = sp.Symbol(name)
-    found = search.search(x, y, max_complexity, ops, starts, iterations, refine, polish_starts, seed, progress=log)
-    front = []
-    for i in found["front"]:
-        e, c = found["forms"][i], found["constants"][i][:found["constant_count"][i]]
-        front.append(dict(complexity=int(found["complexity"][i]), rms=float(found["rms"][i]),
-                          form=search.show(e, name), expression=search.show(e, name, c),
-                          canonical=search.canonical(search.to_sympy(e, c, symbol), symbol),
-                          converged=found["converged"].get(i, False), constants=int(len(c))))
+        log(f"pyoperon to complexity {max_complexity} ({operon.GENERATIONS} generations of {operon.POPULATION}, "
+            f"at most {operon.SECONDS} s)" + (f": the exhaustive search reaches {depth} in {EXHAUSTIVE_SECONDS:.0f} s"
+                                              if depth else ""))
+        models = operon.operon_models(x, y, max_complexity, ops, seed)
+        for tree, c, rms, ok in operon.polished(models, x, y, seed):
+            candidates.append((tree, c, rms, ok, "operon"))
+        log(f"pyoperon: {len(models)} models on its front within complexity {max_complexity}, polished in float64")
+    front = _merged_front(candidates, names, y)
     sigma = noise if noise is not None else rounding_noise(y)
-    best = select(front, x.size, sigma, len(ops) + 2)
+    best = select(front, y.size, sigma, len(ops) + 1 + len(names))
     how = (f"noise {sigma:.3g} given" if noise is not None else
            f"noise {sigma:.3g}, the rounding floor of y" if sigma else "noise unknown")
     log(f"selected by description length ({how}): complexity {front[best]['complexity']}, "
         f"{front[best]['expression']}")
-
-    _write(Path(out), front, f"{Path(path).name}: {y_column} against {x_column}", x, y, found, name)
+    # every expression fitted, for the figure: the exhaustive search's and pyoperon's polished models
+    others = [m for m in candidates if m[4] != "exhaustive"]
+    everything = dict(complexity=np.array([grammar.complexity(t) for t, *_ in others], dtype=int),
+                      rms=np.array([r for _, _, r, _, _ in others], dtype=float), forms=[t for t, *_ in others])
+    if found is not None:
+        everything = dict(complexity=np.concatenate([found["complexity"], everything["complexity"]]),
+                          rms=np.concatenate([found["rms"], everything["rms"]]), forms=found["forms"] + everything["forms"])
+    _write(Path(out), front, f"{Path(path).name}: {y_column} against {', '.join(x_columns)}", x, y, everything)
     return front
 
 
-def _write(out: Path, front, title, x, y, found, name) -> None:
+def _merged_front(candidates, names, y) -> list[dict]:
+    """The Pareto front of complexity against RMS over every engine's candidates; a member's
+    `engine` says which engine found it ("both" where both reached its RMS within 1e-6 at its
+    complexity)."""
+    from .search import pareto_front
+
+    size = np.array([grammar.complexity(t) for t, *_ in candidates])
+    rms = np.array([r if np.isfinite(r) else np.inf for _, _, r, _, _ in candidates])
+    # the exhaustive search's candidates first, so that a tie is its member
+    order = np.array(sorted(range(len(candidates)), key=lambda k: candidates[k][4] != "exhaustive"))
+    front = []
+    for i in pareto_front(size[order], rms[order], 1e-12 * (np.std(y) + np.max(np.abs(y)))):
+        k = order[i]
+        tree, c, r, ok, engine = candidates[k]
+        both = any(candidates[j][4] != engine and size[j] <= size[k] and rms[j] <= r * (1 + 1e-6) + 1e-300
+                   for j in range(len(candidates)))
+        front.append(_member(tree, c, r, ok, names, "both" if both else engine))
+    return front
+
+
+def _write(out: Path, front, title, x, y, found) -> None:
     """front.csv and front.png, published together (`pipeline.engine.publishing`: a temporary folder
     renamed into place under a lock, so a failure or a second writer leaves nothing half written)."""
     from ..engine.cache import digest
@@ -185,7 +282,7 @@ def _write(out: Path, front, title, x, y, found, name) -> None:
 
 
 FRONT_COLUMNS = ("complexity", "rms", "form", "expression", "canonical", "max_rel_to_exact",
-                 "max_energy_excess", "equivalent_to_exact", "constants", "description_length", "selected")
+                 "max_energy_excess", "equivalent_to_exact", "constants", "description_length", "selected", "engine")
 
 
 def write_front_csv(path, front) -> None:
@@ -209,10 +306,16 @@ def symbolic_front_figure(path, front, found, title) -> None:
     sizes = sorted(set(int(k) for k in found["complexity"]))
     floor = 1e-16 * max(float(np.max(found["rms"][np.isfinite(found["rms"])])), 1e-300)
     best = [max(float(np.min(found["rms"][found["complexity"] == k])), floor) for k in sizes]
-    ax.plot(sizes, best, "o", color="0.75", ms=5, label=f"best expression at each complexity ({len(found['forms'])} searched)")
+    ax.plot(sizes, best, "o", color="0.75", ms=5, label=f"best expression at each complexity ({len(found['forms'])} fitted)")
     xs, ys = [m["complexity"] for m in front], [max(m["rms"], floor) for m in front]
     ax.step(xs + [sizes[-1] + 1], ys + [ys[-1]], where="post", color="C0", label="front")
-    ax.plot(xs, ys, "o", color="C0", ms=7)
+    for engine, color, label in (("exhaustive", "C0", "found by the exhaustive search"), ("operon", "C1", "found by pyoperon"),
+                                 ("both", "C2", "found by both engines")):
+        at = [(x_, y_) for m, x_, y_ in zip(front, xs, ys) if m.get("engine", "exhaustive") == engine]
+        if at and (engine != "exhaustive" or any(m.get("engine") != "exhaustive" for m in front)):
+            ax.plot(*zip(*at), "o", color=color, ms=7, label=label)
+        elif at:
+            ax.plot(*zip(*at), "o", color=color, ms=7)
     chosen = [(x_, y_) for m, x_, y_ in zip(front, xs, ys) if m.get("selected")]
     if chosen:
         ax.plot(*chosen[0], "o", ms=15, mfc="none", mec="C3", mew=2, label="selected (least description length)")

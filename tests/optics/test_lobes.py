@@ -43,8 +43,11 @@ def test_clamping_past_the_zero_crossing():
     assert np.cos(x0) == pytest.approx(1 - 1 / k)
     assert float(linear_power(x0 + 1e-6, k)) == 0.0
     assert float(linear_power(x0 - 1e-3, k)) > 0.0
-    # With k < 1 the zero crossing lies past the horizon.
+    # With k < 1 the zero crossing lies past the horizon; with k <= 1/2 there is none (the lobe,
+    # (1 - 2 k)^m at the antipode, is positive everywhere) and the integral runs over the whole sphere.
     assert float(gran(0.995)) > np.pi / 2
+    assert float(gran(0.5)) == pytest.approx(np.pi) and float(gran(0.3)) == pytest.approx(np.pi)
+    assert float(linear_power(np.pi, 0.3)) == pytest.approx((1 - 2 * 0.3) ** 2)
 
 
 def test_f_Q2_is_the_papers_formula():

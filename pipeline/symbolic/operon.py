@@ -1,0 +1,69 @@
+"""pyoperon (genetic programming, Burlacu et al.) as a second engine of `pipeline regress`, for where
+the exhaustive search does not reach: every variable, any complexity, in about a minute.
+
+Its Pareto front (RMS against length) is read back into the grammar of `pipeline.symbolic.grammar`:
+each model's text parsed (its numbers as constants), constant-only subtrees folded to one constant
+(`fold_constants`: pyoperon writes scale and offset terms and products of constants), its complexity
+recomputed TuringBot's way, and its constants polished in float64 by the pipeline's own fit from
+pyoperon's values (pyoperon 0.6.2 fits in float32: its `fit` fails on float64 input).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from . import grammar
+
+# pyoperon's settings: objectives RMS and length, Levenberg-Marquardt on the constants of every
+# offspring (optimizer_iterations > 0: its default 0 never tunes a constant), one thread per core.
+GENERATIONS = 300
+POPULATION = 1000
+SECONDS = 60            # pyoperon stops here if its generations are not done (many points)
+OPTIMIZER_ITERATIONS = 10
+SYMBOLS = {"+": "add", "-": "sub", "*": "mul", "/": "div"}
+
+
+def operon_models(x, y, max_complexity: int, ops: str = "+-*/", seed: int = 0, threads: int = 2,
+                  generations: int | None = None, population: int | None = None) -> list[tuple]:
+    """pyoperon's Pareto front on x (variables, points) and y, as (tree, constants) in the grammar,
+    constant-only subtrees folded; models above `max_complexity` or not in the grammar are left out.
+    `generations` and `population` default to GENERATIONS and POPULATION."""
+    import warnings
+
+    from pyoperon.sklearn import SymbolicRegressor
+
+    x, y = np.atleast_2d(np.asarray(x, dtype=np.float64)), np.asarray(y, dtype=np.float64)
+    symbols = ",".join([SYMBOLS[op] for op in ops] + ["constant", "variable"])
+    regressor = SymbolicRegressor(
+        allowed_symbols=symbols, objectives=["rmse", "length"], optimizer_iterations=OPTIMIZER_ITERATIONS,
+        max_length=2 * max_complexity, max_depth=max(4, max_complexity), generations=generations or GENERATIONS,
+        population_size=population or POPULATION, max_evaluations=10**7, max_time=SECONDS, n_threads=threads, random_state=seed)
+    with warnings.catch_warnings():
+        # pyoperon says it adds its scale and offset terms (the rmse objective needs them)
+        warnings.simplefilter("ignore", UserWarning)
+        regressor.fit(x.T.astype(np.float32), y.astype(np.float32))
+    names = [f"X{k + 1}" for k in range(x.shape[0])]
+    out, seen = [], set()
+    for model in regressor.pareto_front_:
+        values = []
+        try:
+            tree = grammar.parse(regressor.get_model_string(model["tree"], 17, names), names, values)
+        except ValueError:
+            continue            # a symbol outside the grammar
+        tree, values = grammar.fold_constants(tree, values)
+        if grammar.complexity(tree) <= max_complexity and repr(tree) not in seen and np.all(np.isfinite(values)):
+            seen.add(repr(tree))
+            out.append((tree, np.array(values)))
+    return out
+
+
+def polished(models, x, y, seed: int = 0):
+    """(tree, constants, rms, converged) of each model, its constants refitted in float64 by the
+    pipeline's fit from pyoperon's values and from 3 more starts (`search.fit_forms`)."""
+    from . import search
+
+    if not models:
+        return []
+    fits = search.fit_forms([tree for tree, _ in models], x, y, starts=4, seed=seed,
+                            initial=[values for _, values in models])
+    return [(tree, c, rms, ok) for (tree, _), (c, rms, ok) in zip(models, fits)]
