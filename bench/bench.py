@@ -140,7 +140,7 @@ def main() -> int:
         line = next(s for s in out.splitlines() if "symbolic_regression computed in" in s)
         stage = float(line.split("computed in")[1].split("s")[0])
         rows.append(("symbolic regression, cold", stage, None,
-                     f"stage alone, complexity <= 12, compile included; target <= 10 s "
+                     "stage alone, complexity <= 12, compile included; target <= 10 s "
                      + ("ok" if stage <= 10 else "MISSED")))
         # The machine-code stage alone, cold (fresh cache): what it adds to a cold run.
         _, out = timed([py, "-m", "pipeline", "reproduce", "--only", "gpu_isa"],
