@@ -215,6 +215,7 @@ def regress(path: Path, x_column, y_column: str, out: Path, max_complexity: int 
             f"{estimate_seconds(len(forms), y.size, starts, iterations):.0f} s on a 2-core machine")
         from . import search
 
+        log(f"fitting on JAX's default device: {search.jax.devices()[0].platform.upper()}")
         found = search.search(x, y, depth, ops, starts, iterations, refine, polish_starts, seed, progress=log)
         for i in found["front"]:
             candidates.append((found["forms"][i], found["constants"][i][:found["constant_count"][i]], found["rms"][i],
@@ -229,7 +230,13 @@ def regress(path: Path, x_column, y_column: str, out: Path, max_complexity: int 
         for tree, c, rms, ok in operon.polished(models, x, y, seed):
             candidates.append((tree, c, rms, ok, "operon"))
         log(f"pyoperon: {len(models)} models on its front within complexity {max_complexity}, polished in float64")
-    front = _merged_front(candidates, names, y)
+    front, fits = _merged_front(candidates, names, y)
+    rows, share = dominating_rows(fits, x, y)
+    if rows:
+        where = ", ".join(f"data row {i + 1} ({', '.join(f'{n}={v:g}' for n, v in zip(x_columns, x[:, i]))}, "
+                          f"{y_column}={y[i]:g})" for i in rows)
+        log(f"warning: {where} hold{'s' * (len(rows) == 1)} more than half the squared error of {share} of the "
+            f"front members without a pole among the data: an outlier dominates the fit; check that row")
     sigma = noise if noise is not None else rounding_noise(y)
     best = select(front, y.size, sigma, len(ops) + 1 + len(names))
     how = (f"noise {sigma:.3g} given" if noise is not None else
@@ -247,24 +254,64 @@ def regress(path: Path, x_column, y_column: str, out: Path, max_complexity: int 
     return front
 
 
-def _merged_front(candidates, names, y) -> list[dict]:
-    """The Pareto front of complexity against RMS over every engine's candidates; a member's
-    `engine` says which engine found it ("both" where both reached its RMS within 1e-6 at its
-    complexity)."""
+def pole_in_range(tree, c, x) -> bool:
+    """Whether a member of one variable has a pole within the range of x (a real root of its
+    denominator, by sympy)."""
+    import sympy as sp
+
+    if x.shape[0] != 1:
+        return False
+    t = sp.Symbol("t")
+    _, den = sp.fraction(sp.cancel(sp.together(grammar.to_sympy(tree, c, t))))
+    if t not in den.free_symbols:
+        return False
+    roots = [complex(r) for r in sp.Poly(den, t).nroots()]
+    return any(abs(r.imag) <= 1e-9 * max(abs(r), 1.0) and x.min() <= r.real <= x.max() for r in roots)
+
+
+def dominating_rows(fits, x, y, share: float = 0.5) -> tuple[list[int], int]:
+    """The data rows (at most 3) that hold more than `share` of the squared error of most front
+    members (fits: (tree, constants) per member), and of how many: an outlier that dominates the
+    fit. A member with a pole within the data's range is not asked (a rational member puts its pole
+    on the outlier)."""
+    fits = [(tree, c) for tree, c in fits if not pole_in_range(tree, c, x)]
+    rows, count, flagged = [], 0, {}
+    for tree, c in fits:
+        r2 = (grammar.evaluate_numpy(tree, c, x) - y) ** 2
+        total = float(np.sum(r2))
+        if not total > 0 or not np.isfinite(total):
+            continue
+        top = np.argsort(r2)[::-1][:3]
+        needed = int(np.searchsorted(np.cumsum(r2[top]), share * total, side="right"))   # rows past the share
+        if needed < top.size:
+            key = tuple(sorted(int(i) for i in top[:needed + 1]))
+            flagged[key] = flagged.get(key, 0) + 1
+    if flagged:
+        key, count = max(flagged.items(), key=lambda kv: kv[1])
+        if count > len(fits) / 2:
+            rows = list(key)
+    return rows, count
+
+
+def _merged_front(candidates, names, y):
+    """The Pareto front of complexity against RMS over every engine's candidates, and each member's
+    (tree, constants); a member's `engine` says which engine found it ("both" where both reached
+    its RMS within 1e-6 at its complexity)."""
     from .search import pareto_front
 
     size = np.array([grammar.complexity(t) for t, *_ in candidates])
     rms = np.array([r if np.isfinite(r) else np.inf for _, _, r, _, _ in candidates])
     # the exhaustive search's candidates first, so that a tie is its member
     order = np.array(sorted(range(len(candidates)), key=lambda k: candidates[k][4] != "exhaustive"))
-    front = []
+    front, fits = [], []
     for i in pareto_front(size[order], rms[order], 1e-12 * (np.std(y) + np.max(np.abs(y)))):
         k = order[i]
         tree, c, r, ok, engine = candidates[k]
         both = any(candidates[j][4] != engine and size[j] <= size[k] and rms[j] <= r * (1 + 1e-6) + 1e-300
                    for j in range(len(candidates)))
         front.append(_member(tree, c, r, ok, names, "both" if both else engine))
-    return front
+        fits.append((tree, c))
+    return front, fits
 
 
 def _write(out: Path, front, title, x, y, found) -> None:

@@ -1,21 +1,24 @@
-"""Exhaustive symbolic regression in one variable (the method of Bartlett et al. 2022).
+"""Exhaustive symbolic regression in up to three variables (the method of Bartlett et al. 2022).
 
-Every distinct expression of `pipeline.symbolic.grammar` (fitted constants, the variable, +, -, *, /)
-is enumerated up to a complexity; the constants of each are fitted by least squares, and the
+Every distinct expression of `pipeline.symbolic.grammar` (fitted constants, the variables, +, -,
+*, /) is enumerated up to a complexity; the constants of each are fitted by least squares, and the
 Pareto front of complexity against RMS error is read off. The front is complete under the stated
 complexity measure: no expression of the grammar at or below a complexity fits better than the
-front's member there, up to the constant fitting, which is local and restarted (the tests run the
-same search over every tree of the grammar, unreduced, as an oracle).
+front's member there, within the fit's tolerance (the tests refit every expression from starts of
+their own, and run the search over every tree of the unreduced grammar, as oracles).
 
-Fitting runs every register program of a block at once (vmapped), on fixed block shapes, so that
-a search compiles three XLA programs whatever its size: a cheap fixed-step Levenberg-Marquardt
-screens every form, and optimistix's Levenberg-Marquardt refits the best of each complexity to
-convergence.
+The fit (`_fit_one`) is variable projection: the constants an expression is affine in are solved
+by linear least squares in every step and only the others iterated, by Levenberg-Marquardt. Every
+form is screened by a few steps from deterministic starts (the same for every form), again from
+more starts where they disagree, and the best of each complexity refitted until the RMS no longer
+improves. Every register program of a block runs at once (vmapped), on fixed block shapes, so that
+a search compiles three XLA programs whatever its size.
 
 Any number of points, in bounded memory: beyond `SCREEN_POINTS` points the screening runs on a
-subsample that spans x (evenly spaced in x's order), the refits run on every point, and every
-other form's screened constants are evaluated on every point; the rows of a block shrink as the
-points grow (`_rows_for`), so that no block holds more than about `BLOCK_VALUES` values.
+subsample that spans x (evenly spaced in the order of each variable), every form's screened
+constants are evaluated on every point, the refits run on the subsample and the best of each
+complexity once more on every point; the rows of a block shrink as the points grow (`_rows_for`),
+so that no block holds more than about `BLOCK_VALUES` values.
 """
 
 from __future__ import annotations
@@ -28,14 +31,16 @@ from ..optics.numerics import jax
 import jax.numpy as jnp  # noqa: E402
 
 # Screening and polishing run on fixed block shapes, so that a search compiles a handful of
-# programs whatever its size: rows per block, and the constant counts forms are padded to.
-BLOCK_ROWS = 1024
+# programs whatever its size: rows per block (of the fits, and of the evaluation on every point),
+# and the constant counts forms are padded to.
 POLISH_ROWS = 256
+BLOCK_ROWS = 1024
 SMALL_CONSTANTS = 2     # forms with at most this many constants are screened in narrower blocks
 MIN_STEPS = 12      # programs are at least this long ...
 MIN_WIDTH = 5       # ... and fits have at least this many constants: searches up to 12 share shapes
-AGREE = 1e-3           # starts within this relative sum of squares of the best reached the same optimum
-SCREEN_POINTS = 256     # screening subsample beyond this many points
+AGREE = 1e-3            # starts within this relative sum of squares of the best reached the same optimum;
+SECOND_PASS = 2         # where only one did, SECOND_PASS x starts more starts
+SCREEN_POINTS = 64      # screening subsample beyond this many points
 BLOCK_VALUES = 2**22    # rows x points x program steps of one block, at most (about)
 
 
@@ -95,14 +100,15 @@ def _fit_one(program, linear, c0, x, y, iterations, tail, refine):
     """Levenberg-Marquardt on the nonlinear constants with the linear ones projected out (Kaufman's
     variable projection: the joint Gauss-Newton system, damped on the nonlinear constants only,
     then the linear constants solved exactly at the trial point); a step is kept only if it lowers
-    the sum of squares. `iterations` steps, then `tail` more: converged if those no longer lower
-    the sum of squares by more than 1e-9 relative (the objective is judged, not the constants, so
-    that a degenerate optimum, a double pole say, is kept). Returns (constants, sum of squares,
+    the sum of squares. With `tail` = 0 (the screening), `iterations` steps. Else at most
+    `iterations`, stopping once `tail` steps in a row have not lowered the sum of squares by more
+    than 1e-9 relative: converged (the objective is judged, not the constants, so that a
+    degenerate optimum, a double pole say, is kept). Returns (constants, sum of squares,
     converged)."""
     nonlinear = 1.0 - linear
 
-    def step(i, state):
-        c, damping, r, J, current, before = state
+    def step(state):
+        i, c, damping, r, J, current, reference, since = state
         H, g = J.T @ J, J.T @ r
         d = jnp.diag(H) * nonlinear
         trial = c - _solve(H + damping * jnp.diag(d) + 1e-12 * (jnp.max(d) + 1.0) * jnp.diag(nonlinear), g) * nonlinear
@@ -110,14 +116,20 @@ def _fit_one(program, linear, c0, x, y, iterations, tail, refine):
         better = cost < current
         keep = lambda new, old: jnp.where(better, new, old)
         current = keep(cost, current)
-        return (keep(trial, c), jnp.where(better, damping / 3.0, jnp.minimum(damping * 4.0, 1e30)), keep(r_t, r),
-                keep(J_t, J), current, jnp.where(i == iterations, current, before))
+        gained = current < reference * (1.0 - 1e-9)
+        return (i + 1, keep(trial, c), jnp.where(better, damping / 3.0, jnp.minimum(damping * 4.0, 1e30)),
+                keep(r_t, r), keep(J_t, J), current, jnp.where(gained, current, reference),
+                jnp.where(gained, 0, since + 1))
+
+    def going(state):
+        i, since = state[0], state[-1]
+        return (i <= iterations) & ~((tail > 0) & (since >= tail))
 
     # Step 0 from a zero Jacobian is the projection of c0 itself (one traced copy of the step).
-    zero = jnp.zeros_like(y)
-    start = (c0, jnp.asarray(1e-3), zero, jnp.zeros(y.shape + c0.shape), jnp.asarray(jnp.inf), jnp.asarray(jnp.inf))
-    c, _, _, _, s, before = jax.lax.fori_loop(0, iterations + tail + 1, step, start)
-    return c, s, (before - s) <= 1e-9 * before
+    start = (jnp.asarray(0), c0, jnp.asarray(1e-3), jnp.zeros_like(y), jnp.zeros(y.shape + c0.shape),
+             jnp.asarray(jnp.inf), jnp.asarray(jnp.inf), jnp.asarray(0))
+    _, c, _, _, _, s, _, since = jax.lax.while_loop(going, step, start)
+    return c, s, since >= tail
 
 
 @jax.jit
@@ -218,7 +230,7 @@ def _best_per_form(form_of_row, s, forms: int):
 
 def search(x, y, max_complexity: int, ops: str = "+-*/", starts: int = 2, iterations: int = 10,
            refine: int = 8, polish_starts: int = 4, seed: int = 0, progress=None, forms=None,
-           polish_iterations: int = 100):
+           polish_iterations: int = 200):
     """The exhaustive search: every kept form up to `max_complexity` screened with `iterations`
     steps of the variable-projection fit (`_fit_one`), from one start if all its constants enter
     linearly, else from `starts` starts and, where only one start reached the best (several
@@ -261,7 +273,10 @@ def search(x, y, max_complexity: int, ops: str = "+-*/", starts: int = 2, iterat
             repeats = np.where(nonlinear_count[group] > 0, count_, 1)
             rows = np.repeat(group, repeats)
             k = first + np.concatenate([np.arange(r) for r in repeats])
-            c, s, _ = _fit(program[rows], linear[rows, :w], start[k, :w], x_s, y_s, BLOCK_ROWS, iterations, 0)
+            # (data per row, as in the refits, so that the widest screening and the refits share one
+            # compiled program)
+            c, s, _ = _fit(program[rows], linear[rows, :w], start[k, :w], np.broadcast_to(x_s, (rows.size,) + x_s.shape),
+                           np.broadcast_to(y_s, (rows.size,) + y_s.shape), POLISH_ROWS, iterations, 0)
             s = np.where(np.isfinite(s), s, np.inf)
             best = _best_per_form(rows, s, len(forms))[group]
             better = s[best] < sum_sq[group]
@@ -279,9 +294,9 @@ def search(x, y, max_complexity: int, ops: str = "+-*/", starts: int = 2, iterat
         progress(f"screened {len(forms)} forms" + (f" on {sub.size} of the {y.size} points" if sub.size < y.size else ""))
     if starts > 1 and not agree.all():
         again = np.flatnonzero(~agree)
-        screen(again, starts, 3 * starts)
+        screen(again, starts, SECOND_PASS * starts)
         if progress:
-            progress(f"screened {again.size} forms with several optima from {3 * starts} more starts")
+            progress(f"screened {again.size} forms with several optima from {SECOND_PASS * starts} more starts")
     subsampled = sub.size < y.size
     if subsampled:              # every form's screened constants on every point
         sum_sq = sums_of_squares(program, fitted, x, y)

@@ -79,7 +79,7 @@ def test_regress_refuses_columns_no_search_can_fit(tmp_path, rows, message):
     assert not out.exists() and (not (tmp_path / "out").exists() or not list((tmp_path / "out").iterdir()))
 
 
-def test_model_selection_marks_the_true_family_and_outliers_are_named(tmp_path):
+def test_model_selection_marks_the_true_family(tmp_path):
     """On 3 t / (t + 2) with Gaussian noise (sigma 0.01, given) the member of least description length is the true form's
     family (the larger members fit the noise). After a successful run no lock file is left beside
     the output folder."""
@@ -97,6 +97,24 @@ def test_model_selection_marks_the_true_family_and_outliers_are_named(tmp_path):
         rows = list(csv.DictReader(f))
     assert [r["selected"] for r in rows].count("True") == 1
     assert sorted(p.name for p in out.parent.iterdir()) == ["noisy"]
+    assert not any(line.startswith("warning") for line in said)
+
+
+def test_an_outlier_that_dominates_the_fit_is_named(tmp_path):
+    """The same data with one y set to 40 (the curve is below 3): a warning names that row (its
+    number in the file and its values), since it holds more than half the squared error of most
+    front members; the front is still written."""
+    rng = np.random.default_rng(4)
+    t = np.linspace(0.5, 20.0, 60)
+    v = 3 * t / (t + 2) + rng.normal(0, 0.01, t.size)
+    v[17] = 40.0
+    data = tmp_path / "outlier.csv"
+    data.write_text("t,v\n" + "".join(f"{float(a)!r},{float(b)!r}\n" for a, b in zip(t, v)))
+    said = []
+    regress(data, "t", "v", tmp_path / "out", max_complexity=8, log=said.append)
+    warnings = [line for line in said if line.startswith("warning")]
+    assert len(warnings) == 1 and "data row 18 (" in warnings[0] and "v=40" in warnings[0], said
+    assert (tmp_path / "out" / "front.csv").exists()
 
 
 def test_rounded_data_takes_its_rounding_floor_as_noise():

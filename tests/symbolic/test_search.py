@@ -62,8 +62,9 @@ def test_no_form_s_best_constants_beat_the_front():
     program, linear = symbolic.programs(forms, symbolic.MIN_STEPS), symbolic.linear_masks(forms, width)
     starts = np.random.default_rng(12345).uniform(-4.0, 4.0, (K, width))
     rows = np.repeat(np.arange(len(forms)), K)
-    _, s, _ = symbolic._fit(program[rows], linear[rows], starts[np.tile(np.arange(K), len(forms))], t[None], y,
-                            symbolic.BLOCK_ROWS, 40, 0)
+    _, s, _ = symbolic._fit(program[rows], linear[rows], starts[np.tile(np.arange(K), len(forms))],
+                            np.broadcast_to(t, (rows.size, 1, t.size)), np.broadcast_to(y, (rows.size, t.size)),
+                            symbolic.POLISH_ROWS, 40, 0)
     best = np.full(len(forms), np.inf)
     np.minimum.at(best, rows, np.where(np.isfinite(s), s, np.inf))
     oracle_rms = np.sqrt(best / t.size)
