@@ -171,7 +171,7 @@ SCHEMA: tuple[Key, ...] = (
         lambda v: isinstance(v, str) and len(v) >= 1 and len(set(v)) == len(v) and set(v) <= set("+-*/"),
         "operations of the symbolic-regression grammar"),
     Key("symbolic.starts", 2, "an integer in [1, 64]", lambda v: _is_int(v) and 1 <= v <= 64,
-        "deterministic starts of the nonlinear constants per expression in the screening fit (3x more "
+        "deterministic starts of the nonlinear constants per expression in the screening fit (2x more "
         "where only one start reached the best)"),
     Key("symbolic.iterations", 10, "an integer in [1, 1000]", lambda v: _is_int(v) and 1 <= v <= 1000,
         "variable-projection Levenberg-Marquardt steps per start in the screening fit"),

@@ -234,9 +234,9 @@ def search(x, y, max_complexity: int, ops: str = "+-*/", starts: int = 2, iterat
     """The exhaustive search: every kept form up to `max_complexity` screened with `iterations`
     steps of the variable-projection fit (`_fit_one`), from one start if all its constants enter
     linearly, else from `starts` starts and, where only one start reached the best (several
-    optima), from `3 starts` more; the best `refine` forms of each complexity then refitted to
-    convergence from their screened constants and `polish_starts - 1` other starts. x is one
-    variable's points, or (variables, points).
+    optima), from `SECOND_PASS x starts` more; the best `refine` forms of each complexity then
+    refitted to convergence from their screened constants and `polish_starts - 1` other starts. x
+    is one variable's points, or (variables, points).
 
     Returns a dict: forms, complexity, rms (per form: refitted where refitted), constants,
     converged (refitted forms: the objective no longer improving), and front (indices of the forms
