@@ -173,7 +173,7 @@ SCHEMA: tuple[Key, ...] = (
     Key("symbolic.starts", 2, "an integer in [1, 64]", lambda v: _is_int(v) and 1 <= v <= 64,
         "deterministic starts of the nonlinear constants per expression in the screening fit (2x more "
         "where only one start reached the best)"),
-    Key("symbolic.iterations", 10, "an integer in [1, 1000]", lambda v: _is_int(v) and 1 <= v <= 1000,
+    Key("symbolic.iterations", 7, "an integer in [1, 1000]", lambda v: _is_int(v) and 1 <= v <= 1000,
         "variable-projection Levenberg-Marquardt steps per start in the screening fit"),
     Key("symbolic.refine", 8, "an integer in [1, 1000]", lambda v: _is_int(v) and 1 <= v <= 1000,
         "best screened expressions per complexity refitted to convergence"),

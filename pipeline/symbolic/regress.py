@@ -139,7 +139,7 @@ def variable_names(columns: list[str]) -> list[str]:
     return list(columns) if ok else ["x"] + [f"x{k}" for k in range(1, len(columns))]
 
 
-def estimate_seconds(forms: int, points: int, starts: int = 2, iterations: int = 10) -> float:
+def estimate_seconds(forms: int, points: int, starts: int = 2, iterations: int = 7) -> float:
     """About how long the exhaustive search of `forms` forms takes on the 2-core machine measured."""
     from .search import SCREEN_POINTS
 
@@ -169,7 +169,7 @@ def _member(tree, c, rms, converged, names, engine):
 
 
 def regress(path: Path, x_column, y_column: str, out: Path, max_complexity: int = 12, ops: str = "+-*/",
-            starts: int = 2, iterations: int = 10, refine: int = 8, polish_starts: int = 4, seed: int = 0,
+            starts: int = 2, iterations: int = 7, refine: int = 8, polish_starts: int = 4, seed: int = 0,
             log=print, noise: float | None = None, engine: str = "auto") -> list[dict]:
     """Runs the search of y on the file's x column(s) (a name, or a list of up to 3); writes
     out/front.csv and out/front.png; returns the front, its selected member marked (`select`;

@@ -228,9 +228,9 @@ def _best_per_form(form_of_row, s, forms: int):
     return best
 
 
-def search(x, y, max_complexity: int, ops: str = "+-*/", starts: int = 2, iterations: int = 10,
+def search(x, y, max_complexity: int, ops: str = "+-*/", starts: int = 2, iterations: int = 7,
            refine: int = 8, polish_starts: int = 4, seed: int = 0, progress=None, forms=None,
-           polish_iterations: int = 200):
+           polish_iterations: int = 100):
     """The exhaustive search: every kept form up to `max_complexity` screened with `iterations`
     steps of the variable-projection fit (`_fit_one`), from one start if all its constants enter
     linearly, else from `starts` starts and, where only one start reached the best (several
