@@ -48,16 +48,19 @@ def smith_g1_beckmann(cos_v, alpha):
     return np.where(a >= 1.6, 1.0, g)
 
 
-def projected_area(D, alpha, points: int = 20001) -> np.ndarray:
+def projected_area(D, alpha, points: int = 4001) -> np.ndarray:
     """int D(h) (n.h) dw_h over the hemisphere, per alpha, for D(t, i) a function of t = cos(theta_h)
-    (arrays) and the index i of the alpha; by the trapezoid rule on theta_h in [0, min(pi/2, 12 alpha)]
-    (Beckmann's D is below exp(-144) of its peak past 12 alpha)."""
+    (arrays) and the index i of the alpha; by Simpson's rule on theta_h in [0, min(pi/2, 12 alpha)]
+    (Beckmann's D is below exp(-144) of its peak past 12 alpha): about 5e-12 for cos^n and
+    Beckmann, 1e-8 for the clamped family (its zero crossing falls inside a cell)."""
+    from scipy.integrate import simpson
+
     alpha = np.atleast_1d(np.asarray(alpha, dtype=np.float64))
     top = np.minimum(0.5 * np.pi, 12.0 * alpha)
     theta = np.linspace(0.0, 1.0, points)[None, :] * top[:, None]
     t = np.cos(theta)
     integrand = D(t) * t * np.sin(theta) * 2.0 * np.pi
-    return np.trapezoid(integrand, theta, axis=1)
+    return simpson(integrand, x=theta, axis=1)
 
 
 def errors_against_beckmann(candidate, n, alpha, level, points: int = 4001):
