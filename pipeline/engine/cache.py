@@ -76,8 +76,16 @@ def _module_file(name: str) -> Path | None:
 def _imports(path: Path, module: str) -> set[str]:
     """Names of the `pipeline` modules that the file at `path` (module `module`) imports."""
     package = module if path.name == "__init__.py" else module.rsplit(".", 1)[0]
+    return {m for m in _imported_names(path.read_text(), package) if _module_file(m) is not None}
+
+
+@functools.cache
+def _imported_names(source: str, package: str) -> frozenset[str]:
+    """Every module name that `source` (a module of `package`) imports. Keyed on the text itself,
+    so that each file is parsed once per process however many stages import it, and again if it
+    changes."""
     found = set()
-    for node in ast.walk(ast.parse(path.read_text())):
+    for node in ast.walk(ast.parse(source)):
         if isinstance(node, ast.Import):
             found.update(a.name for a in node.names)
         elif isinstance(node, ast.ImportFrom):
@@ -90,7 +98,7 @@ def _imports(path: Path, module: str) -> set[str]:
             found.add(target)
             # `from . import x` imports submodule x.
             found.update(f"{target}.{a.name}" for a in node.names)
-    return {m for m in found if _module_file(m) is not None}
+    return frozenset(found)
 
 
 def direct_imports(module: str) -> set[str]:
