@@ -15,6 +15,8 @@ Per scene, exponent and candidate lobe, against the reference:
 - absolute error of linear radiance and the PSNR of the displayed images, as before.
 """
 
+import functools
+
 from ..optics.numerics import jax  # noqa: F401  (float64 before any array)
 import numpy as np
 
@@ -27,16 +29,30 @@ from ..optics.raytrace import SCENES, epicenter_mask, shade
 LOBES = (registry.REFERENCE, "f_2", "f_Q2")
 
 
+@functools.lru_cache(maxsize=4)
+def _base_display(scene_index: int, resolution: int) -> np.ndarray:
+    """The scene's 8-bit display without a specular term (coef 0): what a highlight brightens."""
+    return np.asarray(display_and_luminance(shade(SCENES[scene_index], resolution, "power", 1.0, 0.0))[0])
+
+
+@functools.lru_cache(maxsize=4)
+def _reference_image(scene_index: int, resolution: int, n: float, coef: float):
+    """(radiance, 8-bit display, luminance) of the reference cos^n at exponent n: shared by every
+    candidate at that n and by `reference`, computed once per stage run."""
+    radiance = shade(SCENES[scene_index], resolution, "power", n, coef)
+    display, lum = (np.asarray(v) for v in display_and_luminance(radiance))
+    return radiance, display, lum
+
+
 def candidate(scene_index: int, resolution: int, n: float, shape: str, p: float, coef: float, reference_coef: float,
               level: float, power: int = 2) -> dict:
     """One candidate lobe's image at exponent n against the reference cos^n (both with their coef):
     its display and luminance, FLIP map, visible-highlight mask of both, and its statistics. A
     memoized call: a candidate that does not depend on a setting (f_2 under a Q refit) is reused."""
     scene = SCENES[scene_index]
-    base8 = np.asarray(display_and_luminance(shade(scene, resolution, "power", 1.0, 0.0))[0])
-    ref = shade(scene, resolution, "power", n, reference_coef)
+    base8 = _base_display(scene_index, resolution)
+    ref, ref8, _ = _reference_image(scene_index, resolution, n, reference_coef)
     image = shade(scene, resolution, shape, p, coef, int(power))
-    ref8, _ = (np.asarray(v) for v in display_and_luminance(ref))
     image8, lum = (np.asarray(v) for v in display_and_luminance(image))
     epicenter = np.asarray(epicenter_mask(scene, resolution, n, level))
     fmap = flip_map(ref8, image8)
@@ -57,7 +73,7 @@ def candidate(scene_index: int, resolution: int, n: float, shape: str, p: float,
 
 def reference(scene_index: int, resolution: int, n: float, coef: float) -> dict:
     """The reference cos^n image: display and luminance."""
-    image8, lum = (np.asarray(v) for v in display_and_luminance(shade(SCENES[scene_index], resolution, "power", n, coef)))
+    _, image8, lum = _reference_image(scene_index, resolution, n, coef)
     return dict(display=image8, luminance=lum.astype(np.float32))
 
 
@@ -111,6 +127,8 @@ def run(config, inputs, memo):
                 area[registry.REFERENCE], area[name] = st.pop("reference_visible_pixels"), st.pop("visible_pixels")
                 stats.append(dict(scene=scene.name, n=n, lobe=name, coef=float(coef), d_bound=d_bound(name, n), **st))
             areas.append(area)
+    _base_display.cache_clear()
+    _reference_image.cache_clear()
     # The first scene at the largest exponent: f_Q2's visible highlight against the reference's.
     last = next(a for a in areas if a["scene"] == SCENES[0].name and a["n"] == max(exponents))
     return dict(lobes=list(LOBES), scenes=[s.name for s in SCENES], display=display, luminance=lum,
