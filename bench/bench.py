@@ -21,9 +21,9 @@ less than a time. Measured, each in a fresh cache and outputs folder:
   float32, as a shader would use; median of 9 repeats and the range), on the CPU and, where JAX sees
   one, on a GPU.
 
-Targets (the issue "Refits in seconds"): cold <= 10x floor, Q refit <= 5x, curve_points refit
-<= 3x, warm <= 1.2x, keys and bad config < 1 s, make test < 120 s; a Q refit `--only
-accuracy,hemispherical` <= 3x (the issue "The research loop").
+Targets (the issue "The research loop"): cold <= 12x floor, Q refit <= 8x, a Q refit `--only
+accuracy,hemispherical` <= 3x; (the issue "Refits in seconds") curve_points refit <= 3x, warm
+<= 1.2x, keys and bad config < 1 s; (the issue "The house in wings") make test < 120 s.
 """
 
 from __future__ import annotations
@@ -99,10 +99,10 @@ def main() -> int:
                    PIPELINE_OUTPUTS_DIR=os.path.join(tmp, "outputs"), JAX_ENABLE_X64="1", JAX_PLATFORMS="cpu")
         seconds, out = timed([py, "-c", COUNTED_REPRODUCE], env)
         compiles = next(s for s in out.splitlines() if s.startswith("XLA compilations"))
-        rows.append(("cold reproduce (empty cache)", seconds, 10.0, compiles))
+        rows.append(("cold reproduce (empty cache)", seconds, 12.0, compiles))
         seconds, out = timed([py, "-m", "pipeline", "refit", "--config", "configs/paper.toml", "--set",
                               "derivation.Q=0.55", "--set", "derivation.constants=fitted", "--out", "bench_q"], env)
-        rows.append(("refit derivation.Q=0.55", seconds, 5.0, recomputed(out)))
+        rows.append(("refit derivation.Q=0.55", seconds, 8.0, recomputed(out)))
         q_refit = seconds
         # Another power of the family: a refit of lobe.power must cost no more than a Q refit.
         seconds, out = timed([py, "-m", "pipeline", "refit", "--config", "configs/paper.toml", "--set", "lobe.power=4",

@@ -130,8 +130,7 @@ def spirv_binary(source: str, folder: Path, name: str, stage: str = "frag") -> P
     """GLSL `source` compiled by glslangValidator to SPIR-V, as folder/name."""
     src, out = folder / f"{name}.{stage}", folder / name
     src.write_text(source)
-    done = subprocess.run([spirv.tool("glslangValidator"), "-V", "-S", stage, str(src), "-o", str(out)],
-                          capture_output=True, text=True)
+    done = spirv.run_tool([spirv.tool("glslangValidator"), "-V", "-S", stage, str(src), "-o", str(out)])
     if done.returncode != 0:
         raise RuntimeError(f"glslangValidator failed on shader {name}:\n{done.stdout}{done.stderr}\n{source}")
     return out

