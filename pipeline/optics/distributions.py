@@ -69,16 +69,19 @@ def errors_against_beckmann(candidate, n, alpha, level, points: int = 4001):
     peak; D, the largest absolute error over theta_h in [0, pi/2], as a fraction of Beckmann's peak
     1 / (pi alpha^2). On a grid of `points` angles per n, scaled to alpha (up to 12 alpha or
     pi/2), where the grid resolves Beckmann's width with hundreds of points."""
+    return errors_against_beckmann_of_each([candidate], n, alpha, level, points)[0]
+
+
+def errors_against_beckmann_of_each(candidates, n, alpha, level, points: int = 4001) -> list:
+    """`errors_against_beckmann` of each of `candidates`, [(d, D), ...]: Beckmann's D on the grid and
+    the zone's edge are computed once for all of them."""
     n = np.asarray(n, dtype=np.float64)
     top = np.minimum(0.5 * np.pi, 12.0 * alpha)
     theta = np.linspace(0.0, 1.0, points)[None, :] * top[:, None]
     t = np.cos(theta)
     reference = beckmann(t, alpha[:, None])
     peak = 1.0 / (np.pi * alpha * alpha)
-    value = candidate(t)
     zone = reference >= level * peak[:, None]
-    relative = np.where(zone, np.abs(value / np.where(zone, reference, 1.0) - 1.0), 0.0)
-    absolute = np.abs(value - reference) / peak[:, None]
     # The zone's edge itself (a relative error is often largest there): bisection in the grid cell
     # where Beckmann's D falls below the level (it falls monotonically in theta).
     last = zone.sum(axis=1) - 1
@@ -89,5 +92,13 @@ def errors_against_beckmann(candidate, n, alpha, level, points: int = 4001):
         inside = beckmann(np.cos(mid), alpha) >= level * peak
         lo, hi = np.where(inside, mid, lo), np.where(inside, hi, mid)
     t_edge = np.cos(lo)[:, None]
-    edge = np.abs(candidate(np.broadcast_to(t_edge, (len(n), points)))[:, 0] / beckmann(t_edge[:, 0], alpha) - 1.0)
-    return np.maximum(relative.max(axis=1), edge), absolute.max(axis=1)
+    reference_edge = beckmann(t_edge[:, 0], alpha)
+    safe_reference = np.where(zone, reference, 1.0)
+    out = []
+    for candidate in candidates:
+        value = candidate(t)
+        relative = np.where(zone, np.abs(value / safe_reference - 1.0), 0.0)
+        absolute = np.abs(value - reference) / peak[:, None]
+        edge = np.abs(candidate(np.broadcast_to(t_edge, (len(n), points)))[:, 0] / reference_edge - 1.0)
+        out.append((np.maximum(relative.max(axis=1), edge), absolute.max(axis=1)))
+    return out

@@ -38,11 +38,14 @@ def run(config, inputs, memo):
                                                                    np.maximum(k * (t - 1.0) + 1.0, 0.0) ** m, 0.0)
     out = dict(alpha=alpha)
     curves_d, curves_D = [], []
-    for key in LOBES:
-        def D(t, key=key):
-            return coefs[key][:, None] * lobes[key](t)
-        area = ndf.projected_area(D, alpha)
-        d, D_abs = ndf.errors_against_beckmann(D, n, alpha, level)
+    candidates = {key: (lambda t, key=key: coefs[key][:, None] * lobes[key](t)) for key in LOBES}
+
+    def ggx(t):
+        return ndf.ggx(t, alpha[:, None])
+    # One Beckmann grid and zone edge for the lobes and GGX.
+    errors = ndf.errors_against_beckmann_of_each([*candidates.values(), ggx], n, alpha, level)
+    for key, (d, D_abs) in zip(LOBES, errors):
+        area = ndf.projected_area(candidates[key], alpha)
         out[f"coef_{key}"] = coefs[key]
         out[f"projected_area_max_abs_dev_{key}"] = float(np.max(np.abs(area - 1.0)))
         out[f"d_{key}_vs_beckmann"] = float(d.max())
@@ -51,7 +54,7 @@ def run(config, inputs, memo):
         out[f"D_{key}_vs_beckmann_at_n_max"] = float(D_abs[-1])
         curves_d.append(d)
         curves_D.append(D_abs)
-    d, D_abs = ndf.errors_against_beckmann(lambda t: ndf.ggx(t, alpha[:, None]), n, alpha, level)
+    d, D_abs = errors[-1]
     out |= dict(d_ggx_vs_beckmann=float(d.max()), D_ggx_vs_beckmann=float(D_abs.max()),
                 d_ggx_vs_beckmann_at_n_max=float(d[-1]), D_ggx_vs_beckmann_at_n_max=float(D_abs[-1]),
                 beckmann_projected_area_max_abs_dev=float(np.max(np.abs(
