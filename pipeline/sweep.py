@@ -18,8 +18,10 @@ Every point is validated before anything runs. Each point is a refit into
 The points run as Dask tasks: on a LocalCluster of this machine by default (one worker process per
 core, one thread each, and XLA limited to one thread per worker), or on an existing cluster
 (`--scheduler ADDRESS`, `--scheduler-file FILE`). A point that fails is reported with its message
-and does not stop the others; a point whose worker died is retried once. At the end the sweep
-writes `compare.csv` and `compare.png` (`pipeline compare`) into its folder.
+and does not stop the others; a point whose worker died is retried once. A point whose stages are
+all cached (a rerun) runs in this process, so a rerun with nothing to compute starts no Dask
+cluster at all. At the end the sweep writes `compare.csv` and `compare.png` (`pipeline compare`)
+into its folder.
 """
 
 from __future__ import annotations
@@ -175,21 +177,70 @@ def _client(scheduler: str | None, scheduler_file: str | None, workers: int | No
     return Client(cluster), cluster
 
 
+def _fully_cached(config_file: str, point: Point, only, cache_dir: str) -> bool:
+    """Whether every stage the point runs is in the cache (`pipeline explain` says "cached" for each):
+    such a point only reads the cache and (re)publishes its folder, and runs here, not on Dask."""
+    from .engine.cache import Cache
+    from .run import explain
+
+    try:
+        config = load_config(config_file, point.overrides, name=point.name)
+        return all(what == "cached" for _, what in explain(config, Cache(Path(cache_dir)), only))
+    except Exception:       # a damaged entry, say: the point's own run says what is wrong
+        return False
+
+
 def run_sweep(sweep: Sweep, scheduler: str | None = None, scheduler_file: str | None = None,
               workers: int | None = None, log=print) -> list[dict[str, Any]]:
-    """Runs every point on Dask; prints a progress line per finished point; writes the comparison."""
-    from distributed import wait
-
+    """Runs every point on Dask (a point whose stages are all cached here, without starting
+    Dask); prints a progress line per finished point; writes the comparison."""
     outputs = paths.OUTPUTS / sweep.name
-    client, cluster = _client(scheduler, scheduler_file, workers)
+    cache_dir = str(paths.CACHE)
     done: list[dict[str, Any]] = []
     start = time.perf_counter()
+
+    def report(result, running):
+        done.append(result)
+        elapsed = time.perf_counter() - start
+        left = len(sweep.points) - len(done)
+        eta = elapsed / len(done) * left
+        failed = sum(not r["ok"] for r in done)
+        log(f"[{len(done)}/{len(sweep.points)}] done {len(done) - failed}, failed {failed}, running "
+            f"{min(left, running)}, ETA {eta:.0f} s | {result['name']}: "
+            f"{'ok' if result['ok'] else 'FAILED'} ({result['message']}, {result['seconds']:.1f} s)")
+
+    cached = [p for p in sweep.points if _fully_cached(sweep.config, p, sweep.only, cache_dir)]
+    remote = [p for p in sweep.points if p not in cached]
+    if remote:
+        _run_on_dask(sweep, remote, outputs, cache_dir, scheduler, scheduler_file, workers, log, report,
+                     before=lambda: _run_here(sweep, cached, outputs, cache_dir, report))
+    else:
+        log(f"sweep '{sweep.name}': every stage of its {len(cached)} points is cached: run here, without Dask")
+        _run_here(sweep, cached, outputs, cache_dir, report)
+    _compare(sweep, outputs, done, log)
+    return done
+
+
+def _run_here(sweep: Sweep, points, outputs: Path, cache_dir: str, report) -> None:
+    for point in points:
+        faults.check_interrupted()
+        report(run_point(sweep.config, point, sweep.only, cache_dir, str(outputs)), 0)
+
+
+def _run_on_dask(sweep: Sweep, points, outputs: Path, cache_dir: str, scheduler, scheduler_file, workers, log,
+                 report, before) -> None:
+    """The points as Dask tasks; `before()` runs once they are submitted (the cached points, here)."""
+    from distributed import wait
+
+    client, cluster = _client(scheduler, scheduler_file, workers)
     try:
-        futures = {client.submit(run_point, sweep.config, p, sweep.only, str(paths.CACHE), str(outputs),
-                                 key=f"point-{sweep.name}-{p.name}", pure=False, retries=1): p for p in sweep.points}
+        futures = {client.submit(run_point, sweep.config, p, sweep.only, cache_dir, str(outputs),
+                                 key=f"point-{sweep.name}-{p.name}", pure=False, retries=1): p for p in points}
         pending = set(futures)
         log(f"sweep '{sweep.name}': {len(futures)} points on {len(client.scheduler_info()['workers'])} Dask workers "
-            f"into {outputs}")
+            f"into {outputs}" + (f" ({len(sweep.points) - len(points)} with every stage cached run here)"
+                                 if len(points) < len(sweep.points) else ""))
+        before()
         while pending:
             try:                    # woken twice a second, to act on Ctrl-C
                 finished = wait(pending, timeout=0.5, return_when="FIRST_COMPLETED").done
@@ -203,20 +254,11 @@ def run_sweep(sweep: Sweep, scheduler: str | None = None, scheduler_file: str | 
                     result = future.result()
                 except Exception as e:          # the worker died twice, or the task could not run
                     result = dict(name=point.name, ok=False, message=f"{type(e).__name__}: {e}", seconds=0.0)
-                done.append(result)
-                elapsed = time.perf_counter() - start
-                left = len(futures) - len(done)
-                eta = elapsed / len(done) * left
-                failed = sum(not r["ok"] for r in done)
-                log(f"[{len(done)}/{len(futures)}] done {len(done) - failed}, failed {failed}, running "
-                    f"{min(left, len(pending))}, ETA {eta:.0f} s | {result['name']}: "
-                    f"{'ok' if result['ok'] else 'FAILED'} ({result['message']}, {result['seconds']:.1f} s)")
+                report(result, len(pending))
     finally:
         client.close()
         if cluster is not None:
             cluster.close()
-    _compare(sweep, outputs, done, log)
-    return done
 
 
 def _compare(sweep: Sweep, outputs: Path, done, log) -> None:

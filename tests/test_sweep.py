@@ -54,9 +54,11 @@ def test_a_sweep_on_a_local_cluster(refit_cache, tmp_path):
         assert float(row["accuracy.d_f_Q2"]) == pytest.approx(doc["headline"]["accuracy.d_f_Q2"], rel=1e-5)
         assert doc["not_run"] and "accuracy" in doc["stages"]
     stamps = {name: (folder / name / "results.json").stat().st_mtime_ns for name in good}
-    # A rerun computes nothing and rewrites nothing.
+    # A rerun computes nothing and rewrites nothing: the three complete points run in the sweep's own
+    # process (every stage cached), and only the failing one goes to Dask again.
     again = sweep_cli(file, tmp_path)
     assert again.stdout.count(": ok (0 stages computed") == 3, again.stdout
+    assert "1 points on 2 Dask workers" in again.stdout and "(3 with every stage cached run here)" in again.stdout
     assert stamps == {name: (folder / name / "results.json").stat().st_mtime_ns for name in good}
 
 
@@ -136,3 +138,5 @@ def test_a_worker_killed_mid_point_spoils_no_other_point(refit_cache, tmp_path):
     again = sweep_cli(file, tmp_path)
     assert again.returncode == 0, again.stdout + again.stderr
     assert again.stdout.count(": ok (0 stages computed") >= len(ok), again.stdout
+    if len(ok) == 3:            # nothing left to compute: no Dask cluster is started
+        assert "every stage of its 3 points is cached: run here, without Dask" in again.stdout, again.stdout
