@@ -183,10 +183,12 @@ def _fully_cached(config_file: str, point: Point, only, cache_dir: str) -> bool:
     from .engine.cache import Cache
     from .run import explain
 
+    from .engine.cache import DamagedEntry
+
     try:
         config = load_config(config_file, point.overrides, name=point.name)
         return all(what == "cached" for _, what in explain(config, Cache(Path(cache_dir)), only))
-    except Exception:       # a damaged entry, say: the point's own run says what is wrong
+    except (DamagedEntry, ConfigError, OSError):        # the point's own run says what is wrong
         return False
 
 
@@ -212,24 +214,23 @@ def run_sweep(sweep: Sweep, scheduler: str | None = None, scheduler_file: str | 
     cached = [p for p in sweep.points if _fully_cached(sweep.config, p, sweep.only, cache_dir)]
     remote = [p for p in sweep.points if p not in cached]
     if remote:
-        _run_on_dask(sweep, remote, outputs, cache_dir, scheduler, scheduler_file, workers, log, report,
-                     before=lambda: _run_here(sweep, cached, outputs, cache_dir, report))
+        _run_on_dask(sweep, remote, cached, outputs, cache_dir, scheduler, scheduler_file, workers, log, report)
     else:
         log(f"sweep '{sweep.name}': every stage of its {len(cached)} points is cached: run here, without Dask")
-        _run_here(sweep, cached, outputs, cache_dir, report)
+        _run_here(sweep, cached, outputs, cache_dir, report, running=0)
     _compare(sweep, outputs, done, log)
     return done
 
 
-def _run_here(sweep: Sweep, points, outputs: Path, cache_dir: str, report) -> None:
+def _run_here(sweep: Sweep, points, outputs: Path, cache_dir: str, report, running: int) -> None:
     for point in points:
         faults.check_interrupted()
-        report(run_point(sweep.config, point, sweep.only, cache_dir, str(outputs)), 0)
+        report(run_point(sweep.config, point, sweep.only, cache_dir, str(outputs)), running)
 
 
-def _run_on_dask(sweep: Sweep, points, outputs: Path, cache_dir: str, scheduler, scheduler_file, workers, log,
-                 report, before) -> None:
-    """The points as Dask tasks; `before()` runs once they are submitted (the cached points, here)."""
+def _run_on_dask(sweep: Sweep, points, cached, outputs: Path, cache_dir: str, scheduler, scheduler_file, workers,
+                 log, report) -> None:
+    """`points` as Dask tasks; the `cached` points run here meanwhile."""
     from distributed import wait
 
     client, cluster = _client(scheduler, scheduler_file, workers)
@@ -238,9 +239,8 @@ def _run_on_dask(sweep: Sweep, points, outputs: Path, cache_dir: str, scheduler,
                                  key=f"point-{sweep.name}-{p.name}", pure=False, retries=1): p for p in points}
         pending = set(futures)
         log(f"sweep '{sweep.name}': {len(futures)} points on {len(client.scheduler_info()['workers'])} Dask workers "
-            f"into {outputs}" + (f" ({len(sweep.points) - len(points)} with every stage cached run here)"
-                                 if len(points) < len(sweep.points) else ""))
-        before()
+            f"into {outputs}" + (f" ({len(cached)} with every stage cached run here)" if cached else ""))
+        _run_here(sweep, cached, outputs, cache_dir, report, running=len(pending))
         while pending:
             try:                    # woken twice a second, to act on Ctrl-C
                 finished = wait(pending, timeout=0.5, return_when="FIRST_COMPLETED").done

