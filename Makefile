@@ -21,7 +21,7 @@ ONLY ?=
 export JAX_ENABLE_X64 := 1
 export JAX_PLATFORMS := cpu
 
-.PHONY: reproduce test bench refit clean keys graph
+.PHONY: reproduce test test-isa bench refit clean keys graph
 
 $(INSTALLED): pyproject.toml constraints.txt
 	$(PYTHON) -m venv $(VENV)
@@ -69,6 +69,24 @@ refit: $(INSTALLED) $(LLVM_READY) $(RADV_READY)
 
 test: $(TEST_INSTALLED) $(LLVM_READY) $(RADV_READY)
 	$(WITH_LLVM) $(BIN)/python -m pytest -q -n 2 --dist loadfile
+
+# The numerical tests (optics, symbolic regression, the stages and the checks against the paper)
+# under three instruction sets: XLA compiles for the CPU it finds, so the last bits of every jitted
+# result differ between machines; a tolerance that holds here must hold there. SSE4_2 and AVX2
+# imitate older machines (AVX2 without AVX-512: the common cloud CPU); "native" leaves XLA_FLAGS
+# unset. Each level runs in its own test session (its own caches); all three run, then the target
+# fails if any did.
+ISA_LEVELS ?= SSE4_2 AVX2 native
+ISA_TESTS ?= tests/optics tests/symbolic tests/stages
+test-isa: $(TEST_INSTALLED) $(LLVM_READY) $(RADV_READY)
+	@$(WITH_LLVM) failed=""; for isa in $(ISA_LEVELS); do \
+		if [ "$$isa" = native ]; then flags=""; else flags="--xla_cpu_max_isa=$$isa"; fi; \
+		echo "== XLA_FLAGS=$$flags ($$isa)"; \
+		XLA_FLAGS="$$flags" $(BIN)/python -m pytest -q -n 2 --dist loadfile -p no:cacheprovider $(ISA_TESTS) \
+			|| failed="$$failed $$isa"; \
+	done; \
+	if [ -n "$$failed" ]; then echo "test-isa: failed under$$failed"; exit 1; fi; \
+	echo "test-isa: passed under $(ISA_LEVELS)"
 
 bench: $(TEST_INSTALLED) $(LLVM_READY) $(RADV_READY)
 	$(WITH_LLVM) $(BIN)/python bench/bench.py

@@ -16,14 +16,15 @@ less than a time. Measured, each in a fresh cache and outputs folder:
 - the symbolic search and pyoperon side by side (`bench/symbolic.py`: 5,000 points to complexity 12,
   200 points to 14, two variables to 10; time, peak memory and best RMS of each);
 - `pipeline keys` and a run with a bad config (answered without importing JAX);
-- `make test` (`python -m pytest -q -n 2 --dist loadfile`), unless BENCH_TESTS=0;
+- `make test` (`python -m pytest -q -n 2 --dist loadfile`), unless BENCH_TESTS=0 (BENCH_ONLY=tests:
+  the floor and `make test` alone);
 - the throughput of each cheap lobe compiled by XLA (evaluations per second over 2^24 values of t in
   float32, as a shader would use; median of 9 repeats and the range), on the CPU and, where JAX sees
   one, on a GPU.
 
 Targets (the issue "The research loop"): cold <= 12x floor, Q refit <= 8x, a Q refit `--only
 accuracy,hemispherical` <= 3x; (the issue "Refits in seconds") curve_points refit <= 3x, warm
-<= 1.2x, keys and bad config < 1 s; (the issue "The house in wings") make test < 120 s.
+<= 1.2x, keys and bad config < 1 s; (the issue "Tests that pass on every machine") make test <= 75x.
 """
 
 from __future__ import annotations
@@ -94,84 +95,86 @@ def main() -> int:
     py = sys.executable
     floor = statistics.median(timed([py, "-c", FLOOR], dict(os.environ))[0] for _ in range(3))
     rows = []
-    with tempfile.TemporaryDirectory() as tmp:
-        env = dict(os.environ, PIPELINE_CACHE_DIR=os.path.join(tmp, "cache"),
-                   PIPELINE_OUTPUTS_DIR=os.path.join(tmp, "outputs"), JAX_ENABLE_X64="1", JAX_PLATFORMS="cpu")
-        seconds, out = timed([py, "-c", COUNTED_REPRODUCE], env)
-        compiles = next(s for s in out.splitlines() if s.startswith("XLA compilations"))
-        rows.append(("cold reproduce (empty cache)", seconds, 12.0, compiles))
-        seconds, out = timed([py, "-m", "pipeline", "refit", "--config", "configs/paper.toml", "--set",
-                              "derivation.Q=0.55", "--set", "derivation.constants=fitted", "--out", "bench_q"], env)
-        rows.append(("refit derivation.Q=0.55", seconds, 8.0, recomputed(out)))
-        q_refit = seconds
-        # Another power of the family: a refit of lobe.power must cost no more than a Q refit.
-        seconds, out = timed([py, "-m", "pipeline", "refit", "--config", "configs/paper.toml", "--set", "lobe.power=4",
-                              "--set", "derivation.constants=fitted", "--out", "bench_power"], env)
-        rows.append(("refit lobe.power=4", seconds, None,
-                     f"target <= the Q refit ({q_refit:.1f} s): " + ("ok" if seconds <= q_refit else "MISSED")))
-        # The same question for its numbers alone (`--only`), at another Q so that it computes.
-        seconds, out = timed([py, "-m", "pipeline", "refit", "--config", "configs/paper.toml", "--set",
-                              "derivation.Q=0.56", "--set", "derivation.constants=fitted",
-                              "--only", "accuracy,hemispherical", "--out", "bench_q_only"], env)
-        rows.append(("refit Q=0.56 --only 2 stages", seconds, 3.0, recomputed(out)))
-        # A sweep of 8 Q values (numbers only) on the LocalCluster, against 8 targeted refits in a row
-        # (other Q values, so that neither finds the other's work in the cache).
-        sweep_file = os.path.join(tmp, "bench_sweep.toml")
-        with open(sweep_file, "w") as f:
-            f.write('[sweep]\nname = "bench_sweep"\nonly = ["accuracy"]\nset = { "derivation.constants" = "fitted" }\n'
-                    '[axes]\n"derivation.Q" = [' + ", ".join(f"{0.50 + 0.01 * i:.2f}" for i in range(8)) + "]\n")
-        sweep_seconds, _ = timed([py, "-m", "pipeline", "sweep", sweep_file], env)
-        start = time.perf_counter()
-        for i in range(8):
-            timed([py, "-m", "pipeline", "refit", "--config", "configs/paper.toml", "--set",
-                   f"derivation.Q={0.60 + 0.01 * i:.2f}", "--set", "derivation.constants=fitted", "--only", "accuracy",
-                   "--out", f"bench_seq_{i}"], env)
-        sequential = time.perf_counter() - start
-        rows.append(("sweep of 8 Q, --only accuracy", sweep_seconds, None,
-                     f"8 targeted refits in a row: {sequential:.1f} s; the sweep must not be slower: "
-                     + ("ok" if sweep_seconds <= sequential else "MISSED")))
-        seconds, out = timed([py, "-m", "pipeline", "refit", "--config", "configs/paper.toml", "--set",
-                              "scan.curve_points=200", "--out", "bench_curve"], env)
-        rows.append(("refit scan.curve_points=200", seconds, 3.0, recomputed(out)))
-        seconds, out = timed([py, "-m", "pipeline", "reproduce"], env)
-        rows.append(("warm reproduce", seconds, 1.2, recomputed(out)))
-        _, out = timed([py, "-m", "pipeline", "refit", "--config", "configs/paper.toml", "--set", "symbolic.seed=1",
-                        "--out", "bench_sr"], dict(env, PIPELINE_XLA_CACHE_DIR=os.path.join(tmp, "xla_empty")))
-        line = next(s for s in out.splitlines() if "symbolic_regression computed in" in s)
-        stage = float(line.split("computed in")[1].split("s")[0])
-        rows.append(("symbolic regression, cold", stage, None,
-                     "stage alone, complexity <= 12, compile included; target <= 10 s "
-                     + ("ok" if stage <= 10 else "MISSED")))
-        # The machine-code stage alone, cold (fresh cache): what it adds to a cold run.
-        _, out = timed([py, "-m", "pipeline", "reproduce", "--only", "gpu_isa"],
-                       dict(env, PIPELINE_CACHE_DIR=os.path.join(tmp, "cache_isa"),
-                            PIPELINE_OUTPUTS_DIR=os.path.join(tmp, "outputs_isa")))
-        line = next(s for s in out.splitlines() if "gpu_isa" in s and "computed in" in s)
-        stage = float(line.split("computed in")[1].split("s")[0])
-        rows.append(("gpu_isa stage, cold", stage, None,
-                     "RADV, 3 chip families; target <= 5 s " + ("ok" if stage <= 5 else "MISSED")))
-        # The symbolic search against pyoperon, each case and engine in its own process (peak memory).
-        from symbolic import CASES
-        for case, depth in CASES.items():
-            measured = {}
-            for engine in ("exhaustive", "operon"):
-                _, out = timed([py, str(ROOT / "bench" / "symbolic.py"), case, engine], env)
-                measured[engine] = [float(v) for v in out.split()[-3:]]
-            (seconds, peak, best), (o_seconds, o_peak, o_best) = measured["exhaustive"], measured["operon"]
-            memory = " and 1 GB" if case.startswith("5000") else ""
-            ok = seconds <= 60 and (peak <= 1.0 or not memory)
-            rows.append((f"regress {case}", seconds, None,
-                         f"peak {peak:.2f} GB, best RMS {best:.3g}; pyoperon {o_seconds:.1f} s, {o_peak:.2f} GB, best RMS "
-                         f"{o_best:.3g}; target <= 60 s{memory} " + ("ok" if ok else "MISSED")))
-        seconds, _ = timed([py, "-m", "pipeline", "keys"], env)
-        rows.append(("pipeline keys", seconds, None, "target < 1 s"))
-        seconds, _ = timed([py, "-m", "pipeline", "refit", "--config", "configs/paper.toml", "--set",
-                            "derivation.Q=2", "--out", "bad"], env, expect=2)
-        rows.append(("bad config (exit 2)", seconds, None, "target < 1 s"))
+    # BENCH_ONLY=tests: the floor and `make test` alone (the pipeline's timings take ~10 minutes more).
+    if os.environ.get("BENCH_ONLY") != "tests":
+        with tempfile.TemporaryDirectory() as tmp:
+            env = dict(os.environ, PIPELINE_CACHE_DIR=os.path.join(tmp, "cache"),
+                       PIPELINE_OUTPUTS_DIR=os.path.join(tmp, "outputs"), JAX_ENABLE_X64="1", JAX_PLATFORMS="cpu")
+            seconds, out = timed([py, "-c", COUNTED_REPRODUCE], env)
+            compiles = next(s for s in out.splitlines() if s.startswith("XLA compilations"))
+            rows.append(("cold reproduce (empty cache)", seconds, 12.0, compiles))
+            seconds, out = timed([py, "-m", "pipeline", "refit", "--config", "configs/paper.toml", "--set",
+                                  "derivation.Q=0.55", "--set", "derivation.constants=fitted", "--out", "bench_q"], env)
+            rows.append(("refit derivation.Q=0.55", seconds, 8.0, recomputed(out)))
+            q_refit = seconds
+            # Another power of the family: a refit of lobe.power must cost no more than a Q refit.
+            seconds, out = timed([py, "-m", "pipeline", "refit", "--config", "configs/paper.toml", "--set", "lobe.power=4",
+                                  "--set", "derivation.constants=fitted", "--out", "bench_power"], env)
+            rows.append(("refit lobe.power=4", seconds, None,
+                         f"target <= the Q refit ({q_refit:.1f} s): " + ("ok" if seconds <= q_refit else "MISSED")))
+            # The same question for its numbers alone (`--only`), at another Q so that it computes.
+            seconds, out = timed([py, "-m", "pipeline", "refit", "--config", "configs/paper.toml", "--set",
+                                  "derivation.Q=0.56", "--set", "derivation.constants=fitted",
+                                  "--only", "accuracy,hemispherical", "--out", "bench_q_only"], env)
+            rows.append(("refit Q=0.56 --only 2 stages", seconds, 3.0, recomputed(out)))
+            # A sweep of 8 Q values (numbers only) on the LocalCluster, against 8 targeted refits in a row
+            # (other Q values, so that neither finds the other's work in the cache).
+            sweep_file = os.path.join(tmp, "bench_sweep.toml")
+            with open(sweep_file, "w") as f:
+                f.write('[sweep]\nname = "bench_sweep"\nonly = ["accuracy"]\nset = { "derivation.constants" = "fitted" }\n'
+                        '[axes]\n"derivation.Q" = [' + ", ".join(f"{0.50 + 0.01 * i:.2f}" for i in range(8)) + "]\n")
+            sweep_seconds, _ = timed([py, "-m", "pipeline", "sweep", sweep_file], env)
+            start = time.perf_counter()
+            for i in range(8):
+                timed([py, "-m", "pipeline", "refit", "--config", "configs/paper.toml", "--set",
+                       f"derivation.Q={0.60 + 0.01 * i:.2f}", "--set", "derivation.constants=fitted", "--only", "accuracy",
+                       "--out", f"bench_seq_{i}"], env)
+            sequential = time.perf_counter() - start
+            rows.append(("sweep of 8 Q, --only accuracy", sweep_seconds, None,
+                         f"8 targeted refits in a row: {sequential:.1f} s; the sweep must not be slower: "
+                         + ("ok" if sweep_seconds <= sequential else "MISSED")))
+            seconds, out = timed([py, "-m", "pipeline", "refit", "--config", "configs/paper.toml", "--set",
+                                  "scan.curve_points=200", "--out", "bench_curve"], env)
+            rows.append(("refit scan.curve_points=200", seconds, 3.0, recomputed(out)))
+            seconds, out = timed([py, "-m", "pipeline", "reproduce"], env)
+            rows.append(("warm reproduce", seconds, 1.2, recomputed(out)))
+            _, out = timed([py, "-m", "pipeline", "refit", "--config", "configs/paper.toml", "--set", "symbolic.seed=1",
+                            "--out", "bench_sr"], dict(env, PIPELINE_XLA_CACHE_DIR=os.path.join(tmp, "xla_empty")))
+            line = next(s for s in out.splitlines() if "symbolic_regression computed in" in s)
+            stage = float(line.split("computed in")[1].split("s")[0])
+            rows.append(("symbolic regression, cold", stage, None,
+                         "stage alone, complexity <= 12, compile included; target <= 10 s "
+                         + ("ok" if stage <= 10 else "MISSED")))
+            # The machine-code stage alone, cold (fresh cache): what it adds to a cold run.
+            _, out = timed([py, "-m", "pipeline", "reproduce", "--only", "gpu_isa"],
+                           dict(env, PIPELINE_CACHE_DIR=os.path.join(tmp, "cache_isa"),
+                                PIPELINE_OUTPUTS_DIR=os.path.join(tmp, "outputs_isa")))
+            line = next(s for s in out.splitlines() if "gpu_isa" in s and "computed in" in s)
+            stage = float(line.split("computed in")[1].split("s")[0])
+            rows.append(("gpu_isa stage, cold", stage, None,
+                         "RADV, 3 chip families; target <= 5 s " + ("ok" if stage <= 5 else "MISSED")))
+            # The symbolic search against pyoperon, each case and engine in its own process (peak memory).
+            from symbolic import CASES
+            for case, depth in CASES.items():
+                measured = {}
+                for engine in ("exhaustive", "operon"):
+                    _, out = timed([py, str(ROOT / "bench" / "symbolic.py"), case, engine], env)
+                    measured[engine] = [float(v) for v in out.split()[-3:]]
+                (seconds, peak, best), (o_seconds, o_peak, o_best) = measured["exhaustive"], measured["operon"]
+                memory = " and 1 GB" if case.startswith("5000") else ""
+                ok = seconds <= 60 and (peak <= 1.0 or not memory)
+                rows.append((f"regress {case}", seconds, None,
+                             f"peak {peak:.2f} GB, best RMS {best:.3g}; pyoperon {o_seconds:.1f} s, {o_peak:.2f} GB, best RMS "
+                             f"{o_best:.3g}; target <= 60 s{memory} " + ("ok" if ok else "MISSED")))
+            seconds, _ = timed([py, "-m", "pipeline", "keys"], env)
+            rows.append(("pipeline keys", seconds, None, "target < 1 s"))
+            seconds, _ = timed([py, "-m", "pipeline", "refit", "--config", "configs/paper.toml", "--set",
+                                "derivation.Q=2", "--out", "bad"], env, expect=2)
+            rows.append(("bad config (exit 2)", seconds, None, "target < 1 s"))
     if os.environ.get("BENCH_TESTS", "1") != "0":
         seconds, out = timed([py, "-m", "pytest", "-q", "-n", "2", "--dist", "loadfile", "-p", "no:cacheprovider"],
                              dict(os.environ))
-        rows.append(("make test", seconds, None, out.strip().splitlines()[-1] + "; target < 120 s"))
+        rows.append(("make test", seconds, 75.0, out.strip().splitlines()[-1]))
 
     import jax
     devices = [("CPU", jax.devices("cpu")[0])]

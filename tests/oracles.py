@@ -35,3 +35,19 @@ def scipy_albedo(form, k, theta_i, coef=1.0, tolerance=1e-12):
         t = R @ V if form == "phong" else (L + V)[2] / np.linalg.norm(L + V)
         return coef * float(quadratic_np(1.0 - t, k)) * np.cos(theta) * np.sin(theta)
     return integrate.dblquad(f, 0, np.pi / 2, 0, 2 * np.pi, epsabs=tolerance, epsrel=tolerance)[0]
+
+
+def scipy_normal_albedo(lobe, form, n):
+    """a(0) per unit coef of `lobe(t)`, a function of t = cos of the lobe's angle, at normal
+    incidence, by scipy's adaptive quadrature over the outgoing polar angle theta (the azimuth
+    gives 2 pi): t = cos theta for the Phong form (the mirror direction is the normal), t =
+    cos(theta / 2) for the Blinn form (the half vector of the normal and the outgoing direction).
+    The lobe's width ~1/sqrt(n) is split into pieces so that a narrow lobe is resolved."""
+    width = min(np.pi / 2, 40.0 / np.sqrt(n))
+    points = np.concatenate([np.linspace(0.0, width, 41)[1:-1], [width]]) if width < np.pi / 2 else None
+
+    def integrand(theta):
+        t = np.cos(theta) if form == "phong" else np.cos(theta / 2)
+        return 2 * np.pi * lobe(t) * np.cos(theta) * np.sin(theta)
+
+    return integrate.quad(integrand, 0.0, np.pi / 2, points=points, limit=400, epsabs=0.0, epsrel=1e-12)[0]

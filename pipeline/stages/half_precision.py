@@ -3,7 +3,8 @@ visible highlight (where cos^n x >= 1/255) at each rendered exponent n.
 
 Pairs of unit vectors N, H at angles x spread over the highlight (random orientations, fixed seed)
 are rounded to float16 and the lobe is evaluated in float16, one rounding per operation (numpy's
-float16 arithmetic), by two routes for u = 1 - cos x:
+float16 arithmetic; a dot product rounds its products and then its sum once, as numpy accumulates
+float16 sums in float32 and a fused dot instruction does), by two routes for u = 1 - cos x:
 
 - "1 - N.H": t = dot(N, H) in float16, then the lobe of t. Near t = 1 float16 steps by 2^-11, so a
   narrow lobe sees only a few distinct t;

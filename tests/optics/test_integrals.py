@@ -37,12 +37,15 @@ def test_exact_blinn_coef_normalizes_the_blinn_form_at_normal_incidence(k):
 
 
 def test_large_k_expansion_matches_mpmath():
-    # coef(k) - (3k/(2 pi) + 3/(8 pi)) -> 3 / (32 pi k): checked at k = 10^6 with 50 digits.
+    """The pipeline's exact coef (its sympy integral) at k = 10^6 with 50 digits: coef(k) - (3k/(2 pi)
+    + 3/(8 pi)) = 3 / (32 pi k) + O(1/k^2), so k times it is 3/(32 pi) to 1e-6 relative (the next
+    term, 3/(128 pi k^2), relative to it: 1/(4k) = 2.5e-7), and the pipeline's expansion has these terms."""
     mpmath.mp.dps = 50
     k = mpmath.mpf(10) ** 6
-    coef = 6 * k**2 / (mpmath.pi * (4 * k - 1))
+    coef = mpmath.mpf(str(sp.N(exact.coef_of_k(exact.phong_integral()).subs(exact.k, sp.Integer(10) ** 6), 50)))
+    assert coef == pytest.approx(6 * k**2 / (mpmath.pi * (4 * k - 1)), rel=1e-45)      # 50 digits, both
     remainder = (coef - 3 * k / (2 * mpmath.pi) - 3 / (8 * mpmath.pi)) * k
-    assert float(remainder) == pytest.approx(3 / (32 * np.pi), rel=1e-5)
+    assert float(remainder) == pytest.approx(3 / (32 * np.pi), rel=1e-6)
     expansion = exact.large_k_expansion("phong")
     assert sp.simplify(expansion - (3 * exact.k / (2 * sp.pi) + 3 / (8 * sp.pi) + 3 / (32 * sp.pi * exact.k))) == 0
     blinn = exact.large_k_expansion("blinn")

@@ -100,7 +100,8 @@ def test_a_registered_lobe_reaches_the_comparison_its_figure_and_the_cost_table(
     plots.lobe_comparison(tmp_path, light_config, results)
     texts = [(t.get_text(), t.get_color()) for ax in drawn["lobe_comparison.png"].axes for t in ax.texts]
     assert ("f_toy", "C9") in texts
+    if not results["shader_cost"]["available"]:
+        pytest.skip(f"the cost table's part: the shader compilers are missing ({results['shader_cost']['tools']})")
     cost = {row["lobe"]: row for row in results["shader_cost"]["lobes"]}
-    if results["shader_cost"]["available"]:
-        assert cost["f_toy"]["arithmetic"] == cost["f_Q2"]["arithmetic"] and cost["f_toy"]["transcendental"] == 0
-        assert "| f_toy |" in "\n".join(report_beyond.cost_section(light_config, results))
+    assert cost["f_toy"]["arithmetic"] == cost["f_Q2"]["arithmetic"] and cost["f_toy"]["transcendental"] == 0
+    assert "| f_toy |" in "\n".join(report_beyond.cost_section(light_config, results))

@@ -56,6 +56,8 @@ def test_render_statistics_against_numpy(paper_run, paper_config):
             diff = np.abs(cand - ref)
             # Unlit pixels have zero luminance; only the (lit) epicenter is compared.
             rel = np.abs(lum(cand) - lum(ref))[zone] / lum(ref)[zone]
+            # the stage's jitted max and mean over the same image: a sum's order changes its rounding
+            # by ~N eps (N ~1e4 pixels): 1e-12 relative; 1e-9 with margin
             assert stats["max_abs"] == pytest.approx(diff.max(), rel=1e-9)
             assert stats["mean_abs"] == pytest.approx(diff.mean(), rel=1e-9)
             assert stats["max_rel"] == pytest.approx(rel.max(), rel=1e-6)

@@ -18,6 +18,17 @@ def coef_sample():
     return np.round(6 * k**2 / (np.pi * (4 * k - 1)), 3)
 
 
+def max_abs_to_exact_coef(member, a=0.448, b=0.099):
+    """A front member of the paper's run against the exact coef 6k^2/(pi (4k - 1)), k = a n + b,
+    written out here: the member evaluated from its form and constants by sympy (not the stage's
+    evaluation), the largest absolute difference over n = 2 .. 1000."""
+    n = sp.Symbol("n")
+    e = symbolic.parse(member["form"], "n")
+    values = sp.lambdify(n, symbolic.to_sympy(e, member["constants"], n), "numpy")(np.arange(2.0, 1001.0))
+    k = a * np.arange(2.0, 1001.0) + b
+    return float(np.max(np.abs(values - 6 * k**2 / (np.pi * (4 * k - 1)))))
+
+
 def test_partial_fractions_of_the_exact_coef():
     a, b = 0.448, 0.099
     n = sp.Symbol("n", positive=True)
@@ -36,16 +47,20 @@ def test_the_paper_front(paper_run):
     assert sr["front_complexities"][:3] == [1, 3, 5] and 12 in sr["front_complexities"]
     ten = next(m for m in sr["front"] if m["complexity"] == 10)
     assert ten["rms"] < sr["size10_rms"]
-    # within the rounding step of the exact coef from size 10 on, and not below
-    assert sr["sr_exact_complexity"] == 10
-    assert all(not m["equivalent_to_exact"] for m in sr["front"] if m["complexity"] < 10)
+    # Each member's exactness flag against the test's own evaluation of the member and of the
+    # exact coef: within the rounding step of y (1e-3) of the exact coef from size 10 on, and not below.
+    within = [m["complexity"] for m in sr["front"] if max_abs_to_exact_coef(m) <= 1e-3]
+    assert [m["complexity"] for m in sr["front"] if m["equivalent_to_exact"]] == within
+    assert sr["sr_exact_complexity"] == within[0] == 10
     # the size-12 member's well-determined constants against the exact ones (residue and pole show
     # only at the few smallest n, where rounding y moves them: test_the_exact_form_is_found_for_another_line)
     assert sr["size12_scale"] == pytest.approx(sr["exact_scale"], abs=1e-6)
     assert sr["size12_offset"] == pytest.approx(sr["exact_offset"], abs=1e-3)
     # RMS of the exact-form member: at the floor of rounding y to 3 decimals
     assert sr["size12_rms"] == pytest.approx(0.001 / np.sqrt(12), rel=0.05)
-    # Another seed of the random starts finds the same front (10 seeds do, measured).
+    # Another seed of the random starts finds the same front (10 seeds do, measured). Tolerance:
+    # each front's refits stop once 20 steps lower S by less than 1e-9 S, so each RMS is within
+    # about 5e-10 relative of the common optimum's (S - S* <= 1e-9 S near it): 1e-8 is 10x that.
     other = symbolic.search(X50, coef_sample(), 12, seed=1)
     np.testing.assert_allclose(other["rms"][other["front"]], [m["rms"] for m in sr["front"]], rtol=1e-8)
 
@@ -75,4 +90,4 @@ def test_the_selected_member_is_the_exact_coef_within_the_rounding(paper_run):
     sr = paper_run["symbolic_regression"]
     chosen = [m for m in sr["front"] if m["selected"]]
     assert len(chosen) == 1 and chosen[0]["complexity"] == sr["selected_complexity"]
-    assert chosen[0]["equivalent_to_exact"]
+    assert chosen[0]["equivalent_to_exact"] and max_abs_to_exact_coef(chosen[0]) <= 1e-3
