@@ -15,7 +15,17 @@ from pathlib import Path
 
 import pytest
 
-import pipeline
+from pipeline.sweep import WORKER_ENV
+
+if os.environ.get("PYTEST_XDIST_WORKER"):
+    # `make test` runs two worker processes on two cores, as a sweep runs its Dask workers: XLA's
+    # operations run on one thread in each (set before the first computation initializes XLA; the
+    # CLI subprocesses inherit it). Its own pool of one thread per core in each worker measured 15 %
+    # more CPU time for the suite. An instruction-set flag (`make test-isa`) is kept.
+    os.environ["XLA_FLAGS"] = " ".join(filter(None, (os.environ.get("XLA_FLAGS"), WORKER_ENV["XLA_FLAGS"])))
+    os.environ["OMP_NUM_THREADS"] = WORKER_ENV["OMP_NUM_THREADS"]
+
+import pipeline  # noqa: E402
 from pipeline.engine import paths
 from pipeline.engine.cache import Cache
 from pipeline.engine.exponents import n_range
@@ -24,6 +34,38 @@ from pipeline.run import run_derivation, run_stages
 from .helpers import copy_cache
 
 LIGHT_CONFIG = Path(__file__).parent / "light.toml"
+
+
+# The fixtures that hold a whole derivation (the first test that needs one computes it).
+RUN_FIXTURES = {"paper_run", "light_run", "refit_cache", "paper_outputs", "light_cache", "paper_cache"}
+
+
+def pytest_configure(config):
+    # xdist sends whole files in the order `pytest_collection_modifyitems` gives them, not sorted by
+    # their number of tests.
+    if hasattr(config.option, "loadscopereorder"):
+        config.option.loadscopereorder = False
+
+
+def pytest_collection_modifyitems(session, config, items):
+    """Files in the order that keeps both workers busy: first the file with the most slow tests among
+    those that need a whole derivation (its worker computes the paper's and the light run, a minute
+    and more), then every file that needs none (the other worker runs them meanwhile instead of
+    waiting for the runs), then the other files that need one, those with more slow tests first."""
+    files: dict[str, list] = {}
+    for item in items:
+        files.setdefault(item.nodeid.split("::")[0], []).append(item)
+
+    def needs_run(name):
+        return any(RUN_FIXTURES & set(getattr(item, "fixturenames", ())) for item in files[name])
+
+    def slow(name):
+        return sum(item.get_closest_marker("slow") is not None for item in files[name])
+
+    dependent = sorted((f for f in files if needs_run(f)), key=slow, reverse=True)
+    independent = [f for f in files if not needs_run(f)]
+    order = dependent[:1] + independent + dependent[1:]
+    items[:] = [item for name in order for item in files[name]]
 
 
 def pytest_sessionstart(session):

@@ -199,18 +199,19 @@ def _net(row: dict, wrapper: dict) -> dict:
             else row[field] - wrapper[field] for field in NET_FIELDS}
 
 
-def shader_sources(p: registry.Parameters, powers) -> dict[str, tuple[str, str, str, str]]:
+def shader_sources(p: registry.Parameters, powers, registry_shaders: bool = True) -> dict[str, tuple[str, str, str, str]]:
     """name -> (GLSL, lobe, what, normalization) of every shader to compile: each registry lobe
     alone ("lobe", by its key) and with each of its normalizations ("lobe and coef, n per pixel"),
     the family at each power of `powers` alone ("family lobe", by its name f_Q2, f_Q3, ...), the
     normal distributions D of a microfacet BRDF ("NDF": Beckmann, GGX, cos^n and the family, each
-    with its per-material constants), and the two wrappers."""
+    with its per-material constants), and the two wrappers. Without `registry_shaders`: the
+    family's shaders at `powers` and the wrappers only."""
     from .normalizations import normalizations
     _, n = registry.symbols()
     norms = normalizations(p)
     out = {"wrapper_uniform": (WRAPPER_UNIFORM, "", "wrapper", ""),
            "wrapper_per_pixel": (WRAPPER_PER_PIXEL, "", "wrapper", "")}
-    for index, lobe in enumerate(registry.LOBES.values()):
+    for index, lobe in enumerate(registry.LOBES.values() if registry_shaders else ()):
         body = lobe.glsl_of(p)
         out[f"lobe{index:02d}"] = (UNIFORM.format(body=body), lobe.key, "lobe", "")
         parameter = glsl_expression(lobe.parameter(registry.SYMPY, n, p))
@@ -224,17 +225,17 @@ def shader_sources(p: registry.Parameters, powers) -> dict[str, tuple[str, str, 
         ndf = "\n    ".join(["float b = max(k * t + (1.0 - k), 0.0);"] + [f"float {a} = {e};" for a, e in steps]
                              + [f"return rate * {result};"])
         out[f"ndf_family{power:02d}"] = (UNIFORM.format(body=ndf), registry.family_name(power), "NDF", "")
-    for index, (name, body) in enumerate(NDF_BODIES.items()):
+    for index, (name, body) in enumerate(NDF_BODIES.items() if registry_shaders else ()):
         out[f"ndf{index:02d}"] = (UNIFORM.format(body=body), name, "NDF", "")
     return out
 
 
-def costs(p: registry.Parameters, powers=(2,), families=tuple(FAMILIES)) -> dict:
+def costs(p: registry.Parameters, powers=(2,), families=tuple(FAMILIES), registry_shaders: bool = True) -> dict:
     """Machine-code costs of every shader of `shader_sources` on each chip family: a dict with the
     rows (lobe, what, normalization, family, architecture, counts, estimates and their net values)
     and the driver's name per family. Raises CompilerMissing where the compiler cannot run."""
     icd = check_available()
-    sources = shader_sources(p, powers)
+    sources = shader_sources(p, powers, registry_shaders)
     with tempfile.TemporaryDirectory() as tmp:
         folder = Path(tmp)
         with ThreadPoolExecutor(os.cpu_count() or 2) as pool:

@@ -6,8 +6,9 @@ instructions by kind and ACO's cycle estimates, net of the shader's fixed wrappe
 
 The shaders are compiled with the paper's constants as stand-ins (`CONSTANTS`): each constant is
 one literal in the code, so the machine code does not depend on its value, and a refit that moves
-Q or the line keeps this stage; the compiled set is memoized by its powers, so a run of another
-power already in the front reuses it. Where the compiler cannot run (no Vulkan loader, no RADV,
+Q or the line keeps this stage. The registry's shaders and the family at each power are memoized
+apart, so a run with other powers compiles only the powers not compiled before. Where the
+compiler cannot run (no Vulkan loader, no RADV,
 no `vulkan` package), the stage says why and returns no rows.
 """
 
@@ -16,18 +17,44 @@ from ..optics import machine_code, registry
 CONSTANTS = registry.Parameters(Q=0.64, slope=0.448, intercept=0.099, coef_scale=0.214, coef_offset=0.807)
 
 
-def compiled(powers) -> dict:
-    """The machine-code rows of the registry and of the family at `powers`, or why there are none."""
+def compiled(powers, registry_shaders: bool) -> dict:
+    """The machine-code rows of the registry (with `registry_shaders`) and of the family at `powers`,
+    or why there are none."""
     try:
-        found = machine_code.costs(CONSTANTS, [int(m) for m in powers])
+        found = machine_code.costs(CONSTANTS, [int(m) for m in powers], registry_shaders=registry_shaders)
     except machine_code.CompilerMissing as e:
         return dict(available=False, reason=str(e), devices={}, rows=[])
     return dict(available=True, reason="", **found)
 
 
+def registry_rows() -> dict:
+    return compiled((), registry_shaders=True)
+
+
+def family_rows(power: int) -> dict:
+    return compiled((power,), registry_shaders=False)
+
+
+def merged(base: dict, families: list[dict]) -> dict:
+    """The rows of `base` (the registry's) and of each family part, per chip family in the order of
+    one compilation of them all: the lobes, the family at each power, the NDFs, the wrappers."""
+    if not base["available"]:
+        return base
+    rows = []
+    for chip in base["devices"]:
+        own = [r for r in base["rows"] if r["family"] == chip]
+        rows += [r for r in own if r["what"].startswith("lobe")]
+        rows += [r for part in families for r in part["rows"]
+                 if r["family"] == chip and not r["what"].startswith("wrapper")]
+        rows += [r for r in own if not r["what"].startswith("lobe")]
+    return dict(base, rows=rows)
+
+
 def run(config, inputs, memo):
     power = config["lobe.power"]
-    found = memo("machine_code", compiled, powers=sorted(set(config["front.powers"]) | {power}))
+    powers = sorted(set(config["front.powers"]) | {power})
+    found = merged(memo("machine_code_registry", registry_rows),
+                   [memo("machine_code_family", family_rows, power=int(m)) for m in powers])
     rows = found["rows"]
     family = [r for r in rows if r["what"] == "family lobe"]
     pow_rows = [r for r in rows if r["what"] == "lobe" and r["lobe"] == registry.REFERENCE]

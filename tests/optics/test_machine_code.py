@@ -89,3 +89,13 @@ def test_the_check_can_fail_pow_of_16_keeps_its_transcendentals(tmp_path):
     parsed = machine_code.parse_fragment(machine_code.split_shaders(
         machine_code.compile_family("gfx1100", tmp_path, icd))["pow16"])
     assert parsed["transcendental"] == 2
+
+
+def test_the_stage_s_parts_compiled_apart_give_the_rows_of_one_compilation(compiled):
+    """`gpu_isa` compiles the registry's shaders and the family at each power apart (each memoized
+    on its own): merged, its rows equal those of one compilation of them all, in the same order."""
+    from pipeline.stages import gpu_isa
+
+    out = gpu_isa.run({"lobe.power": 3, "front.powers": [3]}, {}, lambda name, fn, **kw: fn(**kw))
+    others = {registry.family_name(m) for m in (2, 4, 8, 16)}
+    assert out["rows"] == [r for r in compiled if not (r["lobe"] in others and r["what"] in ("family lobe", "NDF"))]
