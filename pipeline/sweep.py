@@ -17,10 +17,16 @@ Every point is validated before anything runs. Each point is a refit into
 `outputs/<sweep>/<point>/`, named from its values, and all points share the value-keyed cache.
 The points run as Dask tasks: on a LocalCluster of this machine by default (one worker process per
 core, one thread each, and XLA limited to one thread per worker), or on an existing cluster
-(`--scheduler ADDRESS`, `--scheduler-file FILE`). A point that fails is reported with its message
-and does not stop the others; a point whose worker died is retried once. A point whose stages are
-all cached (a rerun) runs in this process, so a rerun with nothing to compute starts no Dask
-cluster at all. At the end the sweep writes `compare.csv` and `compare.png` (`pipeline compare`)
+(`--scheduler ADDRESS`, `--scheduler-file FILE`) started any way (`dask scheduler` and `dask worker`
+in any directory, under nannies). A task carries what it needs: the point's resolved config (read
+and validated here) and the absolute cache and outputs folders chosen here; a worker reads nothing
+from its own directory or environment. Its figures are drawn in the worker's process where it is
+daemonic (`pipeline.publish.figures`). A point that fails is reported with its message (naming
+the worker where the failure is the worker's: a folder it cannot write) and does not stop the
+others; a point whose worker died is run again by Dask. A lost scheduler ends the sweep with
+one line (exit 3): the finished points are kept, and a rerun computes only the rest. A point whose
+stages are all cached (a rerun) runs in this process, so a rerun with nothing to compute starts no
+Dask cluster at all. At the end the sweep writes `compare.csv` and `compare.png` (`pipeline compare`)
 into its folder.
 """
 
@@ -28,6 +34,7 @@ from __future__ import annotations
 
 import dataclasses
 import itertools
+import logging
 import os
 import time
 import tomllib
@@ -140,23 +147,52 @@ def load_sweep(path: str | Path) -> Sweep:
     return Sweep(name, config, tuple(points), only, head.get("plot"))
 
 
-def run_point(config_file: str, point: Point, only, cache_dir: str, outputs_dir: str) -> dict[str, Any]:
-    """One point, in a Dask worker: a refit into `outputs_dir/<point>/`. Returns what happened; a
-    failure is a returned message, so that the others go on."""
+def run_point(config, only, cache_dir: str, outputs_dir: str, xla_cache_dir: str | None) -> dict[str, Any]:
+    """One point, in a Dask worker (or here): a refit of `config` (its resolved values, sent by the
+    client: nothing is read from the worker's directory) into `outputs_dir/<point>/`, with the
+    stage cache in `cache_dir` and compiled XLA programs in `xla_cache_dir` (None: the cache's
+    own), all absolute and chosen by the client. Returns what happened; a failure is a returned
+    message, naming the worker, so that the others go on."""
+    import sys
+
+    if "jax" not in sys.modules:        # XLA is configured at its first use: one thread per task
+        for name, value in WORKER_ENV.items():
+            os.environ.setdefault(name, value)
+    paths.XLA_CACHE = xla_cache_dir
     from .optics.roots import SolverError
     from .run import run_derivation
 
     start = time.perf_counter()
     try:
-        config = load_config(config_file, point.overrides, name=point.name)
         outcome = run_derivation(config, cache_dir=Path(cache_dir), outputs=Path(outputs_dir), log=lambda s: None,
                                  only=only)
-    except (SolverError, ConfigError, OSError, faults.EnvironmentFault) as e:
-        return dict(name=point.name, ok=False, message=f"{type(e).__name__}: {e}",
+    except (SolverError, ConfigError) as e:         # the point's own settings
+        return dict(name=config.name, ok=False, message=f"{type(e).__name__}: {e}", seconds=time.perf_counter() - start)
+    except (OSError, faults.EnvironmentFault) as e:          # where it ran: which worker says
+        return dict(name=config.name, ok=False, message=f"{type(e).__name__}{_on_worker()}: {e}",
                     seconds=time.perf_counter() - start)
-    return dict(name=point.name, ok=True, message=f"{len(outcome.computed)} stages computed"
+    return dict(name=config.name, ok=True, message=f"{len(outcome.computed)} stages computed"
                 + (f", {len(outcome.failed)} checks FAILED" if outcome.failed else ""),
                 seconds=time.perf_counter() - start)
+
+
+def _on_worker() -> str:
+    """` on worker ADDRESS (HOST)` inside a Dask worker, else ''."""
+    try:
+        from distributed import get_worker
+        import socket
+
+        return f" on worker {get_worker().address} ({socket.gethostname()})"
+    except (ImportError, ValueError):
+        return ""
+
+
+class SchedulerLost(Exception):
+    """The client lost its scheduler while points were pending."""
+
+    def __init__(self, address: str, reason: str):
+        super().__init__(address, reason)
+        self.address, self.reason = address, reason
 
 
 def _client(scheduler: str | None, scheduler_file: str | None, workers: int | None):
@@ -164,29 +200,27 @@ def _client(scheduler: str | None, scheduler_file: str | None, workers: int | No
     import dask
     from distributed import Client, LocalCluster
 
+    dask.config.set({"distributed.logging.distributed": "error"})
+    # The client's own errors (a lost scheduler) are the sweep's to report, in one line.
+    logging.getLogger("distributed.client").setLevel(logging.CRITICAL)
     if scheduler or scheduler_file:
         try:
             return Client(scheduler, scheduler_file=scheduler_file, timeout="3s"), None
         except (OSError, TimeoutError, ValueError) as e:
             where = scheduler or f"scheduler file {scheduler_file}"
             raise ConfigError(f"no Dask scheduler answers at {where}: {e}") from None
-    # Worker processes must be allowed children: each point's figures are drawn in a second process.
-    dask.config.set({"distributed.worker.daemon": False, "distributed.logging.distributed": "error"})
     cluster = LocalCluster(n_workers=workers or os.cpu_count() or 1, threads_per_worker=1, processes=True,
                            dashboard_address=None, env=dict(WORKER_ENV), silence_logs=50)
     return Client(cluster), cluster
 
 
-def _fully_cached(config_file: str, point: Point, only, cache_dir: str) -> bool:
+def _fully_cached(config, only, cache_dir: str) -> bool:
     """Whether every stage the point runs is in the cache (`pipeline explain` says "cached" for each):
     such a point only reads the cache and (re)publishes its folder, and runs here, not on Dask."""
-    from .engine.cache import Cache
+    from .engine.cache import Cache, DamagedEntry
     from .run import explain
 
-    from .engine.cache import DamagedEntry
-
     try:
-        config = load_config(config_file, point.overrides, name=point.name)
         return all(what == "cached" for _, what in explain(config, Cache(Path(cache_dir)), only))
     except (DamagedEntry, ConfigError, OSError):        # the point's own run says what is wrong
         return False
@@ -196,8 +230,12 @@ def run_sweep(sweep: Sweep, scheduler: str | None = None, scheduler_file: str | 
               workers: int | None = None, log=print) -> list[dict[str, Any]]:
     """Runs every point on Dask (a point whose stages are all cached here, without starting
     Dask); prints a progress line per finished point; writes the comparison."""
-    outputs = paths.OUTPUTS / sweep.name
-    cache_dir = str(paths.CACHE)
+    # Absolute locations, chosen here: a worker may run in any directory.
+    outputs = paths.OUTPUTS.absolute() / sweep.name
+    cache_dir = str(paths.CACHE.absolute())
+    xla_cache_dir = str(Path(paths.XLA_CACHE).absolute()) if paths.XLA_CACHE else None
+    # Each point's resolved config (the file read here, the sweep's settings applied): what a worker gets.
+    configs = {p.name: load_config(sweep.config, p.overrides, name=p.name) for p in sweep.points}
     done: list[dict[str, Any]] = []
     start = time.perf_counter()
 
@@ -211,49 +249,63 @@ def run_sweep(sweep: Sweep, scheduler: str | None = None, scheduler_file: str | 
             f"{min(left, running)}, ETA {eta:.0f} s | {result['name']}: "
             f"{'ok' if result['ok'] else 'FAILED'} ({result['message']}, {result['seconds']:.1f} s)")
 
-    cached = [p for p in sweep.points if _fully_cached(sweep.config, p, sweep.only, cache_dir)]
-    remote = [p for p in sweep.points if p not in cached]
+    here = {name for name, config in configs.items() if _fully_cached(config, sweep.only, cache_dir)}
+    cached = [configs[p.name] for p in sweep.points if p.name in here]
+    remote = [configs[p.name] for p in sweep.points if p.name not in here]
     if remote:
-        _run_on_dask(sweep, remote, cached, outputs, cache_dir, scheduler, scheduler_file, workers, log, report)
+        try:
+            _run_on_dask(sweep, remote, cached, outputs, (cache_dir, xla_cache_dir), scheduler, scheduler_file, workers,
+                         log, report)
+        except SchedulerLost as e:
+            finished = sum(r["ok"] for r in done)
+            raise faults.EnvironmentFault(
+                f"the Dask scheduler at {e.address} was lost mid-sweep ({e.reason}): {finished} of "
+                f"{len(sweep.points)} points done and kept in {outputs}; a rerun computes only the rest") from None
     else:
         log(f"sweep '{sweep.name}': every stage of its {len(cached)} points is cached: run here, without Dask")
-        _run_here(sweep, cached, outputs, cache_dir, report, running=0)
+        _run_here(sweep, cached, outputs, (cache_dir, xla_cache_dir), report, running=0)
     _compare(sweep, outputs, done, log)
     return done
 
 
-def _run_here(sweep: Sweep, points, outputs: Path, cache_dir: str, report, running: int) -> None:
-    for point in points:
+def _run_here(sweep: Sweep, configs, outputs: Path, caches: tuple[str, str | None], report, running: int) -> None:
+    for config in configs:
         faults.check_interrupted()
-        report(run_point(sweep.config, point, sweep.only, cache_dir, str(outputs)), running)
+        report(run_point(config, sweep.only, caches[0], str(outputs), caches[1]), running)
 
 
-def _run_on_dask(sweep: Sweep, points, cached, outputs: Path, cache_dir: str, scheduler, scheduler_file, workers,
-                 log, report) -> None:
-    """`points` as Dask tasks; the `cached` points run here meanwhile."""
+def _run_on_dask(sweep: Sweep, configs, cached, outputs: Path, caches: tuple[str, str | None], scheduler,
+                 scheduler_file, workers, log, report) -> None:
+    """The points of `configs` as Dask tasks; the `cached` points run here meanwhile."""
     from distributed import wait
+    from distributed.client import FutureCancelledError, FuturesCancelledError
 
     client, cluster = _client(scheduler, scheduler_file, workers)
+    address = client.scheduler.address
     try:
-        futures = {client.submit(run_point, sweep.config, p, sweep.only, cache_dir, str(outputs),
-                                 key=f"point-{sweep.name}-{p.name}", pure=False, retries=1): p for p in points}
+        futures = {client.submit(run_point, c, sweep.only, caches[0], str(outputs), caches[1],
+                                 key=f"point-{sweep.name}-{c.name}", pure=False, retries=1): c for c in configs}
         pending = set(futures)
         log(f"sweep '{sweep.name}': {len(futures)} points on {len(client.scheduler_info()['workers'])} Dask workers "
             f"into {outputs}" + (f" ({len(cached)} with every stage cached run here)" if cached else ""))
-        _run_here(sweep, cached, outputs, cache_dir, report, running=len(pending))
+        _run_here(sweep, cached, outputs, caches, report, running=len(pending))
         while pending:
             try:                    # woken twice a second, to act on Ctrl-C
                 finished = wait(pending, timeout=0.5, return_when="FIRST_COMPLETED").done
             except TimeoutError:
                 finished = set()
+            except FuturesCancelledError as e:       # the client gave up on the scheduler
+                raise SchedulerLost(address, e.error_groups[0].reason) from None
             pending -= finished
             faults.check_interrupted()
             for future in finished:
-                point = futures[future]
+                config = futures[future]
                 try:
                     result = future.result()
+                except FutureCancelledError as e:
+                    raise SchedulerLost(address, e.reason) from None
                 except Exception as e:          # the worker died twice, or the task could not run
-                    result = dict(name=point.name, ok=False, message=f"{type(e).__name__}: {e}", seconds=0.0)
+                    result = dict(name=config.name, ok=False, message=f"{type(e).__name__}: {e}", seconds=0.0)
                 report(result, len(pending))
     finally:
         client.close()

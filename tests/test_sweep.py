@@ -3,14 +3,21 @@ computes nothing, the comparison table equal to the points' results.json; bad sw
 
 import csv
 import json
+import multiprocessing
+import os
+import signal
 import subprocess
 import sys
+import time
+from pathlib import Path
 
+import psutil
 import pytest
+from distributed import Client
 
 from pipeline.engine import paths
-from pipeline.engine.config import ConfigError
-from pipeline.sweep import load_sweep
+from pipeline.engine.config import ConfigError, load_config
+from pipeline.sweep import load_sweep, run_point
 
 from .conftest import LIGHT_CONFIG
 from .helpers import cli_env
@@ -87,56 +94,142 @@ def test_a_scheduler_that_does_not_answer_exits_2_in_seconds_naming_it(tmp_path)
     assert not (tmp_path / "out").exists()
 
 
-# Three points of other Q values (each computes), run on two workers; one worker is killed mid-point.
-KILL_SWEEP = f"""
+class PlainCluster:
+    """`dask scheduler` and `dask worker --nworkers 2` started as a user starts them: in a folder of
+    their own (not the project's), with none of the pipeline's or JAX's environment variables, the
+    workers under their nannies (daemonic processes). `stop()` ends every process it started."""
+
+    def __init__(self, folder):
+        folder.mkdir(parents=True, exist_ok=True)
+        self.folder, self.file = folder, folder / "scheduler.json"
+        dask = str(Path(sys.executable).parent / "dask")
+        env = {"PATH": os.environ["PATH"], "HOME": os.environ.get("HOME", str(folder))}
+        start = dict(cwd=folder, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True)
+        self.scheduler = subprocess.Popen([dask, "scheduler", "--scheduler-file", str(self.file), "--port", "0",
+                                           "--no-dashboard"], **start)
+        deadline = time.monotonic() + 60
+        while not self.file.is_file() and time.monotonic() < deadline:
+            time.sleep(0.1)
+        self.workers = subprocess.Popen([dask, "worker", "--scheduler-file", str(self.file), "--nworkers", "2",
+                                         "--nthreads", "1", "--no-dashboard"], **start)
+        self.client = Client(scheduler_file=str(self.file), timeout="30s")
+        self.client.wait_for_workers(2, timeout=60)
+
+    def worker_processes(self):
+        """The processes that run tasks: the children of the `dask worker` process (its nannies)."""
+        return psutil.Process(self.workers.pid).children(recursive=False)
+
+    def stop_scheduler(self):
+        os.killpg(self.scheduler.pid, signal.SIGKILL)
+        self.scheduler.wait()
+
+    def stop(self):
+        self.client.close(timeout=5)
+        for proc in (self.workers, self.scheduler):
+            try:
+                os.killpg(proc.pid, signal.SIGKILL)
+            except ProcessLookupError:
+                pass
+            proc.wait()
+
+
+@pytest.fixture()
+def plain_cluster(tmp_path):
+    clusters = []
+
+    def start():
+        clusters.append(PlainCluster(tmp_path / f"elsewhere{len(clusters)}"))
+        return clusters[-1]
+    yield start
+    for cluster in clusters:
+        cluster.stop()
+    # Nothing a cluster started outlives the test (a killed process may take a moment to go).
+    deadline = time.monotonic() + 20
+    while (left := [p.pid for p in psutil.process_iter(["cwd", "status"]) if p.info["status"] != psutil.STATUS_ZOMBIE
+                    and p.info["cwd"] in {str(c.folder) for c in clusters}]) and time.monotonic() < deadline:
+        time.sleep(0.2)
+    assert left == []
+
+
+# Four points of Q values no other test computes; with two workers, the third and fourth start only
+# when the first two are done.
+CLUSTER_SWEEP = f"""
 [sweep]
-name = "k"
+name = "c"
 config = "{LIGHT_CONFIG}"
 only = ["accuracy"]
 [axes]
-"derivation.Q" = [0.57, 0.58, 0.59]
+"derivation.Q" = [0.53, 0.54, 0.56, 0.57]
 """
 
 
 @pytest.mark.slow
-def test_a_worker_killed_mid_point_spoils_no_other_point(refit_cache, tmp_path):
-    """SIGKILL to a Dask worker process while it runs a point: Dask reruns the point on a new worker
-    (or reports it failed with its message); the other points complete, no half-written folder is
-    left, and a rerun computes nothing for the points that completed."""
-    import os
-    import signal
-    import time
+def test_a_cluster_started_the_ordinary_way_runs_the_sweep_through_a_killed_worker_and_a_lost_scheduler(
+        refit_cache, plain_cluster, tmp_path):
+    """On `dask scheduler` / `dask worker` processes started elsewhere: SIGKILL to a worker while it
+    computes a point (its nanny starts another; the point runs again), then SIGKILL to the scheduler
+    once a point is done. The client exits 3 with one line; the completed points are complete
+    folders, nothing half written is left; on a second cluster the rerun computes only the rest,
+    on daemonic workers that draw the points' figures themselves."""
+    cluster = plain_cluster()
+    # What a worker sees (a function of this test, sent by value: the tests are not importable there).
+    seen = cluster.client.run(lambda: (os.getcwd(), multiprocessing.current_process().daemon, sorted(
+        k for k in os.environ if k.startswith(("PIPELINE_", "JAX_", "XLA_", "DRJIT_")))))
+    assert len(seen) == 2 and all(cwd == str(cluster.folder) and daemon and env == []
+                                  for cwd, daemon, env in seen.values()), seen
+    # A worker that cannot write where the client asks fails the point in one line naming both.
+    config = load_config(str(LIGHT_CONFIG), name="blocked")
+    failed = cluster.client.submit(run_point, config, ("zone",), str(refit_cache), "/proc/blocked", None).result()
+    assert not failed["ok"] and "/proc/blocked" in failed["message"] and " on worker tcp://" in failed["message"]
 
-    import psutil
-
-    file = tmp_path / "k.toml"
-    file.write_text(KILL_SWEEP)
-    proc = subprocess.Popen([sys.executable, "-m", "pipeline", "sweep", str(file), "--workers", "2"],
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=cli_env(tmp_path),
-                            cwd=paths.ROOT)
+    file = tmp_path / "c.toml"
+    file.write_text(CLUSTER_SWEEP)
+    proc = subprocess.Popen([sys.executable, "-m", "pipeline", "sweep", str(file), "--scheduler-file",
+                             str(cluster.file)], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            env=cli_env(tmp_path, PYTHONUNBUFFERED="1"), cwd=paths.ROOT)
     killed = None
     deadline = time.monotonic() + 120
     while killed is None and time.monotonic() < deadline and proc.poll() is None:
-        # The workers: the processes under the nannies that compute (busy on a CPU), once a point runs.
-        for child in psutil.Process(proc.pid).children(recursive=True):
+        for worker in cluster.worker_processes():
             try:
-                if child.cpu_percent(interval=0.2) > 50 and child.parent().pid != proc.pid:
-                    os.kill(child.pid, signal.SIGKILL)
-                    killed = child.pid
+                if worker.cpu_percent(interval=0.2) > 50:        # computing a point
+                    worker.kill()
+                    killed = worker.pid
                     break
             except psutil.NoSuchProcess:
                 continue
-    out, err = proc.communicate(timeout=600)
     assert killed is not None, "no worker was seen computing"
-    folder = tmp_path / "out" / "k"
-    lines = [line for line in out.splitlines() if line.startswith("[")]
-    assert len(lines) == 3, out + err                          # every point reported, ok or FAILED
-    complete = {p.name for p in folder.iterdir() if p.is_dir() and (p / "results.json").is_file()}
-    ok = {line.split(" | ")[1].split(":")[0] for line in lines if ": ok (" in line}
-    assert ok <= complete and len(ok) >= 2, out
-    assert not [p.name for p in folder.iterdir() if p.name.startswith(".") and "tmp" in p.name], list(folder.iterdir())
-    again = sweep_cli(file, tmp_path)
+    lines = []
+    while not any(line.startswith("[1/4]") for line in lines):
+        line = proc.stdout.readline()
+        assert line, "the sweep ended before a point was done"
+        lines.append(line)
+    cluster.stop_scheduler()
+    out, err = proc.communicate(timeout=120)
+    assert proc.returncode == 3, out + err
+    assert err.strip().count("\n") == 0 and "Traceback" not in err, err
+    assert err.startswith(f"error: the Dask scheduler at {cluster.client.scheduler.address} was lost mid-sweep"), err
+    # The workers go on with the points they hold; stopped now, one may be killed while it writes.
+    cluster.stop()
+    folder = tmp_path / "out" / "c"
+    complete = {p.name for p in folder.iterdir() if p.is_dir() and not p.name.startswith(".")}
+    assert "points done and kept in" in err and len(complete) >= 1
+    assert all((folder / name / "results.json").is_file() and (folder / name / "report.md").is_file()
+               for name in complete)
+
+    second = plain_cluster()
+    again = subprocess.run([sys.executable, "-m", "pipeline", "sweep", str(file), "--scheduler-file",
+                            str(second.file)], capture_output=True, text=True, env=cli_env(tmp_path),
+                           cwd=paths.ROOT, timeout=300)
     assert again.returncode == 0, again.stdout + again.stderr
-    assert again.stdout.count(": ok (0 stages computed") >= len(ok), again.stdout
-    if len(ok) == 3:            # nothing left to compute: no Dask cluster is started
-        assert "every stage of its 3 points is cached: run here, without Dask" in again.stdout, again.stdout
+    assert again.stdout.count(": ok (0 stages computed") >= len(complete), again.stdout
+    rest = 4 - again.stdout.count(": ok (0 stages computed")
+    assert rest >= 1 and f"{rest} points on 2 Dask workers" in again.stdout, again.stdout
+    assert "4 of 4 points done" in again.stdout
+    with open(folder / "compare.csv") as f:
+        assert len(list(csv.DictReader(f))) == 4
+    # No temporary folder of a killed write is left: the rerun swept them.
+    assert not [p.name for p in folder.iterdir() if p.name.startswith(".") and "tmp" in p.name], list(folder.iterdir())
+    # Every point's figures, those drawn on the daemonic workers included.
+    for name in ("Q-0p53", "Q-0p54", "Q-0p56", "Q-0p57"):
+        assert {"fig2_d_vs_Q.png", "fig6_fQ2_errors.png"} <= {p.name for p in (folder / name).glob("*.png")}

@@ -269,6 +269,10 @@ class Config:
     def __getitem__(self, key: str) -> Any:
         return self.values[key]
 
+    def __reduce__(self):
+        # Pickled as plain dicts (a sweep sends each point's resolved config to a Dask worker).
+        return _config_from, (dict(self.values), self.expectations, self.source, dict(self.file_values))
+
     @property
     def name(self) -> str:
         return self.values["run.name"]
@@ -441,6 +445,10 @@ def validate(values: Mapping[str, Any], raw_expectations: Mapping[str, Any], sou
                     '(n in [2, 1000], Q = 0.64 or "scan", metric "relative_epicenter", fit "least_squares", '
                     'lobe.power 2)')
     return config
+
+
+def _config_from(values: dict, expectations, source: str, file_values: dict) -> Config:
+    return Config(MappingProxyType(values), expectations, source, MappingProxyType(file_values))
 
 
 def load_config(path: str | Path, overrides: tuple[str, ...] = (), name: str | None = None) -> Config:

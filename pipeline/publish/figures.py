@@ -181,12 +181,24 @@ def _ignoring_sigint(start):
         signal.signal(signal.SIGINT, previous)
 
 
+def may_start_processes() -> bool:
+    """Whether this process may start a child: a daemonic one (a Dask worker under its nanny) may not."""
+    return not multiprocessing.current_process().daemon
+
+
+# One figure at a time is drawn in this process (the threads of a Dask worker may run several points).
+IN_PROCESS = threading.Lock()
+
+
 class FigureDrawer:
     """Draws the run's figures into the figure cache while the stages compute.
 
     `update(results, stage_keys)` (after each stage) hands every figure whose stages are all done to
     a second process (started with "spawn" on first need: it imports matplotlib, never JAX), unless
     the cache holds it already; `collect(out)` waits for them and copies every figure into `out`.
+    A daemonic process (a Dask worker under its nanny) may not start one: there `collect` draws
+    the figures in this process, one at a time (matplotlib's pyplot is not thread-safe), into the
+    same cache entries.
     """
 
     def __init__(self, config, cache_root: Path, log=print):
@@ -227,7 +239,7 @@ class FigureDrawer:
             if f.file in self.keys or not all(s in results for s in f.stages):
                 continue
             key = self.keys[f.file] = figure_key(f, self.config, stage_keys)
-            if self._stored(key, f.file) is not None:
+            if self._stored(key, f.file) is not None or not may_start_processes():
                 continue
             if self.pool is None:
                 self.pool = ProcessPoolExecutor(1, mp_context=multiprocessing.get_context("spawn"),
@@ -251,9 +263,10 @@ class FigureDrawer:
                 continue            # a targeted run did not compute what it shows: not drawn
             stored = self.folder / self.keys[f.file]
             files = self._stored(self.keys[f.file], f.file)
-            if files is None:       # removed meanwhile (a prune, a damaged entry): draw it here
-                files = draw_into_cache(f, self.folder, self.keys[f.file], FigureConfig(self.config, f.config),
-                                        {stage: results[stage] for stage in f.stages})
+            if files is None:       # not drawn by a second process, or removed meanwhile: draw it here
+                with IN_PROCESS:
+                    files = draw_into_cache(f, self.folder, self.keys[f.file], FigureConfig(self.config, f.config),
+                                            {stage: results[stage] for stage in f.stages})
             os.utime(stored)            # last use, for `pipeline cache --prune`
             for name in files:
                 shutil.copyfile(stored / name, out / name)

@@ -6,6 +6,7 @@ only the config keys it declares."""
 import json
 import math
 import re
+import shutil
 
 import numpy as np
 import pytest
@@ -140,6 +141,24 @@ def test_a_damaged_figure_entry_is_reported_by_name_and_redrawn(paper_outputs, p
     assert said and f"is damaged (fig5_lobes_n20.png {reason}); redrawing" in said[0]
     # Redrawn: the same bytes as before the damage, in the cache and in the outputs.
     assert png.read_bytes() == good and (out / "paper" / "fig5_lobes_n20.png").read_bytes() == good
+
+
+@pytest.mark.slow
+def test_a_daemonic_process_draws_the_figures_itself_with_the_same_bytes(paper_outputs, paper_config, monkeypatch):
+    """Where no child process may start (a Dask worker under its nanny), the figures are drawn in the
+    run's own process: the same files as the figure process writes, byte for byte."""
+    from pipeline.publish import figures
+    out, base, cache = paper_outputs
+    fig5 = next(f for f in figures.FIGURES if f.file == "fig5_lobes_n20.png")
+    entry = cache / figures.FIGURE_CACHE / figures.figure_key(fig5, paper_config, base.keys)
+    good = (entry / "fig5_lobes_n20.png").read_bytes()
+    shutil.rmtree(entry)
+    (out / "paper" / ".stamp").unlink()          # force the outputs to be written again
+    monkeypatch.setattr(figures, "may_start_processes", lambda: False)
+    monkeypatch.setattr(figures, "ProcessPoolExecutor", None)       # starting one would fail
+    run_derivation(paper_config, cache_dir=cache, outputs=out, log=lambda s: None)
+    assert (entry / "fig5_lobes_n20.png").read_bytes() == good
+    assert (out / "paper" / "fig5_lobes_n20.png").read_bytes() == good
 
 
 def test_a_figure_reading_an_undeclared_config_key_is_an_error(paper_config):
