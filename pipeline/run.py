@@ -24,7 +24,7 @@ from pathlib import Path
 from typing import Any
 
 from .engine import checks as checks_mod, faults, graph, paths
-from .engine.cache import XLA, Cache, DamagedEntry, Memo, code_hash, digest, direct_imports, stage_key
+from .engine.cache import PARSING, XLA, Cache, DamagedEntry, Memo, code_hash, digest, direct_imports, stage_key
 from .engine.config import Config
 from .engine.publishing import output_lock, publish
 
@@ -78,7 +78,8 @@ _compile_cache_on = False
 
 def _compute(stage: graph.Stage, values, inputs, cache: Cache, log=None) -> dict[str, Any]:
     global _compile_cache_on
-    module = importlib.import_module(stage.module)      # imports JAX only when something is computed
+    with PARSING:       # (see `pipeline.engine.cache.PARSING`)
+        module = importlib.import_module(stage.module)      # imports JAX only when something is computed
     with _setup_lock:
         if not _compile_cache_on:
             from .optics.numerics import use_compilation_cache

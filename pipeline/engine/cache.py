@@ -33,6 +33,7 @@ import math
 import os
 import shutil
 import tempfile
+import threading
 import time
 from pathlib import Path
 from typing import Any
@@ -79,13 +80,24 @@ def _imports(path: Path, module: str) -> set[str]:
     return {m for m in _imported_names(path.read_text(), package) if _module_file(m) is not None}
 
 
+# CPython 3.11 can fail with "SystemError: AST constructor recursion depth mismatch" when two
+# threads turn source into an AST at once (its AST builder keeps its depth in per-interpreter
+# state). Stage threads do: numpy reads each array header with `ast.literal_eval`, Dr.Jit parses
+# Mitsuba's integrators when they are imported, and importing JAX runs `inspect` on signatures.
+# Where the pipeline's threads do that, they hold this lock: reading an entry's arrays, parsing a
+# module's imports, importing a stage's module, importing and registering Mitsuba's plugins.
+PARSING = threading.RLock()
+
+
 @functools.cache
 def _imported_names(source: str, package: str) -> frozenset[str]:
     """Every module name that `source` (a module of `package`) imports. Keyed on the text itself,
     so that each file is parsed once per process however many stages import it, and again if it
     changes."""
     found = set()
-    for node in ast.walk(ast.parse(source)):
+    with PARSING:
+        tree = ast.parse(source)
+    for node in ast.walk(tree):
         if isinstance(node, ast.Import):
             found.update(a.name for a in node.names)
         elif isinstance(node, ast.ImportFrom):
@@ -310,7 +322,7 @@ class Cache:
                 if sha256(folder / name) != manifest["sha256"][name]:
                     raise DamagedEntry(f"{name} does not match its checksum")
             values = json.loads((folder / "values.json").read_text())
-            with np.load(folder / "arrays.npz", allow_pickle=False) as data:
+            with PARSING, np.load(folder / "arrays.npz", allow_pickle=False) as data:
                 arrays = {k: data[k] for k in data.files}
         except DamagedEntry:
             raise

@@ -31,6 +31,7 @@ import subprocess
 import sys
 import threading
 
+from ..engine.cache import PARSING
 from ..optics.registry import power_steps
 
 NAME = "cosquad_lobe"
@@ -76,11 +77,12 @@ def choose_variant() -> str:
 def register(variant: str | None = None) -> str:
     """Sets the Mitsuba variant (chosen by `choose_variant` if not given) and registers the
     plugin; returns the variant."""
-    import mitsuba as mi
-
     variant = variant or choose_variant()
-    mi.set_variant(variant)
-    mi.register_bsdf(NAME, lambda props: plugin_class()(props))
+    with PARSING:           # importing Mitsuba's integrators parses their source (`cache.PARSING`)
+        import mitsuba as mi
+
+        mi.set_variant(variant)
+        mi.register_bsdf(NAME, lambda props: plugin_class()(props))
     return variant
 
 

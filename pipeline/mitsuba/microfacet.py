@@ -15,6 +15,7 @@ about h), with its pdf: `cosquad_lobe`'s Blinn form, which passes Mitsuba's chi-
 
 from __future__ import annotations
 
+from ..engine.cache import PARSING
 from . import bsdf
 
 NAME = "cosquad_microfacet"
@@ -23,10 +24,11 @@ _CLASSES: dict = {}
 
 def register(variant: str | None = None) -> str:
     """Registers `cosquad_lobe` and this plugin for the variant; returns the variant."""
-    import mitsuba as mi
-
     variant = bsdf.register(variant)
-    mi.register_bsdf(NAME, lambda props: plugin_class()(props))
+    with PARSING:           # (`pipeline.engine.cache.PARSING`)
+        import mitsuba as mi
+
+        mi.register_bsdf(NAME, lambda props: plugin_class()(props))
     return variant
 
 
