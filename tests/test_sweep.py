@@ -1,5 +1,7 @@
 """`pipeline sweep`: points on a LocalCluster, one failing without spoiling the others, a rerun that
-computes nothing, the comparison table equal to the points' results.json; bad sweep files exit 2."""
+computes nothing, the comparison table equal to the points' results.json; bad sweep files exit 2;
+a cluster of `dask scheduler` and `dask worker` processes started elsewhere, through a killed
+worker and a lost scheduler."""
 
 import csv
 import json
