@@ -445,11 +445,21 @@ class Memo:
         self.reused: list[str] = []
 
     def __call__(self, name: str, fn, **arguments) -> dict[str, Any]:
+        result = self.cached(name, fn, **arguments)
+        if result is not None:
+            return result
+        return self.store(name, fn, fn(**arguments), **arguments)
+
+    def _key(self, name: str, fn, arguments) -> tuple[str, str]:
+        return f"{MEMO}/{name}", digest("memo", name, fn.__module__, fn.__qualname__, code_hash(fn.__module__),
+                                        arguments, library_versions())
+
+    def cached(self, name: str, fn, **arguments) -> dict[str, Any] | None:
+        """The stored result of `fn(**arguments)`, or None (absent, damaged, or no cache): for a caller
+        that computes several missing calls at once and stores each (`store`)."""
         if self.cache is None:
-            return fn(**arguments)
-        kind = f"{MEMO}/{name}"
-        key = digest("memo", name, fn.__module__, fn.__qualname__, code_hash(fn.__module__), arguments,
-                     library_versions())
+            return None
+        kind, key = self._key(name, fn, arguments)
         try:
             result = self.cache.load(kind, key)
         except DamagedEntry as e:
@@ -459,7 +469,13 @@ class Memo:
             result = None
         if result is not None:
             self.reused.append(name)
-            return result
+        return result
+
+    def store(self, name: str, fn, result: dict[str, Any], **arguments) -> dict[str, Any]:
+        """Stores `result` as the value of `fn(**arguments)`; returns it as a later read gives it."""
         self.computed.append(name)
-        self.cache.store(kind, key, fn(**arguments))
+        if self.cache is None:
+            return result
+        kind, key = self._key(name, fn, arguments)
+        self.cache.store(kind, key, result)
         return self.cache.load(kind, key)

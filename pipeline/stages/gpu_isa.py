@@ -7,7 +7,8 @@ instructions by kind and ACO's cycle estimates, net of the shader's fixed wrappe
 The shaders are compiled with the paper's constants as stand-ins (`CONSTANTS`): each constant is
 one literal in the code, so the machine code does not depend on its value, and a refit that moves
 Q or the line keeps this stage. The registry's shaders and the family at each power are memoized
-apart, so a run with other powers compiles only the powers not compiled before. Where the
+apart (what is missing is compiled at once, then stored apart), so a run with other powers
+compiles only the powers not compiled before. Where the
 compiler cannot run (no Vulkan loader, no RADV,
 no `vulkan` package), the stage says why and returns no rows.
 """
@@ -35,6 +36,18 @@ def family_rows(power: int) -> dict:
     return compiled((power,), registry_shaders=False)
 
 
+def _family_of(row, power: int) -> bool:
+    return row["lobe"] == registry.family_name(power) and row["what"] in ("family lobe", "NDF")
+
+
+def _parts(found: dict, powers) -> tuple[dict, dict[int, dict]]:
+    """One compilation of the registry and the family at `powers`, split into what `registry_rows`
+    and each `family_rows(power)` return (each with the wrappers)."""
+    wrappers = [r for r in found["rows"] if r["what"].startswith("wrapper")]
+    base = dict(found, rows=[r for r in found["rows"] if not any(_family_of(r, m) for m in powers)])
+    return base, {m: dict(found, rows=[r for r in found["rows"] if _family_of(r, m)] + wrappers) for m in powers}
+
+
 def merged(base: dict, families: list[dict]) -> dict:
     """The rows of `base` (the registry's) and of each family part, per chip family in the order of
     one compilation of them all: the lobes, the family at each power, the NDFs, the wrappers."""
@@ -52,9 +65,19 @@ def merged(base: dict, families: list[dict]) -> dict:
 
 def run(config, inputs, memo):
     power = config["lobe.power"]
-    powers = sorted(set(config["front.powers"]) | {power})
-    found = merged(memo("machine_code_registry", registry_rows),
-                   [memo("machine_code_family", family_rows, power=int(m)) for m in powers])
+    powers = sorted(int(m) for m in set(config["front.powers"]) | {power})
+    base = memo.cached("machine_code_registry", registry_rows)
+    parts = {m: memo.cached("machine_code_family", family_rows, power=m) for m in powers}
+    missing = [m for m in powers if parts[m] is None]
+    if base is None or missing:
+        # What is missing, compiled at once (each RADV run starts a Vulkan device), stored apart.
+        found = compiled(missing, registry_shaders=base is None)
+        new_base, new_parts = _parts(found, missing)
+        if base is None:
+            base = memo.store("machine_code_registry", registry_rows, new_base)
+        for m in missing:
+            parts[m] = memo.store("machine_code_family", family_rows, new_parts[m], power=m)
+    found = merged(base, [parts[m] for m in powers])
     rows = found["rows"]
     family = [r for r in rows if r["what"] == "family lobe"]
     pow_rows = [r for r in rows if r["what"] == "lobe" and r["lobe"] == registry.REFERENCE]

@@ -91,11 +91,19 @@ def test_the_check_can_fail_pow_of_16_keeps_its_transcendentals(tmp_path):
     assert parsed["transcendental"] == 2
 
 
-def test_the_stage_s_parts_compiled_apart_give_the_rows_of_one_compilation(compiled):
-    """`gpu_isa` compiles the registry's shaders and the family at each power apart (each memoized
-    on its own): merged, its rows equal those of one compilation of them all, in the same order."""
+def test_the_stage_s_parts_compiled_apart_give_the_rows_of_one_compilation(compiled, tmp_path):
+    """`gpu_isa` memoizes the registry's shaders and the family at each power apart: a first run
+    compiles the registry and f_Q3 at once and stores them apart, a second run with f_Q16 added
+    reads both and compiles f_Q16 alone. Merged, its rows equal those of one compilation of them
+    all, in the same order."""
+    from pipeline.engine.cache import Cache, Memo
     from pipeline.stages import gpu_isa
 
-    out = gpu_isa.run({"lobe.power": 3, "front.powers": [3]}, {}, lambda name, fn, **kw: fn(**kw))
-    others = {registry.family_name(m) for m in (2, 4, 8, 16)}
+    cache = Cache(tmp_path)
+    gpu_isa.run({"lobe.power": 3, "front.powers": [3]}, {}, Memo(cache))
+    memo = Memo(cache)
+    out = gpu_isa.run({"lobe.power": 16, "front.powers": [3]}, {}, memo)
+    assert memo.reused == ["machine_code_registry", "machine_code_family"]
+    assert memo.computed == ["machine_code_family"]
+    others = {registry.family_name(m) for m in (2, 4, 8)}
     assert out["rows"] == [r for r in compiled if not (r["lobe"] in others and r["what"] in ("family lobe", "NDF"))]

@@ -1,6 +1,7 @@
 """The machine-code stage where the compiler cannot run: it says why, returns no rows, and the
 report and the summary say "machine-code cost not measured" (nothing fails)."""
 
+from pipeline.engine.cache import Memo
 from pipeline.optics import machine_code
 from pipeline.publish import report_beyond, summary
 from pipeline.stages import gpu_isa
@@ -8,7 +9,7 @@ from pipeline.stages import gpu_isa
 
 def test_without_radv_the_stage_says_why_and_the_report_says_not_measured(monkeypatch, tmp_path, paper_run):
     monkeypatch.setattr(machine_code, "ICD_FOLDERS", (str(tmp_path),))
-    out = gpu_isa.run({"lobe.power": 2, "front.powers": [2, 3]}, {}, lambda name, fn, **kw: fn(**kw))
+    out = gpu_isa.run({"lobe.power": 2, "front.powers": [2, 3]}, {}, Memo(None))
     assert out["available"] is False and out["rows"] == []
     assert "mesa-vulkan-drivers" in out["reason"]
     r = dict(paper_run, gpu_isa=out)
