@@ -21,7 +21,7 @@ from pathlib import Path
 from .engine import checks as checks_mod, faults, graph, paths
 from .engine.config import ConfigError, key_table, load_config
 from .publish.compare import CompareError
-from .symbolic.regress import RegressError
+from .symbolic.regress import DEFAULT_OPERATIONS, RegressError
 
 
 def _print_checks(outcome) -> None:
@@ -106,11 +106,11 @@ def _regress(args) -> int:
     start = time.perf_counter()
     out = Path(args.out) if args.out else paths.OUTPUTS / "regress" / Path(args.file).stem
     front = regress(Path(args.file), args.x, args.y, out, args.max_complexity, parse_operations(args.ops),
-                    seed=args.seed, noise=args.noise, engine=args.engine)
+                    seed=args.seed, noise=args.noise, engine=args.engine, loss=args.loss, cost=args.cost)
     engines = len({m["engine"] for m in front}) > 1 or front[0]["engine"] != "exhaustive"
-    print("complexity  RMS          DL (nats)  " + ("engine      " if engines else "") + "expression")
+    print(f"complexity  {'loss: ' + args.loss:<12} DL (nats)  " + ("engine      " if engines else "") + "expression")
     for m in front:
-        print(f"{m['complexity']:>10}  {m['rms']:<11.6g}  {m['description_length']:<9.4g}  "
+        print(f"{m['complexity']:>10}  {m['loss']:<11.6g}  {m['description_length']:<9.4g}  "
               + (f"{m['engine']:<10}  " if engines else "") + m["canonical"]
               + ("   <- selected" if m["selected"] else ""))
     print(f"wrote {out / 'front.csv'} and {out / 'front.png'}; {time.perf_counter() - start:.1f} s")
@@ -212,8 +212,15 @@ def _main(argv: list[str] | None) -> int:
     reg.add_argument("--x", required=True, metavar="COLUMN[,COLUMN...]", help="column(s) of the variable(s), up to 3")
     reg.add_argument("--y", required=True, metavar="COLUMN", help="column to fit")
     reg.add_argument("--max-complexity", type=int, default=12, metavar="N",
-                     help="largest complexity searched (constants, x, +, -, * count 1; / counts 2); default 12")
-    reg.add_argument("--ops", default="+,-,*,/", help='operations, default "+,-,*,/"')
+                     help="largest complexity searched (constants, variables, +, -, *, square, cube count 1; /, exp, "
+                          "log, sqrt, pow count 2); default 12")
+    reg.add_argument("--ops", default=",".join(DEFAULT_OPERATIONS), metavar="OP[,OP...]",
+                     help=f'operations from {", ".join(DEFAULT_OPERATIONS)}; default all of them')
+    reg.add_argument("--loss", default="rms", choices=["rms", "relative", "max", "max-relative"],
+                     help="what the front ranks by: RMS error (default), RMS of the relative error, largest absolute "
+                          "or relative error (minimax)")
+    reg.add_argument("--cost", default=None, metavar="FILE.toml",
+                     help="a cost per operation ([cost] table: exp = 4, ...) to rank by instead of the default count")
     reg.add_argument("--seed", type=int, default=0, help="seed of the random starts and of pyoperon (default 0)")
     reg.add_argument("--engine", default="auto", choices=["auto", "exhaustive", "operon", "both"],
                      help="exhaustive: every expression up to --max-complexity; operon: pyoperon's genetic "

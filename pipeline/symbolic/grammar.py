@@ -1,18 +1,22 @@
 """The expressions of the symbolic regression: built from fitted constants `c`, the variables (`x`,
-and `x1`, `x2` where there are several) and the operations +, -, *, /; enumerated up to a
-complexity, parsed, printed, evaluated. No JAX here (`pipeline.symbolic.search` fits them), so that
-bad input is answered at once.
+and `x1`, `x2` where there are several), the operations +, -, *, /, pow (a ^ b) and the functions
+exp, log, sqrt, square, cube; enumerated up to a complexity, parsed, printed, evaluated. No JAX
+here (`pipeline.symbolic.search` fits them), so that bad input is answered at once.
 
-Complexity is TuringBot's, as the paper's table implies it: every constant, the variable, +, -
-and * count 1 and / counts 2 (c x = 3, c (c + x) = 5, c x + c + c/x = 10,
-c (c + c/(x - c) + x) = 12).
+Complexity is TuringBot's for + - * /, as the paper's table implies it: every constant, the
+variable, +, - and * count 1 and / counts 2 (c x = 3, c (c + x) = 5, c x + c + c/x = 10,
+c (c + c/(x - c) + x) = 12). A function counts as a division does, 2 (exp, log, sqrt, and pow:
+one call each), and square and cube count 1, as the product they stand for (so square(x) = 2
+against x x = 3). `COST` holds it; a user's table (`read_cost_table`) ranks the forms without
+changing which are enumerated: the enumeration is by the default count (structure), the front
+by the table (cost).
 
-Expressions are nested tuples: a variable ("x",), ("x1",), ..., a constant ("c",) or (op, left,
-right). Enumeration keeps one
-representative of expressions that are equal for every value of the constants, or reduces them to
-a cheaper one with the same family, by these rules (each removes only expressions that another
-kept expression matches at equal or lower complexity):
-- no operation between two constant-only operands (c op c is a constant);
+Expressions are nested tuples: a variable ("x",), ("x1",), ..., a constant ("c",), a function
+(name, a) or an operation (op, left, right), "pow" for a ^ b. Enumeration keeps one representative
+of expressions that are equal for every value of the constants, or reduces them to a cheaper one
+with the same family, by these rules (each removes only expressions that another kept expression
+matches, wherever the removed one is defined, at equal or lower complexity):
+- no operation or function of constant-only operands (c op c, exp(c) are constants);
 - + and * chains are flattened left to right, their operands sorted, with at most one lone
   constant among them (c + c or c c is one constant);
 - in a chain of + and -, every subtraction comes after every addition (a - b + c = a + c - b)
@@ -21,7 +25,19 @@ kept expression matches at equal or lower complexity):
   denominator of a quotient ((a/b)/c = a/(b c) is cheaper); a/c is written c a (cheaper);
   a constant factor moves out of a quotient's operands to one numerator constant;
 - like terms in a chain of + and - (a and a, or a and c a) are dropped (c a is cheaper), and so
-  are common factors of a quotient's numerator and denominator.
+  are common factors of a quotient's numerator and denominator;
+- a function undone: exp(log a) and log(exp a) are a; square(sqrt a) is a;
+- a constant moved out of a function at equal cost: exp(a + c) = c exp(a), square(c a) =
+  c square(a), cube(c a) = c cube(a); c + log(a) = log(c a) (the kept forms reach every sign);
+- a power of a power: log(sqrt a) = c log(a), log(a ^ b) = b log(a), sqrt, square or cube of a ^ c,
+  and (sqrt a) ^ c, (cube a) ^ c, (a ^ c) ^ c, are one power (a ^ c) or c log(a);
+  cube(square a) = square(cube a); (exp a) ^ b = exp(a b);
+- two like functions joined where one does: exp(a) exp(b) = exp(a + b), exp(a)/exp(b) =
+  exp(a - b), and so for sqrt, square and cube (sqrt(a) sqrt(b) = sqrt(a b), square(a)/square(b)
+  = square(a/b)); log(a) + log(b) = log(a b), log(a) - log(b) = log(a/b).
+Domain guards are the fit's: a form whose value or gradient is not finite at a data point (log or
+sqrt of a value that reaches zero or below, a ^ b of a negative base, exp overflowing) is invalid
+there and never enters the front.
 """
 
 from __future__ import annotations
@@ -31,12 +47,43 @@ from functools import lru_cache
 
 import numpy as np
 
-COST = {"+": 1, "-": 1, "*": 1, "/": 2}
+BINARY = ("+", "-", "*", "/", "pow")
+UNARY = ("exp", "log", "sqrt", "square", "cube")
+# Every operation the grammar knows, in the order the enumeration takes them.
+OPERATIONS = ("+", "-", "*", "/", "exp", "log", "sqrt", "square", "cube", "pow")
+ARITHMETIC = ("+", "-", "*", "/")
+# TuringBot's complexity for + - * / (the paper's table implies it), a function's as a division's,
+# square and cube as a product's (module docstring); every leaf counts 1.
+COST = {"+": 1, "-": 1, "*": 1, "/": 2, "pow": 2, "exp": 2, "log": 2, "sqrt": 2, "square": 1, "cube": 1}
+LEAF_COST = 1
 X, C = ("x",), ("c",)
 VARIABLES_MAX = 3
 # Opcodes of the register programs the fitter runs.
-NOP, VAR, CONST, ADD, SUB, MUL, DIV = range(7)
-OPCODE = {"x": VAR, "c": CONST, "+": ADD, "-": SUB, "*": MUL, "/": DIV}
+NOP, VAR, CONST, ADD, SUB, MUL, DIV, POW, EXP, LOG, SQRT, SQUARE, CUBE = range(13)
+OPCODE = {"x": VAR, "c": CONST, "+": ADD, "-": SUB, "*": MUL, "/": DIV, "pow": POW, "exp": EXP, "log": LOG,
+          "sqrt": SQRT, "square": SQUARE, "cube": CUBE}
+# Names the parser also reads: pyoperon's and sympy's spellings.
+ALIASES = {"add": "+", "sub": "-", "mul": "*", "div": "/", "^": "pow", "**": "pow", "sq": "square"}
+
+
+def operations(spec) -> tuple:
+    """The operations named by `spec`, in `OPERATIONS`' order: a string of characters from "+-*/"
+    ("+-*/"), a comma- or space-separated list of names ("+,-,*,/,exp,pow"), or a sequence of names.
+    Raises ValueError naming an unknown or repeated one."""
+    if isinstance(spec, str):
+        names = [t for t in re.split(r"[,\s]+", spec.strip()) if t]
+        if len(names) == 1 and len(names[0]) > 1 and set(names[0]) <= set("+-*/"):
+            names = list(names[0])
+    else:
+        names = list(spec)
+    names = [ALIASES.get(n, n) for n in names]
+    unknown = [n for n in names if n not in OPERATIONS]
+    if unknown or not names:
+        raise ValueError(f"unknown operation {unknown[0]!r}" if unknown else "no operation given")
+    repeated = sorted({n for n in names if names.count(n) > 1})
+    if repeated:
+        raise ValueError(f"operation {repeated[0]!r} given twice")
+    return tuple(op for op in OPERATIONS if op in names)
 
 
 def variable_leaf(k: int) -> tuple:
@@ -52,45 +99,54 @@ def variable_index(e) -> int:
     return 0 if e == X else int(e[0][1:])
 
 
-def complexity(e) -> int:
+def complexity(e, cost=None) -> float:
+    """e's complexity under `cost` (an operation's cost by name, leaves under "constant" and
+    "variable"; default `COST`, every leaf 1)."""
+    table = COST if cost is None else cost
     if len(e) == 1:
-        return 1
-    return COST[e[0]] + complexity(e[1]) + complexity(e[2])
+        return table.get("constant" if e == C else "variable", LEAF_COST) if cost is not None else LEAF_COST
+    return table[e[0]] + sum(complexity(a, cost) for a in e[1:])
 
 
 def constants(e) -> int:
     if len(e) == 1:
         return int(e == C)
-    return constants(e[1]) + constants(e[2])
+    return sum(constants(a) for a in e[1:])
+
+
+def operations_of(e) -> set:
+    """The operations e uses."""
+    return set() if len(e) == 1 else {e[0]}.union(*(operations_of(a) for a in e[1:]))
 
 
 def _has_x(e) -> bool:
-    return is_variable(e) or (len(e) == 3 and (_has_x(e[1]) or _has_x(e[2])))
+    return is_variable(e) or (len(e) > 1 and any(_has_x(a) for a in e[1:]))
 
 
 def linear_constants(e) -> tuple:
     """Which constants (in order of appearance) the expression is jointly affine in: a largest set
-    of constants none of which sits in a denominator and no two of which are multiplied together
-    (each constant appears once, so the expression is then affine in the set). The fit solves
-    these exactly by linear least squares (variable projection) and iterates only the others."""
+    of constants none of which sits in a denominator, a function or a power, and no two of which
+    are multiplied together (each constant appears once, so the expression is then affine in the
+    set). The fit solves these exactly by linear least squares (variable projection) and iterates
+    only the others."""
     paths = []
 
     def walk(node, path):
         if node == C:
             paths.append(path)
-        elif len(node) == 3:
-            walk(node[1], path + ((id(node), node[0], 0),))
-            walk(node[2], path + ((id(node), node[0], 1),))
+        elif len(node) > 1:
+            for side, child in enumerate(node[1:]):
+                walk(child, path + ((id(node), node[0], side),))
 
     walk(e, ())
-    linear = [all(not (op == "/" and side == 1) for _, op, side in path) for path in paths]
+    linear = [all(op in ARITHMETIC and not (op == "/" and side == 1) for _, op, side in path) for path in paths]
 
     def multiplied(i, j):       # the lowest common ancestor of constants i and j is a product
         a, b = paths[i], paths[j]
         k = 0
         while k < min(len(a), len(b)) and a[k] == b[k]:
             k += 1
-        return a[k][1] in "*/"
+        return a[k][1] in ("*", "/")
 
     candidates = [i for i, ok in enumerate(linear) if ok]
     best = ()
@@ -108,77 +164,184 @@ def _chain(e, ops) -> list:
     return [e]
 
 
+def _added(e) -> list:
+    """The added terms of a chain of + and - (those not subtracted)."""
+    if e[0] == "-":
+        return _added(e[1])
+    return _chain(e, ("+",))
+
+
 def _key(e) -> str:
     return repr(e)
 
 
 def _has_constant_factor(e) -> bool:
-    return e[0] == "*" and C in _chain(e, "*")
+    return e[0] == "*" and C in _chain(e, ("*",))
 
 
 def _without_constant_factor(e) -> str:
     """Key of e with a constant factor removed: two chain terms with equal keys are like terms."""
     if e[0] == "*":
-        return _key([f for f in _chain(e, "*") if f != C])
+        return _key([f for f in _chain(e, ("*",)) if f != C])
     return _key([e])
 
 
-def _canonical(op, a, b) -> bool:
-    """Whether (op, a, b) is the representative the enumeration keeps (module docstring)."""
+def _power_of_constant(e) -> bool:
+    """e is a ^ c: a power with a constant exponent."""
+    return e[0] == "pow" and e[2] == C
+
+
+def _canonical(op, a, b, ops=frozenset(OPERATIONS)) -> bool:
+    """Whether (op, a, b) is the representative the enumeration keeps (module docstring); `ops`,
+    the operations enumerated (a rule applies only where its kept form can be written)."""
     if not (_has_x(a) or _has_x(b)):
         return False
     if op == "+":
-        if b[0] in "+-" or a[0] == "-" or a == b:
+        if b[0] in ("+", "-") or a[0] == "-" or a == b:
             return False
-        terms = _chain((op, a, b), "+")
+        terms = _chain((op, a, b), ("+",))
         if sum(t == C for t in terms) > 1 or [_key(t) for t in terms] != sorted(_key(t) for t in terms):
             return False
+        if C in terms and "*" in ops and any(t[0] == "log" for t in terms):
+            return False        # c + log(a) = log(c a)
     elif op == "-":
-        if b == C or a == b or b[0] in "+-":
+        if b == C or a == b or b[0] in ("+", "-"):
             return False
         if a[0] == "-" and _key(a[2]) > _key(b):
             return False
-    if op in "+-":
-        terms = [_without_constant_factor(t) for t in _chain((op, a, b), "+-")]
-        if len(set(terms)) < len(terms):
+    if op in ("+", "-"):
+        terms = _chain((op, a, b), ("+", "-"))
+        keys = [_without_constant_factor(t) for t in terms]
+        if len(set(keys)) < len(keys):
             return False
+        if sum(t[0] == "log" for t in terms) > 1 and ({"*", "/"} <= ops):
+            return False        # log a + log b = log(a b), log a - log b = log(a/b)
     elif op == "*":
         if b[0] == "*" or a[0] == "/" or b[0] == "/":
             return False
-        factors = _chain((op, a, b), "*")
+        factors = _chain((op, a, b), ("*",))
         if sum(f == C for f in factors) > 1 or [_key(f) for f in factors] != sorted(_key(f) for f in factors):
+            return False
+        if not _one_of_each_function(factors, ops):
             return False
     elif op == "/":
         if a == b or b == C or a[0] == "/" or b[0] == "/":
             return False
         if _has_constant_factor(b):
             return False
-        numerator = {_key(f) for f in _chain(a, "*") if f != C}
-        if numerator & {_key(f) for f in _chain(b, "*")}:
+        numerator = {_key(f) for f in _chain(a, ("*",)) if f != C}
+        if numerator & {_key(f) for f in _chain(b, ("*",))}:
+            return False
+        if not _one_of_each_function(_chain(a, ("*",)) + _chain(b, ("*",)), ops):
+            return False
+    elif op == "pow":
+        if a[0] == "exp" and "*" in ops:
+            return False        # (exp a) ^ b = exp(a b)
+        if b == C and (_power_of_constant(a) or a[0] in ("sqrt", "cube")):
+            return False        # (a ^ c) ^ c, (sqrt a) ^ c, (cube a) ^ c are a ^ c
+    return True
+
+
+def _one_of_each_function(factors, ops) -> bool:
+    """At most one factor of each of exp, sqrt, square and cube among a product's (or a quotient's
+    numerator and denominator's) factors: two join into one (exp(a) exp(b) = exp(a + b))."""
+    for name, needs in (("exp", {"+", "-"}), ("sqrt", {"*", "/"}), ("square", {"*", "/"}), ("cube", {"*", "/"})):
+        if sum(f[0] == name for f in factors) > 1 and needs <= ops:
             return False
     return True
 
 
+def _canonical_unary(name, a, ops=frozenset(OPERATIONS)) -> bool:
+    """Whether (name, a) is the representative the enumeration keeps (module docstring)."""
+    if not _has_x(a):
+        return False
+    if name == "exp":
+        if a[0] == "log":
+            return False
+        if "*" in ops and a[0] in ("+", "-") and C in _added(a) and len(_added(a)) > 1:
+            return False        # exp(a + c) = c exp(a)
+    elif name == "log":
+        if a[0] == "exp":
+            return False
+        if "*" in ops and (a[0] == "sqrt" or a[0] == "pow"):
+            return False        # log(sqrt a) = c log(a), log(a ^ b) = b log(a)
+    elif name == "sqrt":
+        if _power_of_constant(a):
+            return False
+    elif name in ("square", "cube"):
+        if (name == "square" and a[0] == "sqrt") or _power_of_constant(a) or _has_constant_factor(a):
+            return False        # square(sqrt a) = a; (a ^ c)^2 = a ^ c; square(c a) = c square(a)
+        if name == "cube" and a[0] == "square" and "square" in ops:
+            return False        # cube(square a) = square(cube a)
+    return True
+
+
+def _cost_key(cost) -> tuple:
+    return tuple(sorted(cost.items()))
+
+
 @lru_cache(maxsize=None)
-def _forms_of(size: int, ops: str, variables: int) -> tuple:
+def _forms_of(size: int, ops: tuple, variables: int) -> tuple:
     if size == 1:
         return tuple(variable_leaf(k) for k in range(variables)) + (C,)
+    present = frozenset(ops)
     out = []
     for op in ops:
         w = COST[op]
+        if op in UNARY:
+            if size - w >= 1:
+                out.extend((op, a) for a in _forms_of(size - w, ops, variables) if _canonical_unary(op, a, present))
+            continue
         for left in range(1, size - w):
             for a in _forms_of(left, ops, variables):
                 for b in _forms_of(size - w - left, ops, variables):
-                    if _canonical(op, a, b):
+                    if _canonical(op, a, b, present):
                         out.append((op, a, b))
     return tuple(out)
 
 
-def enumerate_forms(max_complexity: int, ops: str = "+-*/", variables: int = 1) -> list:
+def forms_of(size: int, ops="+-*/", variables: int = 1) -> tuple:
+    """Every kept expression of complexity exactly `size` (the default count)."""
+    return _forms_of(size, operations(ops), variables)
+
+
+def enumerate_forms(max_complexity: int, ops="+-*/", variables: int = 1) -> list:
     """Every kept expression of complexity 1..max_complexity in `variables` variables, by complexity."""
     if not 1 <= variables <= VARIABLES_MAX:
         raise ValueError(f"{variables} variables: the grammar takes 1 to {VARIABLES_MAX}")
+    ops = operations(ops)
     return [e for size in range(1, max_complexity + 1) for e in _forms_of(size, ops, variables)]
+
+
+def read_cost_table(path, ops) -> dict:
+    """A cost table from a TOML file: a `[cost]` table (or top-level keys) giving each operation of
+    `ops` a cost > 0, and optionally "constant" and "variable" (default 1). Raises ValueError naming
+    a missing operation, an unknown key or a bad value."""
+    import tomllib
+    from pathlib import Path
+
+    path = Path(path)
+    if not path.is_file():
+        raise ValueError(f"{path}: no such file")
+    try:
+        data = tomllib.loads(path.read_text(encoding="utf-8"))
+    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as e:
+        raise ValueError(f"{path}: not a TOML file ({e})") from None
+    table = data.get("cost", data)
+    if not isinstance(table, dict):
+        raise ValueError(f"{path}: [cost] must be a table of operation = cost")
+    out = {}
+    for key, value in table.items():
+        name = ALIASES.get(key, key)
+        if name not in OPERATIONS and name not in ("constant", "variable"):
+            raise ValueError(f"{path}: unknown key {key!r} (give costs of {', '.join(OPERATIONS)}, constant, variable)")
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not np.isfinite(value) or value < 0:
+            raise ValueError(f"{path}: {key} = {value!r}: give a finite number >= 0")
+        out[name] = float(value)
+    missing = [op for op in ops if op not in out]
+    if missing:
+        raise ValueError(f"{path}: no cost for {', '.join(missing)} (an operation of --ops)")
+    return out
 
 
 def _names(variable) -> list:
@@ -188,7 +351,8 @@ def _names(variable) -> list:
 
 def show(e, variable="x", constants=None) -> str:
     """Infix text, the variables named `variable` (a name, or one name per variable), every
-    constant written c (or its value, from `constants` in the order the constants appear)."""
+    constant written c (or its value, from `constants` in the order the constants appear); a
+    function as name(a), pow as a ^ b."""
     values = iter(constants) if constants is not None else None
     names = _names(variable)
 
@@ -197,7 +361,9 @@ def show(e, variable="x", constants=None) -> str:
             return names[variable_index(node)]
         if node == C:
             return "c" if values is None else f"{next(values):.6g}"
-        inner = f"{text(node[1], False)} {node[0]} {text(node[2], False)}"
+        if len(node) == 2:
+            return f"{node[0]}({text(node[1], True)})"
+        inner = f"{text(node[1], False)} {'^' if node[0] == 'pow' else node[0]} {text(node[2], False)}"
         return inner if top else f"({inner})"
 
     return text(e, True)
@@ -205,9 +371,9 @@ def show(e, variable="x", constants=None) -> str:
 
 def programs(forms, length: int) -> np.ndarray:
     """Register programs, one row per form: (opcode, left, right, index) per step, shape (forms, 4,
-    length), the index a constant's (in order of appearance) or a variable's. Each step writes one
-    register; the result is the last register. Forms shorter than `length` are padded at the front
-    with no-ops."""
+    length), the index a constant's (in order of appearance) or a variable's; a function reads its
+    left register. Each step writes one register; the result is the last register. Forms shorter
+    than `length` are padded at the front with no-ops."""
     out = np.zeros((len(forms), 4, length), dtype=np.int32)
     for row, e in enumerate(forms):
         steps = []
@@ -216,6 +382,9 @@ def programs(forms, length: int) -> np.ndarray:
             if len(node) == 1:
                 steps.append((CONST, 0, 0, count[0]) if node == C else (VAR, 0, 0, variable_index(node)))
                 count[0] += node == C
+            elif len(node) == 2:
+                a = emit(node[1])
+                steps.append((OPCODE[node[0]], a, a, 0))
             else:
                 a = emit(node[1])
                 b = emit(node[2])
@@ -231,40 +400,67 @@ def programs(forms, length: int) -> np.ndarray:
     return out
 
 
+def opcodes(forms) -> tuple:
+    """The sorted opcodes the forms' programs use (the fitter evaluates only these)."""
+    used = set().union(*(operations_of(e) for e in forms)) if forms else set()
+    return tuple(sorted({VAR, CONST} | {OPCODE[op] for op in used}))
+
+
+_TOKEN = re.compile(r"\s*(\d+\.?\d*(?:[eE][-+]?\d+)?|\.\d+(?:[eE][-+]?\d+)?|[A-Za-z_][A-Za-z0-9_]*|\*\*|[-+*/^(),])")
+
+
 def parse(text: str, variable="x", values=None):
     """An expression tree from infix text in the variable (a name, or one name per variable), c (or
-    any number, read as a fitted constant; a number after an opening parenthesis or an operator may
-    carry a minus sign), +, -, *, / and parentheses. `values`, a list, receives each constant's
-    number in order of appearance (nan for c)."""
+    any number, read as a fitted constant; a number after an opening parenthesis, a comma or an
+    operator may carry a minus sign), + - * / ^ (or **), the functions exp, log, sqrt, square,
+    cube, pow(a, b), and parentheses. `values`, a list, receives each constant's number in order
+    of appearance (nan for c)."""
     names = _names(variable)
     values = [] if values is None else values
-    tokens = text.replace("(", " ( ").replace(")", " ) ")
-    for op in "+-*/":
-        tokens = tokens.replace(op, f" {op} ")
-    tokens = tokens.split()
-    position = [0]
+    tokens, position = [], 0
+    while position < len(text.rstrip()):
+        match = _TOKEN.match(text, position)
+        if not match:
+            raise ValueError(f"unknown symbol {text[position:].split()[0]!r} in {text!r}")
+        tokens.append(match.group(1))
+        position = match.end()
+    at = [0]
 
     def peek():
-        return tokens[position[0]] if position[0] < len(tokens) else None
+        return tokens[at[0]] if at[0] < len(tokens) else None
 
     def take():
-        if position[0] >= len(tokens):
+        if at[0] >= len(tokens):
             raise ValueError(f"{text!r} ends early (unbalanced parentheses or a missing operand)")
-        position[0] += 1
-        return tokens[position[0] - 1]
+        at[0] += 1
+        return tokens[at[0] - 1]
+
+    def expect(token):
+        if take() != token:
+            raise ValueError(f"unbalanced parentheses in {text!r}" if token == ")" else f"expected {token!r} in {text!r}")
 
     def atom():
         t = take()
         if t == "(":
             e = chain()
-            if take() != ")":
-                raise ValueError(f"unbalanced parentheses in {text!r}")
+            expect(")")
             return e
         if t in names:
             return variable_leaf(names.index(t))
         if t == "c":
             values.append(float("nan"))
             return C
+        name = ALIASES.get(t, t)
+        if name in UNARY or name == "pow":
+            expect("(")
+            a = chain()
+            if name == "pow":
+                expect(",")
+                b = chain()
+                expect(")")
+                return ("pow", a, b)
+            expect(")")
+            return (name, a)
         sign = 1.0
         if t == "-" and peek() is not None:
             sign, t = -1.0, take()
@@ -272,13 +468,20 @@ def parse(text: str, variable="x", values=None):
             values.append(sign * float(t))
         except ValueError:
             raise ValueError(f"unknown symbol {t!r} in {text!r} (use {', '.join(names)}, c, numbers, "
-                             f"+ - * /)") from None
+                             f"+ - * / ^ and {', '.join(UNARY)}, pow)") from None
         return C
 
-    def product():
+    def power():
         e = atom()
+        if peek() in ("^", "**"):
+            take()
+            return ("pow", e, power())
+        return e
+
+    def product():
+        e = power()
         while peek() in ("*", "/"):
-            e = (take(), e, atom())
+            e = (take(), e, power())
         return e
 
     def chain():
@@ -293,9 +496,30 @@ def parse(text: str, variable="x", values=None):
     return e
 
 
+_NUMPY = {"exp": np.exp, "log": np.log, "sqrt": np.sqrt}
+
+
+def _apply(name, args, functions):
+    if name == "+":
+        return args[0] + args[1]
+    if name == "-":
+        return args[0] - args[1]
+    if name == "*":
+        return args[0] * args[1]
+    if name == "/":
+        return args[0] / args[1]
+    if name == "pow":
+        return args[0] ** args[1]
+    if name == "square":
+        return args[0] ** 2
+    if name == "cube":
+        return args[0] ** 3
+    return functions[name](args[0])
+
+
 def fold_constants(e, values):
-    """(e, values) with every subtree free of variables (c op c, as another engine may write it)
-    replaced by one constant of its value: the complexity of what the expression is."""
+    """(e, values) with every subtree free of variables (c op c, exp(c), as another engine may write
+    it) replaced by one constant of its value: the complexity of what the expression is."""
     values = iter(values)
 
     def build(node):
@@ -303,33 +527,29 @@ def fold_constants(e, values):
             return C, [next(values)]
         if len(node) == 1:
             return node, []
-        (a, va), (b, vb) = build(node[1]), build(node[2])
-        if a == C and b == C:
-            x, y = va[0], vb[0]
+        parts = [build(a) for a in node[1:]]
+        if all(a == C for a, _ in parts):
             with np.errstate(all="ignore"):
-                v = {"+": x + y, "-": x - y, "*": x * y}.get(node[0], x / y if y != 0 else np.inf)
+                v = _apply(node[0], [np.float64(v[0]) for _, v in parts], _NUMPY)
             return C, [float(v)]
-        return (node[0], a, b), va + vb
+        return (node[0],) + tuple(a for a, _ in parts), [v for _, vs in parts for v in vs]
 
     return build(e)
 
 
-def substitute(e, constants, variables):
+def substitute(e, constants, variables, functions=None):
     """e with its constants (in order of appearance) and its variables (a list, one per variable)
-    put in: numbers and numpy arrays give its values, sympy Floats and Symbols its sympy expression."""
+    put in: numbers and numpy arrays give its values (numpy's functions), sympy Floats and Symbols
+    its sympy expression (`functions`: sympy's exp, log and sqrt)."""
     values = iter(constants)
+    functions = _NUMPY if functions is None else functions
 
     def build(node):
         if is_variable(node):
             return variables[variable_index(node)]
         if node == C:
             return next(values)
-        a, b = build(node[1]), build(node[2])
-        if node[0] == "+":
-            return a + b
-        if node[0] == "-":
-            return a - b
-        return a * b if node[0] == "*" else a / b
+        return _apply(node[0], [build(a) for a in node[1:]], functions)
 
     return build(e)
 
@@ -339,27 +559,29 @@ def to_sympy(e, constants, symbol):
     per variable)."""
     import sympy as sp
 
-    return substitute(e, [sp.Float(float(v), 15) for v in constants], _names(symbol))
+    return substitute(e, [sp.Float(float(v), 15) for v in constants], _names(symbol),
+                      {"exp": sp.exp, "log": sp.log, "sqrt": sp.sqrt})
 
 
 def canonical(expression, symbol) -> str:
-    """sympy's canonical text of an expression in `symbol`: a polynomial part plus partial
-    fractions (in several variables, given as a list: one cancelled fraction), numbers to 6
-    significant digits."""
+    """sympy's canonical text of an expression in `symbol`: a rational function as a polynomial part
+    plus partial fractions (in several variables, given as a list: one cancelled fraction), any
+    other as sympy simplifies it; numbers to 6 significant digits."""
     import sympy as sp
 
-    simplified = sp.cancel(sp.together(expression))
     symbols = _names(symbol)
-    if len(symbols) == 1:
+    rational = all(expression.is_rational_function(s) for s in symbols)
+    simplified = sp.cancel(sp.together(expression)) if rational else sp.powsimp(expression)
+    if rational and len(symbols) == 1:
         simplified = sp.apart(simplified, symbols[0])
     return re.sub(r"(?<![\d.])1\.0\*", "", str(simplified.evalf(6)))
 
 
 def evaluate_numpy(e, c, x):
     """Value of e with constants c (in order of appearance) at x (the points of one variable, or an
-    array (variables, points)), in numpy."""
+    array (variables, points)), in numpy (nan outside its domain)."""
     x = np.asarray(x, dtype=np.float64)
     columns = x[None] if x.ndim == 1 else x
     with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        value = substitute(e, [float(v) for v in c], list(columns))
+        value = substitute(e, [np.float64(v) for v in c], list(columns))
         return np.broadcast_to(value, columns.shape[1:]).astype(np.float64)

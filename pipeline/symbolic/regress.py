@@ -12,6 +12,11 @@ the noise level sigma is known (`noise`, or for data rounded to d decimals the r
 10^-d / sqrt(12)), else (N / 2) ln(SSE / N); its p fitted constants, (p / 2) ln N; its form,
 complexity x ln(the grammar's symbols: the operations, the variable and the constant). The member of
 least description length is marked selected (front.csv's `selected` column, the figure).
+
+Operations: + - * / and exp, log, sqrt, square, cube, pow by default (`DEFAULT_OPERATIONS`), as
+TuringBot's and PySR's users find them: a law of physics or a shader is seldom rational. The
+losses (`--loss`): rms (default), relative (the RMS of the relative error), max and max-relative
+(minimax); the front, the selection and the printed table rank by it.
 """
 
 from __future__ import annotations
@@ -19,6 +24,7 @@ from __future__ import annotations
 import csv
 import math
 import re
+import time
 from pathlib import Path
 
 import numpy as np
@@ -27,11 +33,18 @@ from . import grammar
 
 MAX_COMPLEXITY = 16
 ENGINES = ("auto", "exhaustive", "operon", "both")
-# The exhaustive search's reach for `--engine auto|both`: the complexity it completes in this time.
-EXHAUSTIVE_SECONDS = 60.0
+DEFAULT_OPERATIONS = grammar.OPERATIONS
+# The time `--engine auto|both` plans for, by the largest complexity asked (at most 12, more), and
+# the exhaustive search's share of it (the complexity it completes in that time); pyoperon has
+# the rest.
+BUDGET_SECONDS = {12: 50.0, MAX_COMPLEXITY: 160.0}
+EXHAUSTIVE_SHARE = 0.4
+OPERON_SLACK_S = 8.0        # pyoperon's start, the float64 polish and the figure, within the budget
 # The screening's rate on the 2-core machine the project is measured on (form x point per second,
 # compile excluded), for the estimate printed before a search starts; and the compile time.
 SCREEN_RATE, COMPILE_S = 70_000.0, 5.0
+# ... and with functions or powers among the operations (each step evaluates them too).
+SCREEN_RATE_FUNCTIONS = 40_000.0
 # Squares of values beyond this overflow float64 sums (1e308) over any realistic number of points.
 LARGEST_VALUE = 1e150
 ROUNDING_DECIMALS_MAX = 8
@@ -41,14 +54,18 @@ class RegressError(ValueError):
     """A bad CSV file or argument of `pipeline regress`."""
 
 
-def parse_operations(text: str) -> str:
-    """'+,-,*,/' (commas and spaces optional) -> '+-*/'."""
-    ops = [t for t in re.split(r"[,\s]+", text.strip()) if t]
-    if len(ops) == 1 and len(ops[0]) > 1:
-        ops = list(ops[0])
-    if not ops or any(op not in "+-*/" or len(op) != 1 for op in ops) or len(set(ops)) != len(ops):
-        raise RegressError(f"--ops {text!r}: give distinct operations from + - * /, comma-separated (\"+,-,*,/\")")
-    return "".join(ops)
+def parse_operations(text: str) -> tuple:
+    """'+,-,*,/,exp' (commas or spaces; "+-*/" alone also) -> ('+', '-', '*', '/', 'exp')."""
+    try:
+        return grammar.operations(text)
+    except ValueError as e:
+        raise RegressError(f"--ops {text!r}: {e}; give distinct operations from {', '.join(grammar.OPERATIONS)}, "
+                           f"comma-separated (\"+,-,*,/,exp\")") from None
+
+
+def budget_seconds(max_complexity: int) -> float:
+    """The time `--engine auto|both` plans for at this largest complexity."""
+    return BUDGET_SECONDS[12] if max_complexity <= 12 else BUDGET_SECONDS[MAX_COMPLEXITY]
 
 
 def read_table(path: Path, columns: list[str], options: list[str]) -> list[np.ndarray]:
@@ -119,13 +136,21 @@ def rounding_noise(y) -> float | None:
     return None
 
 
-def select(front, n_points: int, noise: float | None, symbols: int) -> int:
-    """Adds `description_length` (nats) to each member and returns the index of the least."""
+def select(front, n_points: int, noise: float | None, symbols: int, loss: str = "rms") -> int:
+    """Adds `description_length` (nats) to each member and returns the index of the least. The data
+    term is the loss's likelihood: Gaussian errors for rms and relative (m["loss"], the RMS of the
+    error or of the relative error), uniform errors for the max losses (N ln(2 max), the minimax
+    fit being their maximum likelihood). The form's term counts its structure (the default
+    complexity, `structure`), times ln(symbols): the operations, the variables and the constant."""
     for m in front:
-        sse = n_points * m["rms"] ** 2
-        data = sse / (2.0 * noise ** 2) if noise else 0.5 * n_points * np.log(max(sse / n_points, 1e-300))
+        value = m.get("loss", m["rms"])
+        if loss.startswith("max"):
+            data = n_points * np.log(max(2.0 * value, 1e-300))
+        else:
+            sse = n_points * value ** 2
+            data = sse / (2.0 * noise ** 2) if noise else 0.5 * n_points * np.log(max(sse / n_points, 1e-300))
         m["description_length"] = float(data + 0.5 * m["constants"] * np.log(n_points)
-                                        + m["complexity"] * np.log(symbols))
+                                        + m.get("structure", m["complexity"]) * np.log(symbols))
     best = int(np.argmin([m["description_length"] for m in front]))
     for i, m in enumerate(front):
         m["selected"] = i == best
@@ -139,69 +164,98 @@ def variable_names(columns: list[str]) -> list[str]:
     return list(columns) if ok else ["x"] + [f"x{k}" for k in range(1, len(columns))]
 
 
-def estimate_seconds(forms: int, points: int, starts: int = 2, iterations: int = 7) -> float:
+def estimate_seconds(forms: int, points: int, starts: int = 2, iterations: int = 7, ops=grammar.ARITHMETIC) -> float:
     """About how long the exhaustive search of `forms` forms takes on the 2-core machine measured."""
     from .search import SCREEN_POINTS
 
-    return COMPILE_S + forms * (starts / 2) * min(points, SCREEN_POINTS) * (iterations / 10) / SCREEN_RATE
+    rate = SCREEN_RATE if set(ops) <= set(grammar.ARITHMETIC) else SCREEN_RATE_FUNCTIONS
+    return COMPILE_S + forms * (starts / 2) * min(points, SCREEN_POINTS) * (iterations / 10) / rate
 
 
-def exhaustive_reach(variables: int, points: int, max_complexity: int, ops: str, seconds: float) -> int:
+def exhaustive_reach(variables: int, points: int, max_complexity: int, ops, seconds: float) -> int:
     """The largest complexity up to `max_complexity` whose exhaustive search is estimated to take at
-    most `seconds` (0 if none)."""
-    reach, forms = 0, 0
+    most `seconds` (0 if none). A complexity is not enumerated where the growth of the last two
+    predicts that it is out of reach (enumerating it alone would take long)."""
+    ops = grammar.operations(ops)
+    reach, forms, counts = 0, 0, [0]
     for k in range(1, max_complexity + 1):
-        forms += len(grammar._forms_of(k, ops, variables))
-        if estimate_seconds(forms, points) > seconds:
+        if k > 4 and counts[-2] and estimate_seconds(forms + counts[-1] * counts[-1] / counts[-2], points,
+                                                     ops=ops) > 2 * seconds:
+            break
+        counts.append(len(grammar.forms_of(k, ops, variables)))
+        forms += counts[-1]
+        if estimate_seconds(forms, points, ops=ops) > seconds:
             break
         reach = k
     return reach
 
 
-def _member(tree, c, rms, converged, names, engine):
+def _member(tree, c, value, converged, names, engine, x, y, cost=None):
     import sympy as sp
 
     symbols = [sp.Symbol(n) for n in names]
-    return dict(complexity=int(grammar.complexity(tree)), rms=float(rms), form=grammar.show(tree, names),
+    rms = float(np.sqrt(np.mean((grammar.evaluate_numpy(tree, c, x) - y) ** 2)))
+    size = grammar.complexity(tree, cost)
+    return dict(complexity=int(size) if float(size).is_integer() else float(size), rms=rms if np.isfinite(rms) else np.inf,
+                loss=float(value), form=grammar.show(tree, names),
                 expression=grammar.show(tree, names, c),
                 canonical=grammar.canonical(grammar.to_sympy(tree, c, symbols), symbols if len(names) > 1 else symbols[0]),
                 converged=bool(converged), constants=int(len(c)), engine=engine)
 
 
-def regress(path: Path, x_column, y_column: str, out: Path, max_complexity: int = 12, ops: str = "+-*/",
+def regress(path: Path, x_column, y_column: str, out: Path, max_complexity: int = 12, ops=DEFAULT_OPERATIONS,
             starts: int = 2, iterations: int = 7, refine: int = 8, polish_starts: int = 4, seed: int = 0,
-            log=print, noise: float | None = None, engine: str = "auto") -> list[dict]:
+            log=print, noise: float | None = None, engine: str = "auto", loss: str = "rms", cost=None) -> list[dict]:
     """Runs the search of y on the file's x column(s) (a name, or a list of up to 3); writes
     out/front.csv and out/front.png; returns the front, its selected member marked (`select`;
     `noise` the data's standard deviation if known).
 
     `engine`: "exhaustive" (every form up to max_complexity), "operon" (pyoperon alone), "both"
-    (exhaustive as far as it reaches in EXHAUSTIVE_SECONDS, pyoperon to max_complexity, one
-    merged front) or "auto" (exhaustive where it reaches max_complexity, else both)."""
+    (exhaustive as far as it reaches in EXHAUSTIVE_SHARE of `budget_seconds`, pyoperon to
+    max_complexity in the rest, one merged front) or "auto" (exhaustive where it reaches
+    max_complexity, else both). `loss` ranks (`search.LOSSES`); `cost`, a TOML file of costs per
+    operation (`grammar.read_cost_table`), ranks by its complexity instead of the default count."""
+    from .search import LOSSES, loss_weights
+
+    ops = grammar.operations(ops)
     x_columns = [c.strip() for c in x_column.split(",")] if isinstance(x_column, str) else list(x_column)
     if not 1 <= len(x_columns) <= grammar.VARIABLES_MAX or not all(x_columns):
         raise RegressError(f"--x {','.join(x_columns)!r}: give 1 to {grammar.VARIABLES_MAX} column names, comma-separated")
     if engine not in ENGINES:
         raise RegressError(f"--engine {engine!r}: give one of {', '.join(ENGINES)}")
+    if loss not in LOSSES:
+        raise RegressError(f"--loss {loss!r}: give one of {', '.join(LOSSES)}")
     if not 1 <= max_complexity <= MAX_COMPLEXITY:
         raise RegressError(f"--max-complexity {max_complexity}: give an integer in [1, {MAX_COMPLEXITY}]")
     if noise is not None and not (math.isfinite(noise) and noise > 0):
         raise RegressError(f"--noise {noise}: give the data's noise level, a number > 0")
     if y_column in x_columns:
         raise RegressError(f"--x and --y name the same column {y_column!r}")
+    table = None
+    if cost is not None:
+        try:
+            table = grammar.read_cost_table(cost, ops)
+        except ValueError as e:
+            raise RegressError(f"--cost {e}") from None
     *xs, y = read_table(Path(path), x_columns + [y_column], ["--x"] * len(x_columns) + ["--y"])
     for values, name in zip(xs, x_columns):
         check_columns(Path(path), values, y, name, y_column)
+    try:
+        weights = loss_weights(y, loss)
+    except ValueError as e:
+        raise RegressError(f"{path}: --loss {loss}: {e}") from None
     x = np.stack(xs)
     names = variable_names(x_columns)
-    reach = exhaustive_reach(len(names), y.size, max_complexity, ops, EXHAUSTIVE_SECONDS)
+    budget = budget_seconds(max_complexity)
+    reach = exhaustive_reach(len(names), y.size, max_complexity, ops, EXHAUSTIVE_SHARE * budget)
     if engine == "auto":
         engine = "exhaustive" if reach >= max_complexity else "both"
     depth = max_complexity if engine == "exhaustive" else reach if engine == "both" else 0
     if engine == "both" and depth == 0:
         engine = "operon"
-    candidates = []         # (tree, constants, rms, converged, engine)
+    candidates = []         # (tree, constants, loss, converged, engine)
     found = None
+    started = time.perf_counter()
     if depth:
         forms = grammar.enumerate_forms(depth, ops, len(names))
         if not forms:
@@ -211,46 +265,48 @@ def regress(path: Path, x_column, y_column: str, out: Path, max_complexity: int 
             raise RegressError(f"{path}: {y.size} data points, but expressions up to complexity {depth} have up "
                                f"to {most} constants; give at least {most + 1} points or a lower --max-complexity")
         log(f"{path}: {y.size} points, {len(names)} variable{'s' * (len(names) > 1)}; searching {len(forms)} "
-            f"expressions up to complexity {depth} with operations {' '.join(ops)}: about "
-            f"{estimate_seconds(len(forms), y.size, starts, iterations):.0f} s on a 2-core machine")
+            f"expressions up to complexity {depth} with operations {' '.join(ops)}, loss {loss}: about "
+            f"{estimate_seconds(len(forms), y.size, starts, iterations, ops):.0f} s on a 2-core machine")
         from . import search
 
         log(f"fitting on JAX's default device: {search.jax.devices()[0].platform.upper()}")
-        found = search.search(x, y, depth, ops, starts, iterations, refine, polish_starts, seed, progress=log)
+        found = search.search(x, y, depth, ops, starts, iterations, refine, polish_starts, seed, progress=log,
+                              forms=forms, loss=loss, cost=table)
         for i in found["front"]:
-            candidates.append((found["forms"][i], found["constants"][i][:found["constant_count"][i]], found["rms"][i],
+            candidates.append((found["forms"][i], found["constants"][i][:found["constant_count"][i]], found["loss"][i],
                                found["converged"].get(i, False), "exhaustive"))
     if engine in ("operon", "both"):
         from . import operon
 
+        seconds = max(budget - (time.perf_counter() - started) - OPERON_SLACK_S, 10.0) if engine == "both" else operon.SECONDS
         log(f"pyoperon to complexity {max_complexity} ({operon.GENERATIONS} generations of {operon.POPULATION}, "
-            f"at most {operon.SECONDS} s)" + (f": the exhaustive search reaches {depth} in {EXHAUSTIVE_SECONDS:.0f} s"
-                                              if depth else ""))
-        models = operon.operon_models(x, y, max_complexity, ops, seed)
-        for tree, c, rms, ok in operon.polished(models, x, y, seed):
-            candidates.append((tree, c, rms, ok, "operon"))
+            f"at most {seconds:.0f} s)" + (f": the exhaustive search reaches {depth}" if depth else ""))
+        models = operon.operon_models(x, y, max_complexity, ops, seed, seconds=seconds)
+        for tree, c, value, ok in operon.polished(models, x, y, seed, loss=loss):
+            candidates.append((tree, c, value, ok, "operon"))
         log(f"pyoperon: {len(models)} models on its front within complexity {max_complexity}, polished in float64")
-    front, fits = _merged_front(candidates, names, y)
+    front, fits = _merged_front(candidates, names, x, y, weights, table)
     rows, share = dominating_rows(fits, x, y)
     if rows:
         where = ", ".join(f"data row {i + 1} ({', '.join(f'{n}={v:g}' for n, v in zip(x_columns, x[:, i]))}, "
                           f"{y_column}={y[i]:g})" for i in rows)
         log(f"warning: {where} hold{'s' * (len(rows) == 1)} more than half the squared error of {share} of the "
             f"front members without a pole among the data: an outlier dominates the fit; check that row")
-    sigma = noise if noise is not None else rounding_noise(y)
-    best = select(front, y.size, sigma, len(ops) + 1 + len(names))
+    sigma = noise if noise is not None else rounding_noise(y) if loss == "rms" else None
+    best = select(front, y.size, sigma, len(ops) + 1 + len(names), loss)
     how = (f"noise {sigma:.3g} given" if noise is not None else
            f"noise {sigma:.3g}, the rounding floor of y" if sigma else "noise unknown")
-    log(f"selected by description length ({how}): complexity {front[best]['complexity']}, "
+    log(f"selected by description length ({how}, loss {loss}): complexity {front[best]['complexity']}, "
         f"{front[best]['expression']}")
     # every expression fitted, for the figure: the exhaustive search's and pyoperon's polished models
     others = [m for m in candidates if m[4] != "exhaustive"]
-    everything = dict(complexity=np.array([grammar.complexity(t) for t, *_ in others], dtype=int),
+    everything = dict(complexity=np.array([grammar.complexity(t, table) for t, *_ in others], dtype=float),
                       rms=np.array([r for _, _, r, _, _ in others], dtype=float), forms=[t for t, *_ in others])
     if found is not None:
         everything = dict(complexity=np.concatenate([found["complexity"], everything["complexity"]]),
-                          rms=np.concatenate([found["rms"], everything["rms"]]), forms=found["forms"] + everything["forms"])
-    _write(Path(out), front, f"{Path(path).name}: {y_column} against {', '.join(x_columns)}", x, y, everything)
+                          rms=np.concatenate([found["loss"], everything["rms"]]), forms=found["forms"] + everything["forms"])
+    _write(Path(out), front, f"{Path(path).name}: {y_column} against {', '.join(x_columns)}", x, y, everything, loss,
+           table is not None)
     return front
 
 
@@ -265,6 +321,13 @@ def pole_in_range(tree, c, x) -> bool:
     _, den = sp.fraction(sp.cancel(sp.together(grammar.to_sympy(tree, c, t))))
     if t not in den.free_symbols:
         return False
+    if not den.is_polynomial(t):
+        # (a denominator with functions: a sign change or a zero on a dense grid over the data's range)
+        grid = np.linspace(x.min(), x.max(), 4001)
+        with np.errstate(all="ignore"):
+            values = np.broadcast_to(sp.lambdify(t, den, "numpy")(grid), grid.shape)
+        finite = values[np.isfinite(values)]
+        return bool(np.any(finite == 0) or np.any(np.sign(finite[1:]) * np.sign(finite[:-1]) < 0))
     roots = [complex(r) for r in sp.Poly(den, t).nroots()]
     return any(abs(r.imag) <= 1e-9 * max(abs(r), 1.0) and x.min() <= r.real <= x.max() for r in roots)
 
@@ -293,28 +356,31 @@ def dominating_rows(fits, x, y, share: float = 0.5) -> tuple[list[int], int]:
     return rows, count
 
 
-def _merged_front(candidates, names, y):
-    """The Pareto front of complexity against RMS over every engine's candidates, and each member's
-    (tree, constants); a member's `engine` says which engine found it ("both" where both reached
-    its RMS within 1e-6 at its complexity)."""
+def _merged_front(candidates, names, x, y, weights, cost=None):
+    """The Pareto front of complexity (under `cost`) against the loss over every engine's
+    candidates, and each member's (tree, constants); a member's `engine` says which engine found it
+    ("both" where both reached its loss within 1e-6 at its complexity)."""
     from .search import pareto_front
 
-    size = np.array([grammar.complexity(t) for t, *_ in candidates])
-    rms = np.array([r if np.isfinite(r) else np.inf for _, _, r, _, _ in candidates])
+    size = np.array([grammar.complexity(t, cost) for t, *_ in candidates])
+    value = np.array([r if np.isfinite(r) else np.inf for _, _, r, _, _ in candidates])
     # the exhaustive search's candidates first, so that a tie is its member
     order = np.array(sorted(range(len(candidates)), key=lambda k: candidates[k][4] != "exhaustive"))
     front, fits = [], []
-    for i in pareto_front(size[order], rms[order], 1e-12 * (np.std(y) + np.max(np.abs(y)))):
+    scaled = y * weights
+    for i in pareto_front(size[order], value[order], 1e-12 * (np.std(scaled) + np.max(np.abs(scaled)))):
         k = order[i]
         tree, c, r, ok, engine = candidates[k]
-        both = any(candidates[j][4] != engine and size[j] <= size[k] and rms[j] <= r * (1 + 1e-6) + 1e-300
+        both = any(candidates[j][4] != engine and size[j] <= size[k] and value[j] <= r * (1 + 1e-6) + 1e-300
                    for j in range(len(candidates)))
-        front.append(_member(tree, c, r, ok, names, "both" if both else engine))
+        member = _member(tree, c, r, ok, names, "both" if both else engine, x, y, cost)
+        member["structure"] = int(grammar.complexity(tree))
+        front.append(member)
         fits.append((tree, c))
     return front, fits
 
 
-def _write(out: Path, front, title, x, y, found) -> None:
+def _write(out: Path, front, title, x, y, found, loss="rms", costed=False) -> None:
     """front.csv and front.png, published together (`pipeline.engine.publishing`: a temporary folder
     renamed into place under a lock, so a failure or a second writer leaves nothing half written)."""
     from ..engine.cache import digest
@@ -322,13 +388,13 @@ def _write(out: Path, front, title, x, y, found) -> None:
 
     def write(tmp: Path) -> str:
         write_front_csv(tmp / "front.csv", front)
-        symbolic_front_figure(tmp / "front.png", front, found, title)
+        symbolic_front_figure(tmp / "front.png", front, found, title, loss, costed)
         return f"{len(front)} front members"
 
     publish(out, digest("regress", title, x, y, front), lambda s: None, write)
 
 
-FRONT_COLUMNS = ("complexity", "rms", "form", "expression", "canonical", "max_rel_to_exact",
+FRONT_COLUMNS = ("complexity", "structure", "loss", "rms", "form", "expression", "canonical", "max_rel_to_exact",
                  "max_energy_excess", "equivalent_to_exact", "constants", "description_length", "selected", "engine")
 
 
@@ -342,19 +408,24 @@ def write_front_csv(path, front) -> None:
             writer.writerow([f"{m[c]:.10g}" if isinstance(m[c], float) else m[c] for c in columns])
 
 
-def symbolic_front_figure(path, front, found, title) -> None:
-    """The front of `pipeline regress`: RMS against complexity, every complexity's best in grey."""
+LOSS_LABELS = {"rms": "RMS error", "relative": "RMS of the relative error", "max": "largest absolute error",
+               "max-relative": "largest relative error"}
+
+
+def symbolic_front_figure(path, front, found, title, loss="rms", costed=False) -> None:
+    """The front of `pipeline regress`: the loss against complexity, every complexity's best in grey
+    (found["rms"] holds each expression's loss)."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
     fig, ax = plt.subplots(figsize=(10, 5))
-    sizes = sorted(set(int(k) for k in found["complexity"]))
+    sizes = sorted(set(float(k) for k in found["complexity"]))
     floor = 1e-16 * max(float(np.max(found["rms"][np.isfinite(found["rms"])])), 1e-300)
     best = [max(float(np.min(found["rms"][found["complexity"] == k])), floor) for k in sizes]
     ax.plot(sizes, best, "o", color="0.75", ms=5, label=f"best expression at each complexity ({len(found['forms'])} fitted)")
-    xs, ys = [m["complexity"] for m in front], [max(m["rms"], floor) for m in front]
+    xs, ys = [m["complexity"] for m in front], [max(m.get("loss", m["rms"]), floor) for m in front]
     ax.step(xs + [sizes[-1] + 1], ys + [ys[-1]], where="post", color="C0", label="front")
     for engine, color, label in (("exhaustive", "C0", "found by the exhaustive search"), ("operon", "C1", "found by pyoperon"),
                                  ("both", "C2", "found by both engines")):
@@ -366,13 +437,15 @@ def symbolic_front_figure(path, front, found, title) -> None:
     chosen = [(x_, y_) for m, x_, y_ in zip(front, xs, ys) if m.get("selected")]
     if chosen:
         ax.plot(*chosen[0], "o", ms=15, mfc="none", mec="C3", mew=2, label="selected (least description length)")
-    lines = ["front (complexity, RMS, sympy's canonical form):"]
-    lines += [f"{m['complexity']:>2}  {m['rms']:.3g}  {m['canonical'].replace('**', '^').replace('*', ' ')}" for m in front]
+    lines = [f"front (complexity, {LOSS_LABELS[loss]}, sympy's canonical form):"]
+    lines += [f"{m['complexity']:>2}  {m.get('loss', m['rms']):.3g}  {m['canonical'].replace('**', '^').replace('*', ' ')}" for m in front]
     ax.text(0.98, 0.97, "\n".join(lines), transform=ax.transAxes, fontsize=7.5, family="monospace", va="top",
             ha="right", multialignment="left", bbox=dict(facecolor="white", edgecolor="0.8", alpha=0.9))
     positive = [v for v in best if v > 0]
     ax.set(yscale="log" if positive and max(positive) / min(positive) > 20 else "linear",
-           xlabel="complexity (constants, variable, +, -, x count 1; / counts 2)", ylabel="RMS error", title=title,
+           xlabel=("complexity (the cost table given)" if costed else
+                   "complexity (constants, variables, +, -, x, square, cube count 1; /, exp, log, sqrt, pow 2)"),
+           ylabel=LOSS_LABELS[loss], title=title,
            xlim=(0, sizes[-1] + 1.5))
     ax.legend(fontsize=8, loc="lower left")
     ax.grid(alpha=0.3, which="both")

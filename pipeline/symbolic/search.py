@@ -23,10 +23,13 @@ so that no block holds more than about `BLOCK_VALUES` values.
 
 from __future__ import annotations
 
+from functools import partial
+
 import numpy as np
 
-from .grammar import (ADD, CONST, COST, DIV, MUL, SUB, VAR, C, X, canonical, complexity, constants,  # noqa: F401
-                      enumerate_forms, evaluate_numpy, linear_constants, parse, programs, show, to_sympy)
+from .grammar import (ADD, CONST, COST, CUBE, DIV, EXP, LOG, MUL, POW, SQRT, SQUARE, SUB, VAR, C, X,  # noqa: F401
+                      canonical, complexity, constants, enumerate_forms, evaluate_numpy, linear_constants, opcodes,
+                      operations, operations_of, parse, programs, show, to_sympy)
 from ..optics.numerics import jax
 import jax.numpy as jnp  # noqa: E402
 
@@ -44,21 +47,34 @@ SCREEN_POINTS = 64      # screening subsample beyond this many points
 BLOCK_VALUES = 2**22    # rows x points x program steps of one block, at most (about)
 
 
-def evaluate(program, c, x):
-    """Value at the points of one register program with constants c; x is (variables, points)."""
+ARITHMETIC_OPCODES = (VAR, CONST, ADD, SUB, MUL, DIV)
+
+
+def _operation(code, a, b):
+    """The value of opcode `code` on registers a (and b)."""
+    return {ADD: lambda: a + b, SUB: lambda: a - b, MUL: lambda: a * b, DIV: lambda: a / b,
+            POW: lambda: jnp.power(a, b), EXP: lambda: jnp.exp(a), LOG: lambda: jnp.log(a), SQRT: lambda: jnp.sqrt(a),
+            SQUARE: lambda: a * a, CUBE: lambda: a * a * a}[code]()
+
+
+def evaluate(program, c, x, codes=ARITHMETIC_OPCODES):
+    """Value at the points of one register program with constants c; x is (variables, points).
+    `codes`, the opcodes the program may use (static: each step computes only these). Outside an
+    operation's domain the value is nan or infinite (the fit marks the form invalid)."""
     op, left, right, index = program
 
     def step(i, registers):
         a, b = registers[left[i]], registers[right[i]]
-        value = jnp.select([op[i] == VAR, op[i] == CONST, op[i] == ADD, op[i] == SUB, op[i] == MUL, op[i] == DIV],
-                           [x[index[i]], jnp.broadcast_to(c[index[i]], x.shape[1:]), a + b, a - b, a * b, a / b], 0.0)
+        cases = [(VAR, lambda: x[index[i]]), (CONST, lambda: jnp.broadcast_to(c[index[i]], x.shape[1:]))]
+        cases += [(code, lambda code=code: _operation(code, a, b)) for code in codes if code not in (VAR, CONST)]
+        value = jnp.select([op[i] == code for code, _ in cases], [f() for _, f in cases], 0.0)
         return registers.at[i].set(value)
 
     return jax.lax.fori_loop(0, op.shape[0], step, jnp.zeros((op.shape[0],) + x.shape[1:]))[-1]
 
 
-def _sum_of_squares(program, c, x, y):
-    r = evaluate(program, c, x) - y
+def _sum_of_squares(program, c, x, y, w, codes):
+    r = (evaluate(program, c, x, codes) - y) * w
     s = jnp.sum(r * r)
     return jnp.where(jnp.isfinite(s), s, jnp.inf)
 
@@ -71,24 +87,24 @@ def _solve(H, g):
     return jnp.linalg.solve(scaled, g / d) / d
 
 
-def _residual_and_jacobian(program, c, x, y):
-    r = lambda c_: evaluate(program, c_, x) - y
+def _residual_and_jacobian(program, c, x, y, w, codes):
+    r = lambda c_: (evaluate(program, c_, x, codes) - y) * w
     J, value = jax.jacfwd(lambda c_: (r(c_), r(c_)), has_aux=True)(c)
     finite = jnp.all(jnp.isfinite(value)) & jnp.all(jnp.isfinite(J))
     return jnp.where(finite, value, 0.0), jnp.where(finite, J, 0.0), finite
 
 
-def _project(program, linear, c, x, y, refine):
+def _project(program, linear, c, x, y, w, refine, codes):
     """The constants that enter linearly (`linear`, a 0/1 mask) solved exactly for the others
     (variable projection: a Gauss-Newton step is exact, the expression being affine in them, and a
     second one from the residual evaluated afresh, where `refine`, removes the rounding of the
     first, large where the start was far); returns (constants, residual after, Jacobian, sum of squares after)."""
-    r, J, finite = _residual_and_jacobian(program, c, x, y)
+    r, J, finite = _residual_and_jacobian(program, c, x, y, w, codes)
     Jl = J * linear
     G = Jl.T @ Jl + jnp.diag(1.0 - linear)
     step = -_solve(G, Jl.T @ r) * linear
     # (refine: an unbatched flag, so that under vmap the screening skips the second evaluation)
-    c, r, step = jax.lax.cond(refine, lambda: (c + step, evaluate(program, c + step, x) - y, step),
+    c, r, step = jax.lax.cond(refine, lambda: (c + step, (evaluate(program, c + step, x, codes) - y) * w, step),
                               lambda: (c, r, step))
     step = jax.lax.cond(refine, lambda: -_solve(G, Jl.T @ r) * linear, lambda: step)
     r = r + Jl @ step
@@ -96,15 +112,15 @@ def _project(program, linear, c, x, y, refine):
     return c + step, r, J, jnp.where(jnp.isfinite(s), s, jnp.inf)
 
 
-def _fit_one(program, linear, c0, x, y, iterations, tail, refine):
+def _fit_one(program, linear, c0, x, y, w, iterations, tail, refine, codes):
     """Levenberg-Marquardt on the nonlinear constants with the linear ones projected out (Kaufman's
     variable projection: the joint Gauss-Newton system, damped on the nonlinear constants only,
     then the linear constants solved exactly at the trial point); a step is kept only if it lowers
     the sum of squares. With `tail` = 0 (the screening), `iterations` steps. Else at most
     `iterations`, stopping once `tail` steps in a row have not lowered the sum of squares by more
     than 1e-9 relative: converged (the objective is judged, not the constants, so that a
-    degenerate optimum, a double pole say, is kept). Returns (constants, sum of squares,
-    converged)."""
+    degenerate optimum, a double pole say, is kept). The residuals are weighted by w (the sum of
+    squares is of (value - y) w). Returns (constants, sum of squares, converged)."""
     nonlinear = 1.0 - linear
 
     def step(state):
@@ -112,7 +128,7 @@ def _fit_one(program, linear, c0, x, y, iterations, tail, refine):
         H, g = J.T @ J, J.T @ r
         d = jnp.diag(H) * nonlinear
         trial = c - _solve(H + damping * jnp.diag(d) + 1e-12 * (jnp.max(d) + 1.0) * jnp.diag(nonlinear), g) * nonlinear
-        trial, r_t, J_t, cost = _project(program, linear, trial, x, y, refine)
+        trial, r_t, J_t, cost = _project(program, linear, trial, x, y, w, refine, codes)
         better = cost < current
         keep = lambda new, old: jnp.where(better, new, old)
         current = keep(cost, current)
@@ -132,15 +148,16 @@ def _fit_one(program, linear, c0, x, y, iterations, tail, refine):
     return c, s, since >= tail
 
 
-@jax.jit
-def fit_block(block, linear, c0, x, y, iterations, tail, refine):
+@partial(jax.jit, static_argnames="codes")
+def fit_block(block, linear, c0, x, y, w, iterations, tail, refine, codes=ARITHMETIC_OPCODES):
     """(constants, sum of squares, converged) of each program of `block` (rows, 4, steps), its linear
-    constants `linear` (rows, P) projected out, from c0 (rows, P); x (variables, points) and y
-    (points) shared by every row, or given per row (rows, variables, points) and (rows, points)."""
+    constants `linear` (rows, P) projected out, from c0 (rows, P); x (variables, points), y and the
+    weights w (points) shared by every row, or given per row (rows, variables, points) and (rows,
+    points); `codes`, the opcodes the programs use."""
     if y.ndim == 1:
-        return jax.vmap(lambda p, m, c: _fit_one(p, m, c, x, y, iterations, tail, refine))(block, linear, c0)
-    return jax.vmap(lambda p, m, c, x_, y_: _fit_one(p, m, c, x_, y_, iterations, tail, refine))(block, linear, c0,
-                                                                                                 x, y)
+        return jax.vmap(lambda p, m, c: _fit_one(p, m, c, x, y, w, iterations, tail, refine, codes))(block, linear, c0)
+    return jax.vmap(lambda p, m, c, x_, y_, w_: _fit_one(p, m, c, x_, y_, w_, iterations, tail, refine, codes))(
+        block, linear, c0, x, y, w)
 
 
 def _blocks(rows: int, size: int):
@@ -152,15 +169,18 @@ def _pad(a, rows, value=0):
     return np.pad(a, [(0, rows - a.shape[0])] + [(0, 0)] * (a.ndim - 1), constant_values=value)
 
 
-def _fit(block, linear, starts, x, y, rows, iterations, tail):
+def _fit(block, linear, starts, x, y, rows, iterations, tail, w=None, codes=ARITHMETIC_OPCODES):
     # the screening (no tail) tracks the linear solve's residual; refits evaluate it afresh
     """`fit_block` over fixed-size blocks of (programs, linear masks, starts); unpadded numpy
-    results. x (variables, points) and y (points) are shared by every row, or given per row."""
+    results. x (variables, points), y and w (points; w default 1) are shared by every row, or given
+    per row."""
+    w = np.ones(y.shape[-1]) if w is None else w
+    w = np.broadcast_to(w, y.shape)
     out = []
     for part, count in _blocks(block.shape[0], rows):
-        data = (x, y) if y.ndim == 1 else (_pad(x[part], rows, 1.0), _pad(y[part], rows))
+        data = (x, y, w) if y.ndim == 1 else (_pad(x[part], rows, 1.0), _pad(y[part], rows), _pad(w[part], rows, 1.0))
         result = fit_block(_pad(block[part], rows), _pad(linear[part], rows), _pad(starts[part], rows, 1.0), *data,
-                           iterations, tail, tail > 0)
+                           iterations, tail, tail > 0, codes=codes)
         out.append([np.asarray(r)[:count] for r in result])
     return [np.concatenate(parts) for parts in zip(*out)]
 
@@ -204,17 +224,19 @@ def _rows_for(rows: int, points: int, steps: int) -> int:
     return rows
 
 
-@jax.jit
-def _sse_block(block, c, x, y):
-    return jax.vmap(lambda p, c_: _sum_of_squares(p, c_, x, y))(block, c)
+@partial(jax.jit, static_argnames="codes")
+def _sse_block(block, c, x, y, w, codes=ARITHMETIC_OPCODES):
+    return jax.vmap(lambda p, c_: _sum_of_squares(p, c_, x, y, w, codes))(block, c)
 
 
-def sums_of_squares(program, constants_, x, y) -> np.ndarray:
-    """The sum of squares of each program with its constants on every point, in blocks."""
+def sums_of_squares(program, constants_, x, y, w=None, codes=ARITHMETIC_OPCODES) -> np.ndarray:
+    """The (weighted) sum of squares of each program with its constants on every point, in blocks."""
     rows = _rows_for(BLOCK_ROWS, x.shape[-1], program.shape[-1])
+    w = np.ones(y.shape[-1]) if w is None else w
     out = []
     for part, count in _blocks(program.shape[0], rows):
-        out.append(np.asarray(_sse_block(_pad(program[part], rows), _pad(constants_[part], rows, 1.0), x, y))[:count])
+        out.append(np.asarray(_sse_block(_pad(program[part], rows), _pad(constants_[part], rows, 1.0), x, y, w,
+                                         codes=codes))[:count])
     return np.concatenate(out) if out else np.zeros(0)
 
 
@@ -228,25 +250,56 @@ def _best_per_form(form_of_row, s, forms: int):
     return best
 
 
-def search(x, y, max_complexity: int, ops: str = "+-*/", starts: int = 2, iterations: int = 7,
+LOSSES = ("rms", "relative", "max", "max-relative")
+CURVED = {"exp", "log", "sqrt", "pow"}
+FUNCTION_STEPS = 2      # forms with these are screened with FUNCTION_STEPS x the steps
+LAWSON_ROUNDS = 8       # reweightings of a minimax refit (Lawson's algorithm), its start ...
+SLP_STEPS = 40          # ... and the sequential linear programming steps that finish it
+
+
+def loss_weights(y, loss: str) -> np.ndarray:
+    """The weights of the residuals under `loss`: 1, or 1/|y| for the relative losses (y must not
+    be 0 there)."""
+    if loss not in LOSSES:
+        raise ValueError(f"loss {loss!r}: give one of {', '.join(LOSSES)}")
+    if loss.endswith("relative"):
+        if np.any(y == 0):
+            raise ValueError(f"a relative loss divides by y, and y is 0 at {int(np.sum(y == 0))} point(s)")
+        return 1.0 / np.abs(y)
+    return np.ones_like(y)
+
+
+def search(x, y, max_complexity: int, ops="+-*/", starts: int = 2, iterations: int = 7,
            refine: int = 8, polish_starts: int = 4, seed: int = 0, progress=None, forms=None,
-           polish_iterations: int = 100):
+           polish_iterations: int = 100, loss: str = "rms", cost=None):
     """The exhaustive search: every kept form up to `max_complexity` screened with `iterations`
     steps of the variable-projection fit (`_fit_one`), from one start if all its constants enter
     linearly, else from `starts` starts and, where only one start reached the best (several
     optima), from `SECOND_PASS x starts` more; the best `refine` forms of each complexity then
     refitted to convergence from their screened constants and `polish_starts - 1` other starts. x
-    is one variable's points, or (variables, points).
+    is one variable's points, or (variables, points). `ops`: the operations (`grammar.operations`).
 
-    Returns a dict: forms, complexity, rms (per form: refitted where refitted), constants,
-    converged (refitted forms: the objective no longer improving), and front (indices of the forms
-    on the Pareto front of complexity against RMS, by complexity)."""
+    `loss` ranks the forms: "rms", "relative" (the RMS of the relative error), "max" or
+    "max-relative" (the largest absolute or relative error). Every form is fitted by least squares
+    (of the relative error for the relative losses); for the max losses the refitted forms are then
+    fitted by minimax, by Lawson's iteratively reweighted least squares (LAWSON_ROUNDS rounds, the
+    best round kept), the others ranked by the largest error of their least-squares fit. `cost`, a
+    cost table (`grammar.read_cost_table`), ranks by its complexity; the forms enumerated are the
+    default count's up to `max_complexity`.
+
+    Returns a dict: forms, complexity (under `cost`), rms (per form, of the least-squares fit:
+    refitted where refitted; the relative error's for the relative losses), loss (the ranking
+    loss), constants, converged (refitted forms: the objective no longer improving), and front
+    (indices of the forms on the Pareto front of complexity against loss, by complexity)."""
     x, y = np.asarray(x, dtype=np.float64), np.asarray(y, dtype=np.float64)
     x = x[None] if x.ndim == 1 else x
     forms = enumerate_forms(max_complexity, ops, x.shape[0]) if forms is None else list(forms)
     if not forms:
         raise ValueError(f"no expression of complexity <= {max_complexity} uses only the operations {ops!r}")
-    size = np.array([complexity(e) for e in forms])
+    base = loss_weights(y, loss)
+    codes = opcodes(forms)
+    size = np.array([complexity(e, cost) for e in forms])
+    structure = np.array([complexity(e) for e in forms])
     count = np.array([constants(e) for e in forms])
     if count.max() >= y.size:
         raise ValueError(f"{y.size} points cannot fit forms with up to {count.max()} constants; "
@@ -255,10 +308,12 @@ def search(x, y, max_complexity: int, ops: str = "+-*/", starts: int = 2, iterat
     width = max(count.max(), MIN_WIDTH)
     linear = linear_masks(forms, width)
     nonlinear_count = count - linear.sum(axis=1).astype(int)
+    # forms with a nonlinear constant inside exp, log, sqrt or pow travel farther from the starts
+    curved = np.array([bool(operations_of(e) & CURVED) for e in forms]) & (nonlinear_count > 0)
     start = start_constants(8 * starts + polish_starts, width, x, seed)
     # Screening on a subsample that spans x where the points are many (then re-evaluated on all).
     sub = spanning_subsample(x, SCREEN_POINTS) if y.size > SCREEN_POINTS else np.arange(y.size)
-    x_s, y_s = x[:, sub], y[sub]
+    x_s, y_s, w_s = x[:, sub], y[sub], base[sub]
     sum_sq = np.full(len(forms), np.inf)
     fitted = np.ones((len(forms), width))
 
@@ -266,8 +321,11 @@ def search(x, y, max_complexity: int, ops: str = "+-*/", starts: int = 2, iterat
         """Screens the forms `index` from starts first .. first + count_ - 1 (one start for a form
         whose constants are all linear); keeps each form's best."""
         out = []
-        for group, w in ((index[count[index] <= SMALL_CONSTANTS], SMALL_CONSTANTS),
-                         (index[count[index] > SMALL_CONSTANTS], width)):
+        small = count[index] <= SMALL_CONSTANTS
+        for group, w, steps in ((index[small & ~curved[index]], SMALL_CONSTANTS, iterations),
+                                (index[small & curved[index]], SMALL_CONSTANTS, FUNCTION_STEPS * iterations),
+                                (index[~small & ~curved[index]], width, iterations),
+                                (index[~small & curved[index]], width, FUNCTION_STEPS * iterations)):
             if group.size == 0:
                 continue
             repeats = np.where(nonlinear_count[group] > 0, count_, 1)
@@ -276,7 +334,7 @@ def search(x, y, max_complexity: int, ops: str = "+-*/", starts: int = 2, iterat
             # (data per row, as in the refits, so that the widest screening and the refits share one
             # compiled program)
             c, s, _ = _fit(program[rows], linear[rows, :w], start[k, :w], np.broadcast_to(x_s, (rows.size,) + x_s.shape),
-                           np.broadcast_to(y_s, (rows.size,) + y_s.shape), POLISH_ROWS, iterations, 0)
+                           np.broadcast_to(y_s, (rows.size,) + y_s.shape), POLISH_ROWS, steps, 0, w_s, codes)
             s = np.where(np.isfinite(s), s, np.inf)
             best = _best_per_form(rows, s, len(forms))[group]
             better = s[best] < sum_sq[group]
@@ -299,10 +357,10 @@ def search(x, y, max_complexity: int, ops: str = "+-*/", starts: int = 2, iterat
             progress(f"screened {again.size} forms with several optima from {SECOND_PASS * starts} more starts")
     subsampled = sub.size < y.size
     if subsampled:              # every form's screened constants on every point
-        sum_sq = sums_of_squares(program, fitted, x, y)
+        sum_sq = sums_of_squares(program, fitted, x, y, base, codes)
         sum_sq = np.where(np.isfinite(sum_sq), sum_sq, np.inf)
-    chosen = np.concatenate([np.flatnonzero(size == k)[np.argsort(sum_sq[size == k], kind="stable")[:refine]]
-                             for k in np.unique(size)])
+    chosen = np.concatenate([np.flatnonzero(structure == k)[np.argsort(sum_sq[structure == k], kind="stable")[:refine]]
+                             for k in np.unique(structure)])
     rows = np.repeat(chosen, polish_starts)
     c0 = np.tile(start[4 * starts:4 * starts + polish_starts], (chosen.size, 1))
     c0[::polish_starts] = fitted[chosen]
@@ -310,31 +368,126 @@ def search(x, y, max_complexity: int, ops: str = "+-*/", starts: int = 2, iterat
     # point, below), else on every point.
     # (data given per row, so that this compiled fit also serves `fit_forms`)
     c, s, ok = _fit(program[rows], linear[rows], c0, np.broadcast_to(x_s, (rows.size,) + x_s.shape),
-                    np.broadcast_to(y_s, (rows.size,) + y_s.shape), POLISH_ROWS, polish_iterations, 20)
+                    np.broadcast_to(y_s, (rows.size,) + y_s.shape), POLISH_ROWS, polish_iterations, 20, w_s, codes)
     s = np.where(np.isfinite(s), s, np.inf)
     best = _best_per_form(rows, s, len(forms))[chosen]
     polished, candidate, done = s[best], c[best], ok[best]
     if subsampled:
-        polished = np.where(np.isfinite(polished), sums_of_squares(program[chosen], candidate, x, y), np.inf)
+        polished = np.where(np.isfinite(polished), sums_of_squares(program[chosen], candidate, x, y, base, codes), np.inf)
     improved = polished <= sum_sq[chosen]
     sum_sq[chosen] = np.where(improved, polished, sum_sq[chosen])
     fitted[chosen] = np.where(improved[:, None], candidate, fitted[chosen])
     converged = {int(i): bool(good and np.isfinite(p)) for i, p, good in zip(chosen, polished, done)}
     if subsampled:
         # Each complexity's best refitted on every point, in small blocks (memory: rows x points).
-        tops = np.array([np.flatnonzero(size == k)[np.argmin(sum_sq[size == k])] for k in np.unique(size)])
+        tops = np.array([np.flatnonzero(structure == k)[np.argmin(sum_sq[structure == k])] for k in np.unique(structure)])
         c, s, ok = _fit(program[tops], linear[tops], fitted[tops], np.broadcast_to(x, (tops.size,) + x.shape),
                         np.broadcast_to(y, (tops.size,) + y.shape), _rows_for(POLISH_ROWS, y.size, 4 * program.shape[-1]),
-                        polish_iterations, 20)
+                        polish_iterations, 20, base, codes)
         s = np.where(np.isfinite(s), s, np.inf)
         better = s <= sum_sq[tops]
         sum_sq[tops] = np.where(better, s, sum_sq[tops])
         fitted[tops] = np.where(better[:, None], c, fitted[tops])
         converged |= {int(i): bool(good and np.isfinite(v)) for i, v, good in zip(tops, s, ok)}
     rms = np.sqrt(sum_sq / y.size)
-    return dict(forms=forms, complexity=size, constant_count=count, rms=rms, constants=fitted,
-                converged=converged, front=pareto_front(size, rms, 1e-12 * (np.std(y) + np.max(np.abs(y)))),
+    value = rms
+    if loss.startswith("max"):
+        value = largest_errors(program, fitted, x, y, base, codes)
+        fitted[chosen], value[chosen], done = minimax(program[chosen], linear[chosen], fitted[chosen], x, y, base, codes,
+                                                      polish_iterations)
+        converged |= {int(i): bool(good and np.isfinite(v)) for i, v, good in zip(chosen, value[chosen], done)}
+        if progress:
+            progress(f"refitted {chosen.size} forms by minimax ({LAWSON_ROUNDS} rounds of Lawson's reweighting)")
+    floor = 1e-12 * (np.std(y * base) + np.max(np.abs(y * base)))
+    return dict(forms=forms, complexity=size, constant_count=count, rms=rms, loss=value, loss_name=loss,
+                constants=fitted, converged=converged, front=pareto_front(size, value, floor),
                 width=width, linear_count=count - nonlinear_count)
+
+
+@partial(jax.jit, static_argnames="codes")
+def _residual_block(block, c, x, y, w, codes=ARITHMETIC_OPCODES):
+    return jax.vmap(lambda p, c_: (evaluate(p, c_, x, codes) - y) * w)(block, c)
+
+
+def weighted_residuals(program, constants_, x, y, w, codes=ARITHMETIC_OPCODES) -> np.ndarray:
+    """(value - y) w of each program with its constants at every point, (programs, points)."""
+    rows = _rows_for(BLOCK_ROWS, x.shape[-1], program.shape[-1])
+    out = []
+    for part, count in _blocks(program.shape[0], rows):
+        out.append(np.asarray(_residual_block(_pad(program[part], rows), _pad(constants_[part], rows, 1.0), x, y, w,
+                                              codes=codes))[:count])
+    return np.concatenate(out) if out else np.zeros((0, y.size))
+
+
+def largest_errors(program, constants_, x, y, w, codes=ARITHMETIC_OPCODES) -> np.ndarray:
+    """max |value - y| w of each program with its constants (inf where not finite)."""
+    r = np.abs(weighted_residuals(program, constants_, x, y, w, codes))
+    return np.where(np.all(np.isfinite(r), axis=1), np.max(r, axis=1, initial=0.0), np.inf)
+
+
+@partial(jax.jit, static_argnames="codes")
+def _jacobian_block(block, c, x, y, w, codes=ARITHMETIC_OPCODES):
+    return jax.vmap(lambda p, c_: _residual_and_jacobian(p, c_, x, y, w, codes))(block, c)
+
+
+def minimax(program, linear, c0, x, y, w, codes, iterations: int = 100):
+    """Minimax fits of the programs from c0: first Lawson's algorithm (LAWSON_ROUNDS weighted
+    least-squares fits whose weights, one per point, are multiplied by each point's error after
+    every fit: a start near the minimax), then sequential linear programming (each step minimizes
+    the largest linearized error max |r + J d| within a trust region |d| <= radius, by scipy's
+    HiGHS; a step is kept where the true largest error falls, the radius doubled, else quartered).
+    Returns (constants, largest |value - y| w, converged: the trust region shrank below 1e-12 of
+    the constants or a step gained less than 1e-12 relative)."""
+    from scipy.optimize import linprog
+
+    rows, points = program.shape[0], y.size
+    u = np.full((rows, points), 1.0 / points)
+    best_c, best = c0.copy(), largest_errors(program, c0, x, y, w, codes)
+    c = c0
+    for _ in range(LAWSON_ROUNDS):
+        weight = w * np.sqrt(u * points)
+        c, _, _ = _fit(program, linear, c, np.broadcast_to(x, (rows,) + x.shape), np.broadcast_to(y, (rows, points)),
+                       _rows_for(POLISH_ROWS, points, 4 * program.shape[-1]), iterations, 20, weight, codes)
+        r = np.abs(weighted_residuals(program, c, x, y, w, codes))
+        largest = np.where(np.all(np.isfinite(r), axis=1), np.max(r, axis=1), np.inf)
+        better = largest < best
+        best_c[better], best[better] = c[better], largest[better]
+        r = np.where(np.isfinite(r), r, 0.0)
+        u = u * np.maximum(r, 1e-12 * np.max(r, axis=1, keepdims=True) + 1e-300)
+        u /= np.sum(u, axis=1, keepdims=True)
+    # sequential linear programming from Lawson's best
+    width = c0.shape[1]
+    radius = 0.1 * (np.abs(best_c) + 1e-3)
+    active = np.isfinite(best)
+    done = np.zeros(rows, bool)
+    rows_per_block = _rows_for(BLOCK_ROWS, points, program.shape[-1])
+    for _ in range(SLP_STEPS):
+        index = np.flatnonzero(active & ~done)
+        if index.size == 0:
+            break
+        r, J = [], []
+        for part, count in _blocks(index.size, rows_per_block):
+            rr, jj, _ = _jacobian_block(_pad(program[index[part]], rows_per_block), _pad(best_c[index[part]], rows_per_block, 1.0),
+                                        x, y, w, codes=codes)
+            r.append(np.asarray(rr)[:count])
+            J.append(np.asarray(jj)[:count])
+        r, J = np.concatenate(r), np.concatenate(J)
+        trials = np.array(best_c[index])
+        for k, i in enumerate(index):
+            # variables (d, t): minimize t with -t <= r + J d <= t, |d_j| <= radius_j
+            A = np.block([[J[k], -np.ones((points, 1))], [-J[k], -np.ones((points, 1))]])
+            b = np.concatenate([-r[k], r[k]])
+            bounds = [(-radius[i, j], radius[i, j]) for j in range(width)] + [(0, None)]
+            lp = linprog(np.r_[np.zeros(width), 1.0], A_ub=A, b_ub=b, bounds=bounds, method="highs")
+            if lp.status == 0:
+                trials[k] = best_c[i] + lp.x[:width]
+        largest = largest_errors(program[index], trials, x, y, w, codes)
+        better = largest < best[index]
+        gained = better & (best[index] - largest <= 1e-12 * best[index])
+        best_c[index[better]], best[index[better]] = trials[better], largest[better]
+        radius[index] *= np.where(better, 2.0, 0.25)[:, None]
+        done[index] |= gained | np.all(radius[index] <= 1e-12 * (np.abs(best_c[index]) + 1e-12), axis=1)
+    return best_c, best, done | ~active
 
 
 def pareto_front(size, rms, floor: float = 0.0, margin: float = 1e-6) -> list[int]:
@@ -353,14 +506,17 @@ def pareto_front(size, rms, floor: float = 0.0, margin: float = 1e-6) -> list[in
 
 
 def fit_forms(forms, x, y, starts: int = 8, seed: int = 0, steps: int = MIN_STEPS, width: int = MIN_WIDTH,
-              iterations: int = 200, initial=None):
+              iterations: int = 200, initial=None, loss: str = "rms"):
     """(constants, rms, converged) of each given form, by the same fit as the front's refits (programs
     of `steps` steps and `width` constants, so that the search's compiled fit serves), from
     `starts` starts. y is one sample's points, x its variable's points or (variables, points); with
     y of shape (samples, points) and x (samples, points) or (samples, variables, points), every
     form is fitted on every sample in one batch and the result is a list per sample. `initial`
-    (one array of constants per form) replaces each form's first start."""
+    (one array of constants per form) replaces each form's first start. With `loss` other than
+    "rms" (one sample only), the second value is that loss (`search`), the fit the same as there."""
     x, y = np.asarray(x, dtype=np.float64), np.asarray(y, dtype=np.float64)
+    if loss != "rms":
+        return _fit_forms_for_loss(forms, x, y, starts, seed, iterations, initial, loss)
     if y.ndim == 1:
         return fit_forms(forms, x[None], y[None], starts, seed, steps, width, iterations, initial)[0]
     x = x[:, None] if x.ndim == 2 else x
@@ -376,7 +532,8 @@ def fit_forms(forms, x, y, starts: int = 8, seed: int = 0, steps: int = MIN_STEP
             first[i, :len(values)] = values
         c0.reshape(samples, len(forms), starts, width)[:, :, 0] = first
     rows_x, rows_y = np.repeat(x, per_sample, axis=0), np.repeat(y, per_sample, axis=0)
-    c, s, ok = _fit(block, linear, c0, rows_x, rows_y, _rows_for(POLISH_ROWS, y.shape[1], 4 * steps), iterations, 20)
+    c, s, ok = _fit(block, linear, c0, rows_x, rows_y, _rows_for(POLISH_ROWS, y.shape[1], 4 * steps), iterations, 20,
+                    codes=opcodes(forms))
     s = np.where(np.isfinite(s), s, np.inf).reshape(samples, len(forms), starts)
     c, ok = c.reshape(samples, len(forms), starts, width), ok.reshape(samples, len(forms), starts)
     out = []
@@ -388,3 +545,26 @@ def fit_forms(forms, x, y, starts: int = 8, seed: int = 0, steps: int = MIN_STEP
                         bool(np.isfinite(s[j, i, best]) and ok[j, i, best])))
         out.append(row)
     return out
+
+
+def _fit_forms_for_loss(forms, x, y, starts, seed, iterations, initial, loss):
+    """`fit_forms` of one sample under a loss other than "rms": least squares of the weighted
+    residuals from every start (the best kept), then minimax (`minimax`) for the max losses."""
+    base = loss_weights(y, loss)
+    x = x[None] if x.ndim == 1 else x
+    width = max([MIN_WIDTH] + [constants(e) for e in forms])
+    steps = max([MIN_STEPS] + [complexity(e) for e in forms])
+    program, linear, codes = programs(forms, steps), linear_masks(forms, width), opcodes(forms)
+    c0 = np.tile(start_constants(starts, width, x, seed), (len(forms), 1))
+    if initial is not None:
+        for i, values in enumerate(initial):
+            c0[i * starts, :len(values)] = values
+    rows = np.repeat(np.arange(len(forms)), starts)
+    c, s, ok = _fit(program[rows], linear[rows], c0, np.broadcast_to(x, (rows.size,) + x.shape),
+                    np.broadcast_to(y, (rows.size, y.size)), _rows_for(POLISH_ROWS, y.size, 4 * steps), iterations, 20,
+                    base, codes)
+    best = _best_per_form(rows, np.where(np.isfinite(s), s, np.inf), len(forms))
+    c, value, ok = c[best], np.sqrt(s[best] / y.size), ok[best]
+    if loss.startswith("max"):
+        c, value, ok = minimax(program, linear, c, x, y, base, codes, iterations)
+    return [(c[i, :constants(e)], float(value[i]), bool(np.isfinite(value[i]) and ok[i])) for i, e in enumerate(forms)]

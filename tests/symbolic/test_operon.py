@@ -12,10 +12,13 @@ from pipeline.symbolic.regress import regress
 RNG = np.random.default_rng(7)
 T2, Q2 = RNG.uniform(0.5, 6.0, 60), RNG.uniform(0.2, 1.0, 60)
 CASES = {
-    "rational in one variable": (np.linspace(0.5, 8.0, 50)[None], lambda x: (2 * x[0] + 1) / (x[0] + 3), 10),
+    "rational in one variable": (np.linspace(0.5, 8.0, 50)[None], lambda x: (2 * x[0] + 1) / (x[0] + 3), 10, "+-*/"),
     "noisy rational in one variable": (np.linspace(0.5, 8.0, 50)[None], lambda x: 3 * x[0] / (x[0] + 2)
-                                       + np.random.default_rng(1).normal(0, 0.01, 50), 10),
-    "rational in two variables": (np.stack([T2, Q2]), lambda x: (2 * x[0] + x[1]) / (x[0] + 3), 9),
+                                       + np.random.default_rng(1).normal(0, 0.01, 50), 10, "+-*/"),
+    "rational in two variables": (np.stack([T2, Q2]), lambda x: (2 * x[0] + x[1]) / (x[0] + 3), 9, "+-*/"),
+    "noisy Gaussian bump with functions and powers": (
+        np.linspace(0.0, 3.0, 50)[None], lambda x: 0.2 + np.exp(-2.0 * (x[0] - 1.1) ** 2)
+        + np.random.default_rng(2).normal(0, 0.01, 50), 8, "+,-,*,/,exp,log,sqrt,square,pow"),
 }
 
 
@@ -25,11 +28,13 @@ def test_no_pyoperon_member_beats_the_front_at_equal_complexity(case):
     way) against the exhaustive front: at every complexity the search reaches, no pyoperon member
     fits better than the front's best at or below it. Tolerance: 1e-6 relative, the refits'
     convergence with margin."""
-    x, f, depth = CASES[case]
+    x, f, depth, ops = CASES[case]
     y = f(x)
-    found = search.search(x, y, depth)
-    models = operon.polished(operon.operon_models(x, y, depth, generations=60, population=500), x, y)
+    found = search.search(x, y, depth, ops)
+    models = operon.polished(operon.operon_models(x, y, depth, ops, generations=60, population=500), x, y)
     assert models, "pyoperon returned no model within the complexity"
+    if set(ops) - set("+-*/,"):     # its models were read back with the functions and powers
+        assert any(grammar.operations_of(tree) - {"+", "-", "*", "/"} for tree, *_ in models)
     for tree, c, rms, ok in models:
         k = grammar.complexity(tree)
         best = found["rms"][found["complexity"] <= k].min()
@@ -72,7 +77,7 @@ def test_regress_on_two_columns_with_both_engines(tmp_path, monkeypatch):
     monkeypatch.setattr(operon, "POPULATION", 500)
     polished = operon.polished
     monkeypatch.setattr(operon, "polished", lambda *a, **k: models.extend(polished(*a, **k)) or models)
-    front = regress(data, "t,q", "v", tmp_path / "out", max_complexity=10, engine="both", noise=0.002,
+    front = regress(data, "t,q", "v", tmp_path / "out", max_complexity=10, engine="both", noise=0.002, ops="+-*/",
                     log=said.append)
     assert any("pyoperon" in line for line in said) and models
     for tree, c, rms, ok in models:
@@ -96,7 +101,7 @@ def test_pyoperon_s_members_fill_the_front_beyond_the_exhaustive_reach(tmp_path,
     monkeypatch.setattr(operon, "GENERATIONS", 60)
     monkeypatch.setattr(operon, "POPULATION", 500)
     monkeypatch.setattr(regress_module, "exhaustive_reach", lambda *a, **k: 3)
-    front = regress(data, "t,q", "v", tmp_path / "out", max_complexity=10, engine="both", noise=0.002,
+    front = regress(data, "t,q", "v", tmp_path / "out", max_complexity=10, engine="both", noise=0.002, ops="+-*/",
                     log=lambda s: None)
     above = [m for m in front if m["complexity"] > 3]
     assert above and all(m["engine"] == "operon" for m in above)

@@ -29,9 +29,12 @@ def test_regress_reads_and_rejects_csv_files(tmp_path):
             (tmp_path / name).write_text(text)
         with pytest.raises(RegressError, match=message):
             read_columns(tmp_path / name, "n", "val")
-    assert parse_operations("+, -, *, /") == "+-*/" and parse_operations("*/") == "*/"
-    with pytest.raises(RegressError, match="--ops"):
-        parse_operations("+,^")
+    assert parse_operations("+, -, *, /") == ("+", "-", "*", "/") and parse_operations("*/") == ("*", "/")
+    assert parse_operations("pow,exp, +") == ("+", "exp", "pow") and parse_operations("^") == ("pow",)
+    with pytest.raises(RegressError, match=r"--ops '\+,sin': unknown operation 'sin'"):
+        parse_operations("+,sin")
+    with pytest.raises(RegressError, match="operation 'exp' given twice"):
+        parse_operations("exp,+,exp")
 
 
 def test_regress_writes_the_front(tmp_path):
@@ -40,7 +43,7 @@ def test_regress_writes_the_front(tmp_path):
     t = np.arange(1.0, 51.0)
     data.write_text("t,v\n" + "".join(f"{a},{float(b)!r}\n" for a, b in zip(t, 2.0 * t / (t + 4.0))))
     out = tmp_path / "front"
-    front = regress(data, "t", "v", out, max_complexity=8, log=lambda s: None)
+    front = regress(data, "t", "v", out, max_complexity=8, log=lambda s: None, ops="+-*/")
     assert front[-1]["complexity"] == 8 and front[-1]["rms"] < 1e-12
     with open(out / "front.csv") as f:
         rows = list(csv.DictReader(f))
@@ -89,7 +92,7 @@ def test_model_selection_marks_the_true_family(tmp_path):
     data = tmp_path / "noisy.csv"
     data.write_text("t,v\n" + "".join(f"{float(a)!r},{float(b)!r}\n" for a, b in zip(t, v)))
     out, said = tmp_path / "out" / "noisy", []
-    front = regress(data, "t", "v", out, max_complexity=10, log=said.append, noise=0.01)
+    front = regress(data, "t", "v", out, max_complexity=10, log=said.append, noise=0.01, ops="+-*/")
     chosen = [m for m in front if m["selected"]]
     assert len(chosen) == 1 and chosen[0]["complexity"] == 8, [(m["complexity"], m["description_length"]) for m in front]
     assert not any(m["selected"] for m in front if m["complexity"] > 8)
@@ -111,7 +114,7 @@ def test_an_outlier_that_dominates_the_fit_is_named(tmp_path):
     data = tmp_path / "outlier.csv"
     data.write_text("t,v\n" + "".join(f"{float(a)!r},{float(b)!r}\n" for a, b in zip(t, v)))
     said = []
-    regress(data, "t", "v", tmp_path / "out", max_complexity=8, log=said.append)
+    regress(data, "t", "v", tmp_path / "out", max_complexity=8, log=said.append, ops="+-*/")
     warnings = [line for line in said if line.startswith("warning")]
     assert len(warnings) == 1 and "data row 18 (" in warnings[0] and "v=40" in warnings[0], said
     assert (tmp_path / "out" / "front.csv").exists()

@@ -25,7 +25,8 @@ def every_tree(size):
     if size == 1:
         return [symbolic.X, symbolic.C]
     out = []
-    for op, w in symbolic.COST.items():
+    for op in "+-*/":
+        w = symbolic.COST[op]
         for left in range(1, size - w):
             out += [(op, a, b) for a in every_tree(left) for b in every_tree(size - w - left)]
     return out
