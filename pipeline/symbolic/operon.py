@@ -17,6 +17,7 @@ from . import grammar
 # pyoperon's settings: objectives RMS and length, Levenberg-Marquardt on the constants of every
 # offspring (optimizer_iterations > 0: its default 0 never tunes a constant), one thread per core.
 GENERATIONS = 300
+GENERATIONS_TIMED = 100_000     # generations when a time budget is what stops it
 POPULATION = 1000
 SECONDS = 60            # pyoperon stops here if its generations are not done (many points)
 OPTIMIZER_ITERATIONS = 10

@@ -279,9 +279,12 @@ def regress(path: Path, x_column, y_column: str, out: Path, max_complexity: int 
         from . import operon
 
         seconds = max(budget - (time.perf_counter() - started) - OPERON_SLACK_S, 10.0) if engine == "both" else operon.SECONDS
-        log(f"pyoperon to complexity {max_complexity} ({operon.GENERATIONS} generations of {operon.POPULATION}, "
-            f"at most {seconds:.0f} s)" + (f": the exhaustive search reaches {depth}" if depth else ""))
-        models = operon.operon_models(x, y, max_complexity, ops, seed, seconds=seconds)
+        how = f"for {seconds:.0f} s" if engine == "both" else f"{operon.GENERATIONS} generations, at most {seconds:.0f} s"
+        log(f"pyoperon to complexity {max_complexity} (populations of {operon.POPULATION}, {how})"
+            + (f": the exhaustive search reaches {depth}" if depth else ""))
+        # (within the budget pyoperon evolves until its time is up, not for a fixed count of generations)
+        models = operon.operon_models(x, y, max_complexity, ops, seed, seconds=seconds,
+                                      generations=operon.GENERATIONS_TIMED if engine == "both" else None)
         for tree, c, value, ok in operon.polished(models, x, y, seed, loss=loss):
             candidates.append((tree, c, value, ok, "operon"))
         log(f"pyoperon: {len(models)} models on its front within complexity {max_complexity}, polished in float64")
