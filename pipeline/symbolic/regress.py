@@ -425,7 +425,9 @@ def symbolic_front_figure(path, front, found, title, loss="rms", costed=False) -
 
     fig, ax = plt.subplots(figsize=(10, 5))
     sizes = sorted(set(float(k) for k in found["complexity"]))
-    floor = 1e-16 * max(float(np.max(found["rms"][np.isfinite(found["rms"])])), 1e-300)
+    # (an exact member drawn at 1e-16 of the front's worst loss; a huge finite loss of a form far off,
+    # exp near overflow, must not set the scale)
+    floor = 1e-16 * max(max(m.get("loss", m["rms"]) for m in front), 1e-300)
     best = [max(float(np.min(found["rms"][found["complexity"] == k])), floor) for k in sizes]
     ax.plot(sizes, best, "o", color="0.75", ms=5, label=f"best expression at each complexity ({len(found['forms'])} fitted)")
     xs, ys = [m["complexity"] for m in front], [max(m.get("loss", m["rms"]), floor) for m in front]
