@@ -17,7 +17,9 @@ less than a time. Measured, each in a fresh cache and outputs folder:
   its time as the run log states it; target 10 s, absolute, for the 50-point sample up to
   complexity 12);
 - the symbolic search and pyoperon side by side (`bench/symbolic.py`: 5,000 points to complexity 12,
-  200 points to 14, two variables to 10; time, peak memory and best RMS of each);
+  200 points to 14, two variables to 10; time, peak memory and best RMS of each), and
+  `pipeline regress`'s default engine with the ten operations (a decay to 12 within 60 s, a
+  Schlick curve to 16 within 180 s, cos^n over (t, n) to 10 within 120 s; 1.5 GB);
 - `pipeline keys` and a run with a bad config (answered without importing JAX);
 - `make test` (`python -m pytest -q -n 2 --dist loadfile`), unless BENCH_TESTS=0 (BENCH_ONLY=tests:
   the floor and `make test` alone);
@@ -209,6 +211,15 @@ def main() -> int:
                 rows.append((f"regress {case}", seconds, None,
                              f"peak {peak:.2f} GB, best RMS {best:.3g}; pyoperon {o_seconds:.1f} s, {o_peak:.2f} GB, best RMS "
                              f"{o_best:.3g}; target <= 60 s{memory} " + ("ok" if ok else "MISSED")))
+            # `pipeline regress`'s default engine with the ten operations (one process per case).
+            from symbolic import OPERATOR_CASES
+            for case, (depth, allowed) in OPERATOR_CASES.items():
+                _, out = timed([py, str(ROOT / "bench" / "symbolic.py"), case, "default"], env)
+                seconds, peak, best = [float(v) for v in out.split()[-3:]]
+                ok = seconds <= allowed and peak <= 1.5
+                rows.append((f"regress {case}", seconds, None,
+                             f"peak {peak:.2f} GB, best RMS {best:.3g}; target <= {allowed:.0f} s and 1.5 GB "
+                             + ("ok" if ok else "MISSED")))
             seconds, _ = timed([py, "-m", "pipeline", "keys"], env)
             rows.append(("pipeline keys", seconds, None, "target < 1 s"))
             seconds, _ = timed([py, "-m", "pipeline", "refit", "--config", "configs/paper.toml", "--set",

@@ -68,7 +68,7 @@ def run(case: str, engine: str) -> tuple[float, float, float]:
             csv = Path(tmp) / "data.csv"
             csv.write_text(",".join(names + ["y"]) + "\n" + "".join(
                 ",".join(repr(float(v)) for v in row) + "\n" for row in zip(*x, y)))
-            front = regress(csv, ",".join(names), "y", Path(tmp) / "out", depth, log=lambda s: print(s, file=sys.stderr))
+            front = regress(csv, ",".join(names), "y", Path(tmp) / "out", depth, log=lambda s: None)
         best = min(m["rms"] for m in front)
     elif engine == "exhaustive":
         from pipeline.symbolic import search
