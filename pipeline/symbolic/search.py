@@ -506,19 +506,21 @@ def pareto_front(size, rms, floor: float = 0.0, margin: float = 1e-6) -> list[in
 
 
 def fit_forms(forms, x, y, starts: int = 8, seed: int = 0, steps: int = MIN_STEPS, width: int = MIN_WIDTH,
-              iterations: int = 200, initial=None, loss: str = "rms"):
+              iterations: int = 200, initial=None, loss: str = "rms", codes=None):
     """(constants, rms, converged) of each given form, by the same fit as the front's refits (programs
     of `steps` steps and `width` constants, so that the search's compiled fit serves), from
     `starts` starts. y is one sample's points, x its variable's points or (variables, points); with
     y of shape (samples, points) and x (samples, points) or (samples, variables, points), every
     form is fitted on every sample in one batch and the result is a list per sample. `initial`
     (one array of constants per form) replaces each form's first start. With `loss` other than
-    "rms" (one sample only), the second value is that loss (`search`), the fit the same as there."""
+    "rms" (one sample only), the second value is that loss (`search`), the fit the same as there.
+    `codes`: the opcodes to compile the fit for (default the forms' own; a superset lets calls on
+    different forms share one compiled program)."""
     x, y = np.asarray(x, dtype=np.float64), np.asarray(y, dtype=np.float64)
     if loss != "rms":
         return _fit_forms_for_loss(forms, x, y, starts, seed, iterations, initial, loss)
     if y.ndim == 1:
-        return fit_forms(forms, x[None], y[None], starts, seed, steps, width, iterations, initial)[0]
+        return fit_forms(forms, x[None], y[None], starts, seed, steps, width, iterations, initial, codes=codes)[0]
     x = x[:, None] if x.ndim == 2 else x
     steps = max([steps, MIN_STEPS] + [complexity(e) for e in forms])
     width = max([width, MIN_WIDTH] + [constants(e) for e in forms])
@@ -533,7 +535,7 @@ def fit_forms(forms, x, y, starts: int = 8, seed: int = 0, steps: int = MIN_STEP
         c0.reshape(samples, len(forms), starts, width)[:, :, 0] = first
     rows_x, rows_y = np.repeat(x, per_sample, axis=0), np.repeat(y, per_sample, axis=0)
     c, s, ok = _fit(block, linear, c0, rows_x, rows_y, _rows_for(POLISH_ROWS, y.shape[1], 4 * steps), iterations, 20,
-                    codes=opcodes(forms))
+                    codes=opcodes(forms) if codes is None else tuple(codes))
     s = np.where(np.isfinite(s), s, np.inf).reshape(samples, len(forms), starts)
     c, ok = c.reshape(samples, len(forms), starts, width), ok.reshape(samples, len(forms), starts)
     out = []
