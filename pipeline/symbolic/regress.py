@@ -44,7 +44,7 @@ OPERON_SLACK_S = 8.0        # pyoperon's start, the float64 polish and the figur
 # compile excluded), for the estimate printed before a search starts; and the compile time.
 SCREEN_RATE, COMPILE_S = 70_000.0, 5.0
 # ... and with functions or powers among the operations (each step evaluates them too).
-SCREEN_RATE_FUNCTIONS = 40_000.0
+SCREEN_RATE_FUNCTIONS = 60_000.0
 # Squares of values beyond this overflow float64 sums (1e308) over any realistic number of points.
 LARGEST_VALUE = 1e150
 ROUNDING_DECIMALS_MAX = 8

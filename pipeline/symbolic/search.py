@@ -66,7 +66,18 @@ def evaluate(program, c, x, codes=ARITHMETIC_OPCODES):
     def step(i, registers):
         a, b = registers[left[i]], registers[right[i]]
         cases = [(VAR, lambda: x[index[i]]), (CONST, lambda: jnp.broadcast_to(c[index[i]], x.shape[1:]))]
-        cases += [(code, lambda code=code: _operation(code, a, b)) for code in codes if code not in (VAR, CONST)]
+        shared = {}
+        if POW in codes:
+            # a ^ b = exp(b log a), sharing one log and one exp per step with log and exp (every
+            # operation of the set is computed at every step): the same values, nan for a < 0
+            # where b is not an integer, as a fitted exponent never is exactly
+            log_a = jnp.log(a)
+            exp_of = jnp.exp(jnp.where(op[i] == POW, b * log_a, a)) if EXP in codes else jnp.exp(b * log_a)
+            shared = {LOG: lambda: log_a, POW: lambda: exp_of}
+            if EXP in codes:
+                shared[EXP] = lambda: exp_of
+        cases += [(code, shared.get(code, lambda code=code: _operation(code, a, b)))
+                  for code in codes if code not in (VAR, CONST)]
         value = jnp.select([op[i] == code for code, _ in cases], [f() for _, f in cases], 0.0)
         return registers.at[i].set(value)
 
