@@ -96,11 +96,24 @@ def operon_models(x, y, max_complexity: int, ops="+-*/", seed: int = 0, threads:
 
 def polished(models, x, y, seed: int = 0, loss: str = "rms"):
     """(tree, constants, loss, converged) of each model, its constants refitted in float64 by the
-    pipeline's fit under `loss` from pyoperon's values and from 3 more starts (`search.fit_forms`)."""
+    pipeline's fit under `loss` from pyoperon's values and from 3 more starts (`search.fit_forms`);
+    pyoperon's values themselves where they fit better (converged then False: not the fit's)."""
     from . import search
 
     if not models:
         return []
     fits = search.fit_forms([tree for tree, _ in models], x, y, starts=4, seed=seed,
                             initial=[values for _, values in models], loss=loss)
-    return [(tree, c, rms, ok) for (tree, _), (c, rms, ok) in zip(models, fits)]
+    weights = search.loss_weights(y, loss)
+    out = []
+    for (tree, values), (c, value, ok) in zip(models, fits):
+        # pyoperon's own constants, in float64, where the polish cannot start from them: a negative
+        # base under a literal integer exponent ((0.8 x - 0.8) ^ 5) is real at that exponent only,
+        # and the fit, which moves every exponent, finds it undefined
+        with np.errstate(all="ignore"):
+            r = (grammar.evaluate_numpy(tree, values, x) - y) * weights
+        own = float(np.max(np.abs(r)) if loss.startswith("max") else np.sqrt(np.mean(r * r)))
+        if np.isfinite(own) and not own >= value:
+            c, value, ok = np.asarray(values, dtype=float), own, False
+        out.append((tree, c, value, ok))
+    return out

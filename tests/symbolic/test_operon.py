@@ -111,3 +111,18 @@ def test_pyoperon_s_members_fill_the_front_beyond_the_exhaustive_reach(tmp_path,
     with open(tmp_path / "out" / "front.csv") as f:
         engines = {int(r["complexity"]): r["engine"] for r in csv.DictReader(f)}
     assert all(engines[m["complexity"]] == "operon" for m in above)
+
+
+def test_a_pyoperon_model_only_its_own_constants_define_is_kept_with_them():
+    """pyoperon writes Schlick's 0.04 + 0.96 (1 - x)^5 as 0.04 - 0.96 (x - 1)^5: a negative base
+    under its literal exponent 5, real there only, so the float64 fit (which moves the exponent)
+    finds it undefined. The model keeps pyoperon's constants and their float64 RMS (the law's
+    rounding, < 1e-15) instead of leaving the front; marked not converged (not the fit's)."""
+    x = np.linspace(0.0, 1.0, 50)[None]
+    y = 0.04 + 0.96 * (1 - x[0]) ** 5
+    values = [0.04, -0.96, -1.0, 1.0, 5.0]
+    tree = grammar.parse("c + c * ((c + c * x) ^ c)")
+    (kept, c, rms, ok), = operon.polished([(tree, np.array(values))], x, y)
+    assert kept == tree and list(c) == values and rms < 1e-15 and not ok
+    (_, _, largest, _), = operon.polished([(tree, np.array(values))], x, y, loss="max")
+    assert largest < 1e-15
