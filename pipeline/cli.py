@@ -1,4 +1,4 @@
-"""Command line: `pipeline reproduce`, `refit`, `explain`, `graph`, `keys`, `cache`, `regress`, `compare`, `sweep`.
+"""Command line: `pipeline reproduce`, `refit`, `explain`, `graph`, `keys`, `cache`, `regress`, `costs`, `compare`, `sweep`.
 
 Exit codes (`pipeline.engine.faults`): 0 every check passes, differs with a documented cause or is
 not comparable; 1 a check failed or a solver did not converge; 2 bad config, arguments or CSV
@@ -119,6 +119,24 @@ def _regress(args) -> int:
               + (f"{m['engine']:<10}  " if engines else "") + m["canonical"]
               + ("   <- selected" if m["selected"] else ""))
     print(f"wrote {out / 'front.csv'} and {out / 'front.png'}; {time.perf_counter() - start:.1f} s")
+    return 0
+
+
+def _costs(args) -> int:
+    from .optics import machine_code, operation_costs
+
+    out = Path(args.out) if args.out else paths.OUTPUTS / "costs"
+    try:
+        costs = operation_costs.operation_costs()
+    except (machine_code.CompilerMissing, machine_code.spirv.ToolMissing) as e:
+        print(f"error: the GPU compiler cannot run here: {e}", file=sys.stderr)
+        return faults.EXIT_ENVIRONMENT
+    operations = list(operation_costs.STEPS)
+    print("cycles per wave " + " ".join(f"{op:>7}" for op in operations))
+    for architecture, table in costs.items():
+        print(f"{architecture:<15} " + " ".join(f"{table[op]:>7g}" for op in operations))
+    written = operation_costs.write_tables(costs, out)
+    print("wrote " + ", ".join(str(p) for p in written) + " (pipeline regress --cost FILE)")
     return 0
 
 
@@ -249,6 +267,9 @@ def _main(argv: list[str] | None) -> int:
     swp.add_argument("--scheduler-file", default=None, metavar="FILE", help="an existing Dask cluster's scheduler file")
     swp.add_argument("--workers", type=int, default=None, metavar="N",
                      help="LocalCluster worker processes (default: one per core)")
+    cst = sub.add_parser("costs", help="cycles per wave of each symbolic-regression operation on RDNA3, RDNA2 and GCN5 "
+                                       "(RADV's machine code): cost tables for regress --cost")
+    cst.add_argument("--out", default=None, metavar="DIR", help="folder of the tables (default outputs/costs)")
     cch = sub.add_parser("cache", help="show the cache's size per stage; --prune removes unused entries")
     cch.add_argument("--prune", action="store_true")
     cch.add_argument("--older-than", type=float, default=14.0, metavar="DAYS",
@@ -268,6 +289,8 @@ def _main(argv: list[str] | None) -> int:
         if args.command == "cache":
             faults.check_folder(paths.CACHE, "the cache folder (PIPELINE_CACHE_DIR)")
             return _cache(args)
+        if args.command == "costs":
+            return _costs(args)
         if args.command == "regress":
             faults.raise_on_signals()       # its search runs in this thread
             return _regress(args)

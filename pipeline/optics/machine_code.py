@@ -230,28 +230,38 @@ def shader_sources(p: registry.Parameters, powers, registry_shaders: bool = True
     return out
 
 
-def costs(p: registry.Parameters, powers=(2,), families=tuple(FAMILIES), registry_shaders: bool = True) -> dict:
-    """Machine-code costs of every shader of `shader_sources` on each chip family: a dict with the
-    rows (lobe, what, normalization, family, architecture, counts, estimates and their net values)
-    and the driver's name per family. Raises CompilerMissing where the compiler cannot run."""
+def compile_shaders(sources: dict[str, str], families=tuple(FAMILIES)) -> tuple[dict, dict]:
+    """Every fragment shader of `sources` (name -> GLSL) compiled by RADV for each chip family:
+    ({family: {name: `parse_fragment` of it}}, {family: the driver's device name}). Raises
+    CompilerMissing where the compiler cannot run."""
     icd = check_available()
-    sources = shader_sources(p, powers, registry_shaders)
     with tempfile.TemporaryDirectory() as tmp:
         folder = Path(tmp)
         with ThreadPoolExecutor(os.cpu_count() or 2) as pool:
             jobs = [pool.submit(spirv_binary, VERTEX, folder, "vert.spv", "vert")]
-            jobs += [pool.submit(spirv_binary, source, folder, f"{name}.frag.spv") for name, (source, *_) in sources.items()]
+            jobs += [pool.submit(spirv_binary, source, folder, f"{name}.frag.spv") for name, source in sources.items()]
             for job in jobs:
                 job.result()
             outputs = dict(zip(families, pool.map(lambda f: compile_family(f, folder, icd), families)))
-    rows, devices = [], {}
+    compiled, devices = {}, {}
     for family, stderr in outputs.items():
         device = re.search(r"@@@ DEVICE (.*)\n", stderr)
         devices[family] = device.group(1).strip() if device else family
-        shaders = {name: parse_fragment(text) for name, text in split_shaders(stderr).items()}
-        missing = set(sources) - set(shaders)
+        compiled[family] = {name: parse_fragment(text) for name, text in split_shaders(stderr).items()}
+        missing = set(sources) - set(compiled[family])
         if missing:
             raise ValueError(f"RADV ({family}) printed no listing for shaders {sorted(missing)}")
+    return compiled, devices
+
+
+def costs(p: registry.Parameters, powers=(2,), families=tuple(FAMILIES), registry_shaders: bool = True) -> dict:
+    """Machine-code costs of every shader of `shader_sources` on each chip family: a dict with the
+    rows (lobe, what, normalization, family, architecture, counts, estimates and their net values)
+    and the driver's name per family. Raises CompilerMissing where the compiler cannot run."""
+    sources = shader_sources(p, powers, registry_shaders)
+    compiled, devices = compile_shaders({name: source for name, (source, *_) in sources.items()}, families)
+    rows = []
+    for family, shaders in compiled.items():
         for name, (source, lobe, what, norm) in sources.items():
             if what == "wrapper":
                 continue

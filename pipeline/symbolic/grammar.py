@@ -276,10 +276,6 @@ def _canonical_unary(name, a, ops=frozenset(OPERATIONS)) -> bool:
     return True
 
 
-def _cost_key(cost) -> tuple:
-    return tuple(sorted(cost.items()))
-
-
 @lru_cache(maxsize=None)
 def _forms_of(size: int, ops: tuple, variables: int) -> tuple:
     if size == 1:
@@ -499,7 +495,9 @@ def parse(text: str, variable="x", values=None):
 _NUMPY = {"exp": np.exp, "log": np.log, "sqrt": np.sqrt}
 
 
-def _apply(name, args, functions):
+def apply(name, args, functions):
+    """Operation `name` on its operands `args` (numbers, numpy or JAX arrays, sympy expressions);
+    `functions` gives exp, log and sqrt for the kind of operand."""
     if name == "+":
         return args[0] + args[1]
     if name == "-":
@@ -530,7 +528,7 @@ def fold_constants(e, values):
         parts = [build(a) for a in node[1:]]
         if all(a == C for a, _ in parts):
             with np.errstate(all="ignore"):
-                v = _apply(node[0], [np.float64(v[0]) for _, v in parts], _NUMPY)
+                v = apply(node[0], [np.float64(v[0]) for _, v in parts], _NUMPY)
             return C, [float(v)]
         return (node[0],) + tuple(a for a, _ in parts), [v for _, vs in parts for v in vs]
 
@@ -549,7 +547,7 @@ def substitute(e, constants, variables, functions=None):
             return variables[variable_index(node)]
         if node == C:
             return next(values)
-        return _apply(node[0], [build(a) for a in node[1:]], functions)
+        return apply(node[0], [build(a) for a in node[1:]], functions)
 
     return build(e)
 

@@ -27,9 +27,9 @@ from functools import partial
 
 import numpy as np
 
-from .grammar import (ADD, CONST, COST, CUBE, DIV, EXP, LOG, MUL, POW, SQRT, SQUARE, SUB, VAR, C, X,  # noqa: F401
-                      canonical, complexity, constants, enumerate_forms, evaluate_numpy, linear_constants, opcodes,
-                      operations, operations_of, parse, programs, show, to_sympy)
+from .grammar import (ADD, CONST, COST, CUBE, DIV, EXP, LOG, MUL, OPCODE, POW, SQRT, SQUARE, SUB, VAR, C, X,  # noqa: F401
+                      apply, canonical, complexity, constants, enumerate_forms, evaluate_numpy, linear_constants,
+                      opcodes, operations, operations_of, parse, programs, show, to_sympy)
 from ..optics.numerics import jax
 import jax.numpy as jnp  # noqa: E402
 
@@ -50,11 +50,13 @@ BLOCK_VALUES = 2**22    # rows x points x program steps of one block, at most (a
 ARITHMETIC_OPCODES = (VAR, CONST, ADD, SUB, MUL, DIV)
 
 
+NAME_OF = {code: name for name, code in OPCODE.items()}
+JNP_FUNCTIONS = {"exp": jnp.exp, "log": jnp.log, "sqrt": jnp.sqrt}
+
+
 def _operation(code, a, b):
     """The value of opcode `code` on registers a (and b)."""
-    return {ADD: lambda: a + b, SUB: lambda: a - b, MUL: lambda: a * b, DIV: lambda: a / b,
-            POW: lambda: jnp.power(a, b), EXP: lambda: jnp.exp(a), LOG: lambda: jnp.log(a), SQRT: lambda: jnp.sqrt(a),
-            SQUARE: lambda: a * a, CUBE: lambda: a * a * a}[code]()
+    return apply(NAME_OF[code], [a, b], JNP_FUNCTIONS)
 
 
 def evaluate(program, c, x, codes=ARITHMETIC_OPCODES):
