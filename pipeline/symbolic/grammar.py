@@ -564,7 +564,8 @@ def to_sympy(e, constants, symbol):
 def canonical(expression, symbol) -> str:
     """sympy's canonical text of an expression in `symbol`: a rational function as a polynomial part
     plus partial fractions (in several variables, given as a list: one cancelled fraction), any
-    other as sympy simplifies it; numbers to 6 significant digits."""
+    other as sympy simplifies it, or the expression as built where that is less than half as long;
+    numbers to 6 significant digits."""
     import sympy as sp
 
     symbols = _names(symbol)
@@ -572,7 +573,11 @@ def canonical(expression, symbol) -> str:
     simplified = sp.cancel(sp.together(expression)) if rational else sp.powsimp(expression)
     if rational and len(symbols) == 1:
         simplified = sp.apart(simplified, symbols[0])
-    return re.sub(r"(?<![\d.])1\.0\*", "", str(simplified.evalf(6)))
+    text = re.sub(r"(?<![\d.])1\.0\*", "", str(simplified.evalf(6)))
+    # (a power of a sum expands into many terms, (c - t^3)^3 into a polynomial of degree 9: where the
+    # expression as built is less than half as long, it is the one shown)
+    built = re.sub(r"(?<![\d.])1\.0\*", "", str(expression.evalf(6)))
+    return built if 2 * len(built) < len(text) else text
 
 
 def evaluate_numpy(e, c, x):

@@ -284,7 +284,7 @@ def loss_weights(y, loss: str) -> np.ndarray:
 
 def search(x, y, max_complexity: int, ops="+-*/", starts: int = 2, iterations: int = 7,
            refine: int = 8, polish_starts: int = 4, seed: int = 0, progress=None, forms=None,
-           polish_iterations: int = 100, loss: str = "rms", cost=None):
+           polish_iterations: int = 100, loss: str = "rms", cost=None, codes=None):
     """The exhaustive search: every kept form up to `max_complexity` screened with `iterations`
     steps of the variable-projection fit (`_fit_one`), from one start if all its constants enter
     linearly, else from `starts` starts and, where only one start reached the best (several
@@ -298,7 +298,8 @@ def search(x, y, max_complexity: int, ops="+-*/", starts: int = 2, iterations: i
     fitted by minimax, by Lawson's iteratively reweighted least squares (LAWSON_ROUNDS rounds, the
     best round kept), the others ranked by the largest error of their least-squares fit. `cost`, a
     cost table (`grammar.read_cost_table`), ranks by its complexity; the forms enumerated are the
-    default count's up to `max_complexity`.
+    default count's up to `max_complexity`. `codes`: the opcodes to compile for (default the
+    forms' own; a superset lets searches over different operations share compiled programs).
 
     Returns a dict: forms, complexity (under `cost`), rms (per form, of the least-squares fit:
     refitted where refitted; the relative error's for the relative losses), loss (the ranking
@@ -310,7 +311,7 @@ def search(x, y, max_complexity: int, ops="+-*/", starts: int = 2, iterations: i
     if not forms:
         raise ValueError(f"no expression of complexity <= {max_complexity} uses only the operations {ops!r}")
     base = loss_weights(y, loss)
-    codes = opcodes(forms)
+    codes = opcodes(forms) if codes is None else tuple(codes)
     size = np.array([complexity(e, cost) for e in forms])
     structure = np.array([complexity(e) for e in forms])
     count = np.array([constants(e) for e in forms])

@@ -10,10 +10,12 @@ from pipeline.symbolic.regress import RegressError, regress, select
 
 TEN = "+,-,*,/,exp,log,sqrt,square,cube,pow"
 TEN_FORM = "exp(x) + log(x) - sqrt(x) * square(x) / cube(x) ^ x"     # one form with every operation
+ALL_CODES = grammar.opcodes([grammar.parse(TEN_FORM)])
 
 
 def law_front(x, y, max_complexity, ops):
-    found = search.search(x, y, max_complexity, ops)
+    # (compiled for every operation: the tests' searches share their programs)
+    found = search.search(x, y, max_complexity, ops, codes=ALL_CODES)
     return found, [(found["forms"][i], found["constants"][i][:found["constant_count"][i]], found["rms"][i],
                     found["complexity"][i]) for i in found["front"]]
 
@@ -69,7 +71,7 @@ def test_each_rule_of_the_enumeration_keeps_an_equal_form(removed, kept):
     c = rng.uniform(0.5, 1.5, (3, grammar.constants(removed_tree)))
     y = np.stack([grammar.evaluate_numpy(removed_tree, row, x) for row in c])
     # (three draws in one batch, compiled for every operation: the rules share one program)
-    fits = search.fit_forms([kept_tree], np.broadcast_to(x, y.shape), y, codes=grammar.opcodes([grammar.parse(TEN_FORM)]))
+    fits = search.fit_forms([kept_tree], np.broadcast_to(x, y.shape), y, codes=ALL_CODES)
     for (_, rms, _), values, row in zip((f[0] for f in fits), y, c):
         assert rms < 1e-9 * np.max(np.abs(values)), (removed, kept, row, rms)
 
