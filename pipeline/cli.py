@@ -123,19 +123,25 @@ def _regress(args) -> int:
 
 
 def _costs(args) -> int:
-    from .optics import machine_code, operation_costs
+    from .optics import machine_code
+    from .symbolic import gpu_costs, grammar
 
     out = Path(args.out) if args.out else paths.OUTPUTS / "costs"
+    if not 20 <= args.forms <= 2000:
+        print(f"error: --forms {args.forms}: give an integer in [20, 2000]", file=sys.stderr)
+        return faults.EXIT_BAD_INPUT
+    print(f"compiling {args.forms} forms for RDNA3, RDNA2 and GCN5 (RADV; about {args.forms // 14} s)")
     try:
-        costs = operation_costs.operation_costs()
+        costs = gpu_costs.operation_costs(args.forms)
     except (machine_code.CompilerMissing, machine_code.spirv.ToolMissing) as e:
         print(f"error: the GPU compiler cannot run here: {e}", file=sys.stderr)
         return faults.EXIT_ENVIRONMENT
-    operations = list(operation_costs.STEPS)
-    print("cycles per wave " + " ".join(f"{op:>7}" for op in operations))
-    for architecture, table in costs.items():
-        print(f"{architecture:<15} " + " ".join(f"{table[op]:>7g}" for op in operations))
-    written = operation_costs.write_tables(costs, out)
+    print("cycles per wave " + " ".join(f"{op:>7}" for op in grammar.OPERATIONS) + "   held-out error (mean, max)")
+    for architecture, table in costs["tables"].items():
+        held = costs["held_out"][architecture]
+        print(f"{architecture:<15} " + " ".join(f"{table[op]:>7g}" for op in grammar.OPERATIONS)
+              + f"   {held['mean_abs_error']:.2f}, {held['max_abs_error']:.1f} of {held['mean_cycles']:.1f} on average")
+    written = gpu_costs.write_tables(costs["tables"], out)
     print("wrote " + ", ".join(str(p) for p in written) + " (pipeline regress --cost FILE)")
     return 0
 
@@ -270,6 +276,8 @@ def _main(argv: list[str] | None) -> int:
     cst = sub.add_parser("costs", help="cycles per wave of each symbolic-regression operation on RDNA3, RDNA2 and GCN5 "
                                        "(RADV's machine code): cost tables for regress --cost")
     cst.add_argument("--out", default=None, metavar="DIR", help="folder of the tables (default outputs/costs)")
+    cst.add_argument("--forms", type=int, default=400, metavar="N",
+                     help="forms compiled to fit the tables, a quarter held out (default 400)")
     cch = sub.add_parser("cache", help="show the cache's size per stage; --prune removes unused entries")
     cch.add_argument("--prune", action="store_true")
     cch.add_argument("--older-than", type=float, default=14.0, metavar="DAYS",

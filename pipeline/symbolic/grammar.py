@@ -552,6 +552,28 @@ def substitute(e, constants, variables, functions=None):
     return build(e)
 
 
+def glsl(e, constants, variable="t") -> str:
+    """e as a GLSL expression in the float `variable`, its constants written as numbers (as a shader
+    specialized to one material has them): pow as pow(a, b), square and cube as products."""
+    values = iter(constants)
+
+    def text(node):
+        if is_variable(node):
+            return variable
+        if node == C:
+            v = float(next(values))
+            return f"({v!r})" if v < 0 else repr(v)
+        if len(node) == 2:
+            a = text(node[1])
+            if node[0] in ("square", "cube"):
+                return f"({a} * {a}" + (f" * {a})" if node[0] == "cube" else ")")
+            return f"{node[0]}({a})"
+        a, b = text(node[1]), text(node[2])
+        return f"pow({a}, {b})" if node[0] == "pow" else f"({a} {node[0]} {b})"
+
+    return text(e)
+
+
 def to_sympy(e, constants, symbol):
     """The sympy expression of e with its fitted constants, in `symbol` (or a list of symbols, one
     per variable)."""

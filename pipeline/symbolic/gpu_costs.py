@@ -1,0 +1,103 @@
+"""Cycles per operation on each GPU architecture the `gpu_isa` stage compiles for (RDNA3, RDNA2,
+GCN5): the cost tables of `pipeline regress --cost` for a search ranked by machine code.
+
+A form's cost is what RADV compiles it to: a fragment shader returning the form in t (the
+interpolated input; its constants written as numbers, as a shader specialized to one material has
+them), ACO's throughput estimate in cycles per wave net of the shader returning t
+(`optics.machine_code.compile_shaders`). The table gives each operation a cost such that a form's
+cost is about the sum of its operations' costs: fitted by non-negative least squares to the
+compiled cycles of `CALIBRATION` forms drawn from every form of the grammar up to complexity 7
+(random constants, a fixed seed), a quarter of them held out, on which the prediction's error is
+measured and returned. Constants and the variable cost 0.
+
+A sum of per-operation costs cannot see what the compiler does with a whole form (a multiply and
+an add fused into one fma, independent operations issued while a transcendental is in flight), so
+the tables predict and the compiled cycles of a form remain the measure.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from ..optics.machine_code import FAMILIES, UNIFORM, compile_shaders
+from . import grammar
+
+CALIBRATION = 400           # forms compiled to fit the tables (a quarter held out)
+CALIBRATION_COMPLEXITY = 7
+SEED = 0
+
+
+def expression_cycles(expressions: dict[str, str], families=tuple(FAMILIES)) -> dict[str, dict[str, float]]:
+    """{architecture: {name: cycles per wave}} of each GLSL expression in t (a fragment shader
+    returning it), net of the shader returning t."""
+    sources = {"expression_none": UNIFORM.format(body="return t;")}
+    names = list(expressions)
+    sources.update({f"expression_{i:03d}": UNIFORM.format(body=f"return {expressions[name]};")
+                    for i, name in enumerate(names)})
+    compiled, _ = compile_shaders(sources, families)
+    out = {}
+    for family, shaders in compiled.items():
+        base = shaders["expression_none"]["cycles_per_wave"]
+        out[FAMILIES[family].lower()] = {name: round(shaders[f"expression_{i:03d}"]["cycles_per_wave"] - base, 2)
+                                         for i, name in enumerate(names)}
+    return out
+
+
+def operation_counts(e) -> list[int]:
+    """How many times e uses each operation of `grammar.OPERATIONS`, in that order."""
+    counts = dict.fromkeys(grammar.OPERATIONS, 0)
+
+    def walk(node):
+        if len(node) > 1:
+            counts[node[0]] += 1
+            for a in node[1:]:
+                walk(a)
+
+    walk(e)
+    return list(counts.values())
+
+
+def operation_costs(count: int = CALIBRATION, families=tuple(FAMILIES)) -> dict:
+    """{"tables": {architecture ("rdna3", "rdna2", "gcn5"): {operation: cycles per wave}},
+    "held_out": {architecture: {"forms", "mean_cycles", "mean_abs_error", "max_abs_error",
+    "mean_abs_error_flat"}}}, the last being the error of one cost for every operation fitted
+    alike (what the table must beat). Raises machine_code.CompilerMissing where RADV cannot run."""
+    from scipy.optimize import nnls
+
+    forms = grammar.enumerate_forms(CALIBRATION_COMPLEXITY, grammar.OPERATIONS)
+    rng = np.random.default_rng(SEED)
+    chosen = [forms[i] for i in rng.choice(len(forms), min(count, len(forms)), replace=False)]
+    glsl = {f"form{i:03d}": grammar.glsl(e, rng.uniform(0.5, 1.5, grammar.constants(e))) for i, e in enumerate(chosen)}
+    measured = expression_cycles(glsl, families)
+    A = np.array([operation_counts(e) for e in chosen], dtype=float)
+    fit = slice(0, 3 * len(chosen) // 4)
+    held = slice(3 * len(chosen) // 4, len(chosen))
+    tables, held_out = {}, {}
+    for architecture, cycles in measured.items():
+        y = np.array([cycles[name] for name in glsl])
+        weights, _ = nnls(A[fit], y[fit])
+        flat = float(np.sum(A[fit].sum(axis=1) * y[fit]) / np.sum(A[fit].sum(axis=1) ** 2))
+        error = A[held] @ weights - y[held]
+        tables[architecture] = {op: round(float(w), 2) for op, w in zip(grammar.OPERATIONS, weights)}
+        held_out[architecture] = dict(forms=int(y[held].size), mean_cycles=float(np.mean(y[held])),
+                                      mean_abs_error=float(np.mean(np.abs(error))),
+                                      max_abs_error=float(np.max(np.abs(error))),
+                                      mean_abs_error_flat=float(np.mean(np.abs(A[held].sum(axis=1) * flat - y[held]))))
+    return dict(tables=tables, held_out=held_out)
+
+
+def write_tables(tables: dict[str, dict[str, float]], folder: Path) -> list[Path]:
+    """One TOML file per architecture, `cost_<architecture>.toml`, in the form
+    `grammar.read_cost_table` reads; returns their paths."""
+    folder.mkdir(parents=True, exist_ok=True)
+    paths = []
+    for architecture, table in tables.items():
+        lines = [f"# Cycles per wave of each operation on {architecture.upper()}, fitted to RADV's machine code of",
+                 f"# {CALIBRATION} forms (pipeline.symbolic.gpu_costs)", "[cost]", "constant = 0", "variable = 0"]
+        lines += [f'"{op}" = {cycles:g}' for op, cycles in table.items()]
+        path = folder / f"cost_{architecture}.toml"
+        path.write_text("\n".join(lines) + "\n")
+        paths.append(path)
+    return paths

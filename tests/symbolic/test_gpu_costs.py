@@ -1,0 +1,61 @@
+"""Cycles per operation fitted to RADV's machine code: the cost tables of `pipeline regress --cost`."""
+
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from pipeline.optics import machine_code
+from pipeline.symbolic import gpu_costs, grammar
+
+from ..helpers import cli_env
+
+FORMS = 160     # (the command's 400 take 25 s; the properties below hold on fewer)
+
+
+@pytest.fixture(scope="module")
+def costs():
+    try:
+        return gpu_costs.operation_costs(FORMS)
+    except (machine_code.CompilerMissing, machine_code.spirv.ToolMissing) as e:
+        pytest.skip(f"machine-code cost not measured here: {e}")
+
+
+def test_the_tables_predict_forms_they_were_not_fitted_to(costs):
+    """On the held-out quarter of the forms (compiled, never fitted), the table's prediction (the
+    sum of its operations' costs) misses by less than a quarter of the mean cycles on average, and
+    by less than a table with one cost for every operation (fitted alike): the operations do differ."""
+    for architecture, held in costs["held_out"].items():
+        assert held["forms"] == FORMS // 4
+        assert held["mean_abs_error"] < 0.25 * held["mean_cycles"], (architecture, held)
+        assert held["mean_abs_error"] < 0.8 * held["mean_abs_error_flat"], (architecture, held)
+
+
+def test_the_costs_follow_the_hardware(costs):
+    """What AMD's ISA guides say independently of the fit: exp and log run on the quarter-rate
+    transcendental unit, so each costs at least twice a multiply; pow is a log, a multiply and an
+    exp, so more than either; a transcendental costs more per wave on GCN5 (wave64 on 16-lane
+    SIMDs) than on RDNA."""
+    for architecture, table in costs["tables"].items():
+        for op in ("exp", "log"):
+            assert table[op] >= 2 * table["*"], (architecture, op)
+        assert table["pow"] > max(table["exp"], table["log"]), architecture
+    for op in ("exp", "log", "pow", "/"):
+        assert costs["tables"]["gcn5"][op] > costs["tables"]["rdna3"][op], op
+
+
+def test_the_costs_command_writes_tables_regress_reads(costs, tmp_path):
+    """`pipeline costs --forms 40 --out DIR`: one TOML per architecture, read back by
+    `grammar.read_cost_table` with every operation; --forms out of range exits 2."""
+    out = tmp_path / "c"
+    run = subprocess.run([sys.executable, "-m", "pipeline", "costs", "--forms", "40", "--out", str(out)],
+                         capture_output=True, text=True, env=cli_env(tmp_path))
+    assert run.returncode == 0, run.stderr
+    assert sorted(p.name for p in out.iterdir()) == ["cost_gcn5.toml", "cost_rdna2.toml", "cost_rdna3.toml"]
+    for path in out.iterdir():
+        table = grammar.read_cost_table(path, grammar.OPERATIONS)
+        assert all(np.isfinite(table[op]) and table[op] >= 0 for op in grammar.OPERATIONS)
+    bad = subprocess.run([sys.executable, "-m", "pipeline", "costs", "--forms", "5"], capture_output=True, text=True,
+                         env=cli_env(tmp_path))
+    assert bad.returncode == 2 and "--forms 5: give an integer in [20, 2000]" in bad.stderr
