@@ -111,11 +111,14 @@ def _regress(args) -> int:
     use_compilation_cache(paths.XLA_CACHE or paths.CACHE / XLA)
     out = Path(args.out) if args.out else paths.OUTPUTS / "regress" / Path(args.file).stem
     front = regress(Path(args.file), args.x, args.y, out, args.max_complexity, parse_operations(args.ops),
-                    seed=args.seed, noise=args.noise, engine=args.engine, loss=args.loss, cost=args.cost)
+                    seed=args.seed, noise=args.noise, engine=args.engine, loss=args.loss, cost=args.cost, gpu=args.gpu)
     engines = len({m["engine"] for m in front}) > 1 or front[0]["engine"] != "exhaustive"
-    print(f"complexity  {'loss: ' + args.loss:<12} DL (nats)  " + ("engine      " if engines else "") + "expression")
+    cycles = args.gpu is not None
+    print(f"complexity  {'loss: ' + args.loss:<12} DL (nats)  " + ("cycles  " if cycles else "")
+          + ("engine      " if engines else "") + "expression")
     for m in front:
         print(f"{m['complexity']:>10}  {m['loss']:<11.6g}  {m['description_length']:<9.4g}  "
+              + (f"{m['cycles']:>6g}  " if cycles else "")
               + (f"{m['engine']:<10}  " if engines else "") + m["canonical"]
               + ("   <- selected" if m["selected"] else ""))
     print(f"wrote {out / 'front.csv'} and {out / 'front.png'}; {time.perf_counter() - start:.1f} s")
@@ -248,6 +251,8 @@ def _main(argv: list[str] | None) -> int:
     reg.add_argument("--loss", default="rms", choices=["rms", "relative", "max", "max-relative"],
                      help="what the front ranks by: RMS error (default), RMS of the relative error, largest absolute "
                           "or relative error (minimax)")
+    reg.add_argument("--gpu", default=None, choices=["rdna3", "rdna2", "gcn5"],
+                     help="compile every front member for this GPU (RADV) and report its cycles per wave")
     reg.add_argument("--cost", default=None, metavar="FILE.toml",
                      help="a cost per operation ([cost] table: exp = 4, ...) to rank by instead of the default count")
     reg.add_argument("--seed", type=int, default=0, help="seed of the random starts and of pyoperon (default 0)")

@@ -31,7 +31,8 @@ SEED = 0
 
 def expression_cycles(expressions: dict[str, str], families=tuple(FAMILIES)) -> dict[str, dict[str, float]]:
     """{architecture: {name: cycles per wave}} of each GLSL expression in t (a fragment shader
-    returning it), net of the shader returning t."""
+    returning it), net of the shader returning t; 0 for an expression without t (it skips the
+    interpolation of t, which a lobe computes anyway)."""
     sources = {"expression_none": UNIFORM.format(body="return t;")}
     names = list(expressions)
     sources.update({f"expression_{i:03d}": UNIFORM.format(body=f"return {expressions[name]};")
@@ -40,7 +41,7 @@ def expression_cycles(expressions: dict[str, str], families=tuple(FAMILIES)) -> 
     out = {}
     for family, shaders in compiled.items():
         base = shaders["expression_none"]["cycles_per_wave"]
-        out[FAMILIES[family].lower()] = {name: round(shaders[f"expression_{i:03d}"]["cycles_per_wave"] - base, 2)
+        out[FAMILIES[family].lower()] = {name: max(round(shaders[f"expression_{i:03d}"]["cycles_per_wave"] - base, 2), 0.0)
                                          for i, name in enumerate(names)}
     return out
 

@@ -205,7 +205,8 @@ def _member(tree, c, value, converged, names, engine, x, y, cost=None):
 
 def regress(path: Path, x_column, y_column: str, out: Path, max_complexity: int = 12, ops=DEFAULT_OPERATIONS,
             starts: int = 2, iterations: int = 7, refine: int = 8, polish_starts: int = 4, seed: int = 0,
-            log=print, noise: float | None = None, engine: str = "auto", loss: str = "rms", cost=None) -> list[dict]:
+            log=print, noise: float | None = None, engine: str = "auto", loss: str = "rms", cost=None,
+            gpu: str | None = None) -> list[dict]:
     """Runs the search of y on the file's x column(s) (a name, or a list of up to 3); writes
     out/front.csv and out/front.png; returns the front, its selected member marked (`select`;
     `noise` the data's standard deviation if known).
@@ -214,7 +215,9 @@ def regress(path: Path, x_column, y_column: str, out: Path, max_complexity: int 
     (exhaustive as far as it reaches in EXHAUSTIVE_SHARE of `budget_seconds`, pyoperon to
     max_complexity in the rest, one merged front) or "auto" (exhaustive where it reaches
     max_complexity, else both). `loss` ranks (`search.LOSSES`); `cost`, a TOML file of costs per
-    operation (`grammar.read_cost_table`), ranks by its complexity instead of the default count."""
+    operation (`grammar.read_cost_table`), ranks by its complexity instead of the default count.
+    `gpu` ("rdna3", "rdna2" or "gcn5", one variable only): every front member compiled by RADV for
+    that architecture, its cycles per wave in the member's `cycles` (`gpu_costs.expression_cycles`)."""
     from .search import LOSSES, loss_weights
 
     ops = grammar.operations(ops)
@@ -231,6 +234,10 @@ def regress(path: Path, x_column, y_column: str, out: Path, max_complexity: int 
         raise RegressError(f"--noise {noise}: give the data's noise level, a number > 0")
     if y_column in x_columns:
         raise RegressError(f"--x and --y name the same column {y_column!r}")
+    if gpu is not None and gpu not in GPUS:
+        raise RegressError(f"--gpu {gpu!r}: give one of {', '.join(GPUS)}")
+    if gpu is not None and len(x_columns) > 1:
+        raise RegressError(f"--gpu compiles forms of one variable (a lobe's t); --x names {len(x_columns)}")
     table = None
     if cost is not None:
         try:
@@ -308,9 +315,29 @@ def regress(path: Path, x_column, y_column: str, out: Path, max_complexity: int 
     if found is not None:
         everything = dict(complexity=np.concatenate([found["complexity"], everything["complexity"]]),
                           rms=np.concatenate([found["loss"], everything["rms"]]), forms=found["forms"] + everything["forms"])
+    if gpu is not None:
+        compiled_cycles(front, fits, gpu, log)
     _write(Path(out), front, f"{Path(path).name}: {y_column} against {', '.join(x_columns)}", x, y, everything, loss,
            table is not None)
     return front
+
+
+GPUS = ("rdna3", "rdna2", "gcn5")
+
+
+def compiled_cycles(front, fits, gpu: str, log=print) -> None:
+    """Adds `cycles` to each front member: its cycles per wave compiled by RADV for `gpu`."""
+    from ..optics import machine_code
+    from .gpu_costs import expression_cycles
+
+    family = next(f for f, name in machine_code.FAMILIES.items() if name.lower() == gpu)
+    try:
+        measured = expression_cycles({str(i): grammar.glsl(tree, c) for i, (tree, c) in enumerate(fits)}, (family,))[gpu]
+    except (machine_code.CompilerMissing, machine_code.spirv.ToolMissing) as e:
+        raise RegressError(f"--gpu {gpu}: the GPU compiler cannot run here: {e}") from None
+    for i, m in enumerate(front):
+        m["cycles"] = measured[str(i)]
+    log(f"compiled every front member for {gpu.upper()} (RADV): cycles per wave in front.csv")
 
 
 def pole_in_range(tree, c, x) -> bool:
@@ -397,7 +424,7 @@ def _write(out: Path, front, title, x, y, found, loss="rms", costed=False) -> No
     publish(out, digest("regress", title, x, y, front), lambda s: None, write)
 
 
-FRONT_COLUMNS = ("complexity", "structure", "loss", "rms", "form", "expression", "canonical", "max_rel_to_exact",
+FRONT_COLUMNS = ("complexity", "cycles", "structure", "loss", "rms", "form", "expression", "canonical", "max_rel_to_exact",
                  "max_energy_excess", "equivalent_to_exact", "constants", "description_length", "selected", "engine")
 
 

@@ -59,3 +59,33 @@ def test_the_costs_command_writes_tables_regress_reads(costs, tmp_path):
     bad = subprocess.run([sys.executable, "-m", "pipeline", "costs", "--forms", "5"], capture_output=True, text=True,
                          env=cli_env(tmp_path))
     assert bad.returncode == 2 and "--forms 5: give an integer in [20, 2000]" in bad.stderr
+
+
+def test_regress_compiles_every_front_member_for_the_gpu_asked(costs, tmp_path):
+    """`regress --gpu rdna3`: every front member's compiled cycles in front.csv, equal to compiling
+    its expression alone (`expression_cycles`, the compiler being deterministic), the constant
+    member 0. An unknown GPU, or two variables, are refused by name."""
+    import csv
+
+    from pipeline.symbolic.regress import RegressError, regress
+
+    x = np.linspace(0.0, 3.0, 40)
+    data = tmp_path / "d.csv"
+    data.write_text("x,y\n" + "".join(f"{float(a)!r},{float(b)!r}\n" for a, b in zip(x, 0.3 + 1.7 * np.exp(-1.3 * x))))
+    front = regress(data, "x", "y", tmp_path / "out", max_complexity=6, engine="exhaustive", gpu="rdna3",
+                    log=lambda s: None)
+    with open(tmp_path / "out" / "front.csv") as f:
+        rows = list(csv.DictReader(f))
+    assert [float(r["cycles"]) for r in rows] == [m["cycles"] for m in front]
+    def glsl(text):         # (the printed constants, 6 digits: the code compiled is the same)
+        values = []
+        tree = grammar.parse(text, "x", values)
+        return grammar.glsl(tree, values)
+
+    alone = gpu_costs.expression_cycles({m["form"]: glsl(m["expression"]) for m in front}, ("gfx1100",))["rdna3"]
+    assert [m["cycles"] for m in front] == [alone[m["form"]] for m in front]
+    assert front[0]["form"] == "c" and front[0]["cycles"] == 0
+    with pytest.raises(RegressError, match="--gpu 'navi31': give one of rdna3, rdna2, gcn5"):
+        regress(data, "x", "y", tmp_path / "o2", max_complexity=3, gpu="navi31", log=lambda s: None)
+    with pytest.raises(RegressError, match="--gpu compiles forms of one variable"):
+        regress(data, "x,z", "y", tmp_path / "o3", max_complexity=3, gpu="gcn5", log=lambda s: None)
