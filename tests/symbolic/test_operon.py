@@ -15,7 +15,7 @@ CASES = {
     "rational in one variable": (np.linspace(0.5, 8.0, 50)[None], lambda x: (2 * x[0] + 1) / (x[0] + 3), 10, "+-*/"),
     "noisy rational in one variable": (np.linspace(0.5, 8.0, 50)[None], lambda x: 3 * x[0] / (x[0] + 2)
                                        + np.random.default_rng(1).normal(0, 0.01, 50), 10, "+-*/"),
-    "rational in two variables": (np.stack([T2, Q2]), lambda x: (2 * x[0] + x[1]) / (x[0] + 3), 9, "+-*/"),
+    "rational in two variables": (np.stack([T2, Q2]), lambda x: (2 * x[0] + x[1]) / (x[0] + 3), 8, "+-*/"),
     "noisy Gaussian bump with functions and powers": (
         np.linspace(0.0, 3.0, 50)[None], lambda x: 0.2 + np.exp(-2.0 * (x[0] - 1.1) ** 2)
         + np.random.default_rng(2).normal(0, 0.01, 50), 8, "+,-,*,/,exp,log,sqrt,square,pow"),
