@@ -117,6 +117,10 @@ def run_stages(config: Config, cache: Cache, log: Callable[[str], None] = print,
     `on_result(results, keys)` is called after each stage is done (the figures start from it).
     """
     chosen = [s for s in graph.STAGES if stages is None or s.name in stages]
+    missing = sorted({u for s in chosen for u in s.upstream} - {s.name for s in chosen})
+    if missing:
+        raise ValueError(f"stages {', '.join(s.name for s in chosen)} read stages that are not asked for: "
+                         f"{', '.join(missing)} (graph.closure gives every stage they read)")
     with cache.in_use():            # `cache --prune` waits for no run: it refuses while one holds this
         swept = cache.sweep()
         if swept:

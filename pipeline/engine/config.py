@@ -76,6 +76,8 @@ SPP_CHOICES = tuple(4**i for i in range(7))
 # but name (the tests' dense grids resolve it up to here).
 POWER_MAX = 16
 
+LOBE_FAMILIES = ("square_peak1", "square", "cube", "fourth", "exp2_linear", "exp2_quadratic", "rational",
+                 "rational_square")
 LIBRARY_TERMS = ("1", "n", "1/n", "1/n^2", "n^2", "sqrt(n)", "log(n)")
 METRICS = ("relative_epicenter", "absolute", "rms")
 FITS = ("least_squares", "minimax")
@@ -201,6 +203,21 @@ SCHEMA: tuple[Key, ...] = (
         lambda v: isinstance(v, list) and 1 <= len(v) <= 8 and len(set(v)) == len(v)
         and all(_is_int(x) and 2 <= x <= POWER_MAX for x in v),
         "powers m of the family compared in the accuracy/cost front, each with its own best Q and line"),
+    Key("lobe_search.families", list(LOBE_FAMILIES), "a list of distinct names from " + ", ".join(LOBE_FAMILIES),
+        lambda v: isinstance(v, list) and 1 <= len(v) and len(set(v)) == len(v) and all(x in LOBE_FAMILIES for x in v),
+        "cheap forms g(t; A, B, C) the lobe search fits to cos^n per n (pipeline.optics.lobe_families)"),
+    Key("lobe_search.n_ranges", [[2, 10], [10, 100], [100, 1000], [2, 1000]],
+        "a list of 1 to 8 pairs [lo, hi] of numbers with 1 <= lo < hi <= 100000",
+        lambda v: isinstance(v, list) and 1 <= len(v) <= 8 and all(
+            isinstance(r, list) and len(r) == 2 and all(_is_number(x) for x in r) and 1 <= r[0] < r[1] <= 100_000
+            for r in v),
+        "ranges of n of the lobe search's fronts (clipped to [n_min, n_max])"),
+    Key("lobe_search.points_per_range", 6, "an integer in [2, 200]", _int_in(2, 200),
+        "log-spaced exponents per range at which each family is fitted (ends included; checked halfway between)"),
+    Key("lobe_search.zone_points", 256, "an integer in [8, 4096]", _int_in(8, 4096),
+        "points of the epicenter zone on which each family's minimax fit runs (its d is then measured exactly)"),
+    Key("lobe_search.calibration_forms", 100, "an integer in [20, 2000]", _int_in(20, 2000),
+        "random forms compiled to fit the cost tables that predict each family's cycles"),
     Key("render.resolution", 512, "an integer in [16, 4096]", lambda v: _is_int(v) and 16 <= v <= 4096,
         "width and height of each rendered image, in pixels"),
     Key("render.exponents", [10, 100, 1000], "a list of 1 to 8 numbers in [1, 100000]",

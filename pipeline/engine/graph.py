@@ -360,6 +360,32 @@ STAGES: tuple[Stage, ...] = (
         "d_curves": "d per n of each power, in the order of `powers` [array powers x n, fraction]",
         "D_curves": "D per n of each power [array powers x n, absolute]",
     }),
+    _stage("lobe_search", "beyond", RANGE + ("lobe_search.*", "solver.*", "comparison.grid_cells"),
+           ("zone.level", "lobe_comparison.lobes", "lobe_comparison.d_curves", "lobe_comparison.D_curves",
+            "gpu_isa.rows", "gpu_isa.power"), {
+        "available": "whether RADV compiled the families (cycles and fronts; without it, fits and errors only) [bool]",
+        "reason": "why not, where it did not [text]",
+        "devices": "the driver's device name per chip family [dict]",
+        "n_grid": "exponents at which every family is fitted: log-spaced points over each range, ends included [array]",
+        "ranges": "the n ranges of the fronts, within [n_min, n_max] [list]",
+        "families": "the searched families (optics.lobe_families) [list]",
+        "per_n": "per family: scaled parameters q, shader parameters (A, B, C), d and D (exact) and the fit's error "
+                 "on the zone's points at each n of n_grid [list]",
+        "members": "per family and range: formula, max d and D over the grid's n, the grid check, the shader "
+                   "parameters as lines in n and the max d and D of those lines over every integer n [list]",
+        "candidates": "the members per architecture with compiled cycles, predicted cycles and on_front [list]",
+        "front": "per architecture and range, the members no cheaper or equal-cost member beats on d: architecture, "
+                 "n_range, family, expression, cycles (compiled), cycles_predicted, d, D, parameters [list]",
+        "placements": "the registry's lobes per architecture and range: cycles, d, D, on_front, the front member "
+                      "that beats them at no more cycles and their d over its d [list]",
+        "grid_check_max": "largest relative excess of a family's zone error halfway between grid points over its "
+                          "maximum on the grid, over ranges and families [fraction]",
+        "cycles_prediction_max_error": "per architecture, the largest |predicted - compiled| cycles over the "
+                                       "families [dict, cycles per wave]",
+        "cost_tables": "cycles per operation per architecture, fitted to RADV's machine code of forms with uniform "
+                       "constants (gpu_costs) [dict]",
+        "cost_tables_held_out": "the tables' error on held-out forms [dict]",
+    }),
     _stage("render", "beyond", ("render.*",) + RANGE + POWER,
            ("zone.level", "linear_coefficient.slope_used", "linear_coefficient.intercept_used",
             "f2_errors.d_f_2_curve", "accuracy.d_f_Q2_curve"), {

@@ -74,6 +74,8 @@ FIGURES = (
            ("lobe_comparison",), RANGE),
     Figure("error_cost_front.png", "Error against cost: every power of the family and the cheap lobes, per n range",
            "power_front", "error_cost_front", ("power_front", "lobe_comparison", "gpu_isa"), RANGE),
+    Figure("lobe_front.png", "The lobe search: max d against compiled cycles per architecture and n range",
+           "lobe_search", "lobe_front", ("lobe_search",)),
     Figure("mitsuba_zoom.png", "Mitsuba: the sphere of the largest n rendered zoomed, so that its statistics rest on "
            ">= 1500 highlight pixels", "mitsuba", "mitsuba_zoom", ("mitsuba_render",)),
     Figure("ndf_comparison.png", "The lobes as microfacet NDFs against Beckmann: d and D per n, and the "

@@ -719,3 +719,82 @@ def mitsuba_zoom(out, config, r):
                  f"({z['highlight_pixels']} highlight pixels, cyan)", fontsize=10)
     fig.tight_layout(rect=(0, 0, 1, 0.9))
     return _save(fig, out, "mitsuba_zoom.png", tight=False)
+
+
+ARCHITECTURE_NAMES = {"rdna3": "RDNA3", "rdna2": "RDNA2", "gcn5": "GCN5"}
+LABEL_GAP_PX = 9        # smallest vertical distance between two labels of points of equal cost
+
+
+def _stacked_labels(fig, ax, labels, near: float = 3.5) -> None:
+    """Labels of the points (x: [(d, text, color)]) on a drawn figure (its transforms final): the
+    points of costs closer than `near` form one
+    column of labels right of the column's largest cost, ordered by d and pushed apart vertically
+    where they would overlap, each joined to its point by a thin line (the points keep their place)."""
+    points = 72.0 / fig.dpi
+    columns: list[list[float]] = []
+    for x in sorted(labels):
+        if columns and x - columns[-1][-1] < near:
+            columns[-1].append(x)
+        else:
+            columns.append([x])
+    for column in columns:
+        right = ax.transData.transform((max(column), 1.0))[0] + 8
+        placed = []
+        for d, text, color, x in sorted((d, t, c, x) for x in column for d, t, c in labels[x]):
+            x0, y0 = ax.transData.transform((x, 100 * d))
+            y = y0 if not placed else max(y0, placed[-1] + LABEL_GAP_PX)
+            placed.append(y)
+            ax.annotate(text, (x, 100 * d), xytext=((right - x0) * points, (y - y0) * points - 2.5),
+                        textcoords="offset points", fontsize=6.5, color=color,
+                        arrowprops=dict(arrowstyle="-", lw=0.3, color=color, alpha=0.6))
+
+
+def lobe_front(out, config, r):
+    """Per architecture (rows) and n range (columns): max d against compiled cycles per wave, every
+    searched family (circles; the front joined), the registry's lobes (squares; the paper's f_Q2
+    starred). Points of equal cost keep their cost: their labels are stacked instead."""
+    s = r["lobe_search"]
+    if not s["candidates"]:
+        fig, ax = plt.subplots(figsize=(8, 2))
+        ax.axis("off")
+        ax.text(0.5, 0.5, "No machine code, no fronts: " + s["reason"], ha="center", va="center", wrap=True)
+        return _save(fig, out, "lobe_front.png", tight=False)
+    architectures = list(dict.fromkeys(c["architecture"] for c in s["candidates"]))
+    ranges_ = s["ranges"]
+    stacks = []
+    fig, axes = plt.subplots(len(architectures), len(ranges_), figsize=(4.3 * len(ranges_), 3.6 * len(architectures)),
+                             squeeze=False)
+    for i, architecture in enumerate(architectures):
+        for j, (lo, hi) in enumerate(ranges_):
+            ax = axes[i, j]
+            rows = [c for c in s["candidates"] if c["architecture"] == architecture and c["n_range"] == [lo, hi]]
+            front = sorted((c for c in rows if c["on_front"]), key=lambda c: c["cycles"])
+            placed = [p for p in s["placements"] if p["architecture"] == architecture and p["n_range"] == [lo, hi]
+                      and p["d"] > 0 and p["lobe"] != registry.REFERENCE]
+            ax.step([c["cycles"] for c in front], [100 * c["d"] for c in front], where="post", color="C0", lw=1.2)
+            labels: dict = {}
+            for c in rows:
+                ax.plot(c["cycles"], 100 * c["d"], "o", color="C0", ms=5 if c["on_front"] else 3.5,
+                        mfc="C0" if c["on_front"] else "white")
+                labels.setdefault(c["cycles"], []).append((c["d"], c["family"], "C0"))
+            for p in placed:
+                star = p["lobe"] == "f_Q2"
+                ax.plot(p["cycles"], 100 * p["d"], "*" if star else "s", color="gold" if star else "C3",
+                        mec="black" if star else "C3", ms=14 if star else 5, zorder=5)
+                labels.setdefault(p["cycles"], []).append((p["d"], p["label"], "black" if star else "C3"))
+            ax.set(yscale="log", xlim=(0, max(c["cycles"] for c in s["candidates"]) * 1.35))
+            stacks.append((ax, labels))
+            ax.grid(alpha=0.3, which="both")
+            if i == 0:
+                ax.set_title(f"n in [{lo:g}, {hi:g}]", fontsize=10)
+            if j == 0:
+                ax.set_ylabel(f"{ARCHITECTURE_NAMES.get(architecture, architecture)}\nmax d in the zone (%)")
+            if i == len(architectures) - 1:
+                ax.set_xlabel("cycles per wave (compiled by RADV, net of the wrapper)", fontsize=8)
+    fig.suptitle("Cheap forms fitted per n (circles; filled: the front, joined) and the registry's lobes (squares; "
+                 "the paper's f_Q2 starred)", fontsize=11)
+    fig.tight_layout(rect=(0, 0, 1, 0.97))
+    fig.canvas.draw()       # fixes the layout, the axes' limits and transforms: then the labels
+    for ax, labels in stacks:
+        _stacked_labels(fig, ax, labels)
+    return _save(fig, out, "lobe_front.png", tight=False)

@@ -578,7 +578,7 @@ NDF_NAMES = {"ggx": "GGX", "f_b": "cos^n", "f_2": "f_2", "f_Q2": "f_Q2"}
 def sections(config, r, figures) -> list[str]:
     return (exact_section(config, r, figures) + albedo_section(config, r, figures)
             + comparison_section(config, r, figures) + cost_section(config, r) + machine_code_section(config, r)
-            + front_section(config, r, figures) + half_section(config, r)
+            + front_section(config, r, figures) + lobe_search_section(config, r, figures) + half_section(config, r)
             + verdict_section(config, r)
             + render_section(config, r, figures) + mitsuba_section(config, r, figures)
             + ndf_section(config, r, figures))
@@ -631,3 +631,70 @@ def mitsuba_section(config, r, figures) -> list[str]:
                      f"{x['variance_ratio']:.1f}x |")
     lines.append("")
     return lines + embed(figures, "mitsuba")
+
+
+ARCHITECTURE_NAMES = {"rdna3": "RDNA3", "rdna2": "RDNA2", "gcn5": "GCN5"}
+
+
+def f_Q2_standing(p) -> str:
+    """Where a placed registry lobe stands on its front, in words from its placement row."""
+    if p["on_front"]:
+        return "on the front"
+    return (f"beaten: {p['dominated_by']} at {p['dominated_by_cycles']:g} cycles has a {p['d_ratio']:.3g}x "
+            "smaller max d")
+
+
+def lobe_search_section(config, r, figures) -> list[str]:
+    s = r.get("lobe_search")
+    if not s:
+        return []
+    from ..optics import lobe_families
+    lines = ["## The lobe as a search: the closest cheap form per GPU and range of n", "",
+             "The paper chose its form by hand and fitted only its coefficient. Here each form of the search "
+             "(`pipeline/optics/lobe_families.py`; its parameters per material, so any function of n) is fitted at "
+             f"each of {len(s['n_grid'])} exponents (log-spaced in each range, its ends included) by minimax of the "
+             "relative error d in this run's epicenter zone; d and D of the fitted lobe are then measured exactly "
+             "(grid and bisection, `optics.extrema`). A form's error on a range is its worst n. Fitted again halfway "
+             "between neighbouring exponents, no form's worst error on a range grows by more than "
+             f"{pct(s['grid_check_max'])}: the grid holds the maximum. The forms searched (the default depth, "
+             "`lobe_search.families`):", ""]
+    lines += [f"- `{name}`: `{lobe_families.FAMILIES[name].formula}`" for name in s["families"]]
+    lines += [""]
+    if not s["available"]:
+        return lines + [f"No machine code, so no fronts: {s['reason']}.", ""]
+    lines += ["Each form is compiled by RADV with its parameters as uniforms; its cost is ACO's cycles per wave net "
+              "of the shader returning t, and the registry's lobes are placed with their own compiled cycles "
+              "(`gpu_isa`, n and the lobe's parameter per material). The cost tables fitted to random forms "
+              "(`symbolic.gpu_costs`) predict the forms' cycles within "
+              + ", ".join(f"{v:.3g} cycles ({ARCHITECTURE_NAMES.get(a, a)})"
+                          for a, v in s["cycles_prediction_max_error"].items())
+              + ": the compiled cycles are what the fronts use.", "",
+              "| GPU | n range | front: form (cycles, max d) | the paper's f_Q2 (cycles, max d) | f_Q2 |",
+              "|---|---|---|---|---|"]
+    for architecture in dict.fromkeys(c["architecture"] for c in s["candidates"]):
+        for lo, hi in s["ranges"]:
+            front = [c for c in s["front"] if c["architecture"] == architecture and c["n_range"] == [lo, hi]]
+            paper = next((p for p in s["placements"] if p["architecture"] == architecture
+                          and p["n_range"] == [lo, hi] and p["lobe"] == "f_Q2"), None)
+            lines.append(f"| {ARCHITECTURE_NAMES.get(architecture, architecture)} | [{lo:g}, {hi:g}] | "
+                         + "; ".join(f"{c['family']} ({c['cycles']:g}, {pct(c['d'])})" for c in front) + " | "
+                         + (f"{paper['cycles']:g}, {pct(paper['d'])} | {f_Q2_standing(paper)} |" if paper else
+                            "not measured | |"))
+    widest = max(s["ranges"], key=lambda x: x[1] - x[0])
+    lines += ["", f"Each form over n in [{widest[0]:g}, {widest[1]:g}]: its worst d and D with the best parameters per "
+              "n, and with each shader parameter a line in n (least squares through the per-n optima, as the paper "
+              "fits k), measured at every integer n:", "",
+              "| form | cycles (RDNA3, RDNA2, GCN5; predicted) | max d | max D | parameters as lines in n | "
+              "max d with the lines | max D with the lines |", "|---|---|---|---|---|---|---|"]
+    for m in s["members"]:
+        if m["n_range"] != widest:
+            continue
+        cycles = [c for c in s["candidates"] if c["family"] == m["family"] and c["n_range"] == widest]
+        lines.append(f"| {m['family']} | " + ", ".join(f"{c['cycles']:g} ({c['cycles_predicted']:g})" for c in cycles)
+                     + f" | {pct(m['d'])} | {m['D']:.4g} | "
+                     + "; ".join(f"{k} = {v}" for k, v in m["parameters"].items())
+                     + f" | {pct(m['d_line'])} | {m['D_line']:.4g} |")
+    lines += ["", "The fronts rank by d, the paper's measure; D, the error over the whole lobe that the zone leaves "
+              "out, is reported beside it and can be larger than the paper's lobe's for a form fitted on the zone "
+              "alone.", ""]
+    return lines + embed(figures, "lobe_search")

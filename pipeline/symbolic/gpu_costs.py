@@ -29,14 +29,30 @@ CALIBRATION_COMPLEXITY = 7
 SEED = 0
 
 
-def expression_cycles(expressions: dict[str, str], families=tuple(FAMILIES)) -> dict[str, dict[str, float]]:
+# A form whose constants are per-material uniforms (`grammar.glsl(..., uniforms="c")`).
+UNIFORM_CONSTANTS = """#version 450
+layout(location = 0) in float t_in;
+layout(location = 0) out vec4 color;
+layout(push_constant) uniform Material {{ float c[{count}]; }};
+float lobe(float t)
+{{
+    {body}
+}}
+void main() {{ color = vec4(lobe(t_in)); }}
+"""
+MAX_CONSTANTS = 8
+
+
+def expression_cycles(expressions: dict[str, str], families=tuple(FAMILIES),
+                      template: str = UNIFORM) -> dict[str, dict[str, float]]:
     """{architecture: {name: cycles per wave}} of each GLSL expression in t (a fragment shader
     returning it), net of the shader returning t; 0 for an expression without t (it skips the
     interpolation of t, which a lobe computes anyway)."""
-    sources = {"expression_none": UNIFORM.format(body="return t;")}
+    def shader(body):
+        return template.format(body=body, count=MAX_CONSTANTS)
+    sources = {"expression_none": shader("return t;")}
     names = list(expressions)
-    sources.update({f"expression_{i:03d}": UNIFORM.format(body=f"return {expressions[name]};")
-                    for i, name in enumerate(names)})
+    sources.update({f"expression_{i:03d}": shader(f"return {expressions[name]};") for i, name in enumerate(names)})
     compiled, _ = compile_shaders(sources, families)
     out = {}
     for family, shaders in compiled.items():
@@ -60,18 +76,21 @@ def operation_counts(e) -> list[int]:
     return list(counts.values())
 
 
-def operation_costs(count: int = CALIBRATION, families=tuple(FAMILIES)) -> dict:
+def operation_costs(count: int = CALIBRATION, families=tuple(FAMILIES), uniforms: bool = False) -> dict:
     """{"tables": {architecture ("rdna3", "rdna2", "gcn5"): {operation: cycles per wave}},
     "held_out": {architecture: {"forms", "mean_cycles", "mean_abs_error", "max_abs_error",
     "mean_abs_error_flat"}}}, the last being the error of one cost for every operation fitted
-    alike (what the table must beat). Raises machine_code.CompilerMissing where RADV cannot run."""
+    alike (what the table must beat). With `uniforms` the forms' constants are per-material uniforms
+    (a lobe whose parameters depend on n) instead of numbers. Raises machine_code.CompilerMissing
+    where RADV cannot run."""
     from scipy.optimize import nnls
 
     forms = grammar.enumerate_forms(CALIBRATION_COMPLEXITY, grammar.OPERATIONS)
     rng = np.random.default_rng(SEED)
     chosen = [forms[i] for i in rng.choice(len(forms), min(count, len(forms)), replace=False)]
-    glsl = {f"form{i:03d}": grammar.glsl(e, rng.uniform(0.5, 1.5, grammar.constants(e))) for i, e in enumerate(chosen)}
-    measured = expression_cycles(glsl, families)
+    glsl = {f"form{i:03d}": grammar.glsl(e, rng.uniform(0.5, 1.5, grammar.constants(e)), uniforms="c" if uniforms else "")
+            for i, e in enumerate(chosen)}
+    measured = expression_cycles(glsl, families, UNIFORM_CONSTANTS if uniforms else UNIFORM)
     A = np.array([operation_counts(e) for e in chosen], dtype=float)
     fit = slice(0, 3 * len(chosen) // 4)
     held = slice(3 * len(chosen) // 4, len(chosen))

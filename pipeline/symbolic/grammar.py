@@ -552,14 +552,19 @@ def substitute(e, constants, variables, functions=None):
     return build(e)
 
 
-def glsl(e, constants, variable="t") -> str:
+def glsl(e, constants, variable="t", uniforms: str = "") -> str:
     """e as a GLSL expression in the float `variable`, its constants written as numbers (as a shader
-    specialized to one material has them): pow as pow(a, b), square and cube as products."""
+    specialized to one material has them), or, with `uniforms` (an array's name), read from that
+    array in order (`c[0]`, `c[1]`, ...: per-material values the compiler cannot fold): pow as
+    pow(a, b), square and cube as products."""
     values = iter(constants)
+    index = iter(range(10**6))
 
     def text(node):
         if is_variable(node):
             return variable
+        if node == C and uniforms:
+            return f"{uniforms}[{next(index)}]"
         if node == C:
             v = float(next(values))
             return f"({v!r})" if v < 0 else repr(v)

@@ -54,9 +54,9 @@ def test_second_run_computes_nothing(light_config, warm_cache):
     ("regression.threshold_count=21", ["sparse_regression"]),
     # The solver cap: every stage that solves reruns and gets the same values; the render uses no solver.
     ("solver.max_steps=300", ["zone", "q_scan", "linear_coefficient", "f2_errors", "accuracy", "lobe_comparison",
-                              "power_front"]),
+                              "power_front", "lobe_search"]),
     ("zone.sensitivity_levels=[0.6]", ["f2_errors", "accuracy"]),
-    ("comparison.albedo_angles=10", ["lobe_comparison", "power_front"]),
+    ("comparison.albedo_angles=10", ["lobe_comparison", "power_front", "lobe_search"]),
     ("render.resolution=64", ["render"]),
 ])
 def test_a_change_recomputes_only_what_reads_it_and_stops_where_values_repeat(warm_cache, change, recomputed):

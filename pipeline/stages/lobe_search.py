@@ -1,0 +1,266 @@
+"""The lobe as a search (beyond the paper): which cheap form is closest to cos^n on each GPU and range
+of n, at each cost in machine code?
+
+Every family of `optics.lobe_families` (the paper's clamped square with a free peak and with its
+peak at 1, its powers 3 and 4, exp2 of a linear and of a quadratic function of t, Schlick's rational
+class and its square; `lobe_search.families`) is fitted at each n of a grid (log-spaced points in
+each range of `lobe_search.n_ranges`, their ends included) by minimax of the relative error d in
+the run's epicenter zone; its d and D at those parameters are then measured exactly
+(`optics.extrema`). A family's error on a range is its worst n there. The grid is checked: the
+fit is repeated halfway between neighbouring points (geometric midpoints), and the largest error
+found there beyond the grid's maximum is reported (`grid_check`). Each family's shader parameters
+are also fitted by a line in n per range, as the paper does for k, and measured at every integer n
+of the range: what a per-material line costs in accuracy.
+
+Each family is compiled by RADV for RDNA3, RDNA2 and GCN5 (its parameters as uniforms) and its
+cycles per wave, net of the shader returning t, are its cost; the cost tables of
+`symbolic.gpu_costs` (fitted to `lobe_search.calibration_forms` random forms) give the predicted
+cost beside it. Per architecture and range the front is the families no other family beats at
+equal or lower cycles; the registry's lobes (the paper's f_Q2 with the run's line, the spherical
+Gaussians, Schlick, f_2, cos^n itself) are placed on it with their own compiled cycles and their
+d and D from `lobe_comparison`. Where RADV cannot run, the stage fits and measures the families and
+says why there are no cycles (no fronts).
+"""
+
+from __future__ import annotations
+
+import functools
+
+from ..optics.numerics import jax
+import jax.numpy as jnp
+import numpy as np
+
+from ..optics import lobe_families, machine_code, registry
+from ..optics.extrema import lobe_errors
+from ..optics.roots import SolverSettings
+from .common import n_range, require_converged
+
+ARCHITECTURES = {family: name.lower() for family, name in machine_code.FAMILIES.items()}
+SHADER = """#version 450
+layout(location = 0) in float t_in;
+layout(location = 0) out vec4 color;
+layout(push_constant) uniform Material {{ float A; float B; float C; }};
+float lobe(float t)
+{{
+    {body}
+}}
+void main() {{ color = vec4(lobe(t_in)); }}
+"""
+BLOCK = 512        # exponents per exact measurement call (one compiled program)
+
+
+def n_grid(ranges, points: int) -> np.ndarray:
+    """The fit's exponents: `points` log-spaced exponents over each range, its ends included."""
+    return np.unique(np.concatenate([np.geomspace(lo, hi, points) for lo, hi in ranges]))
+
+
+def midpoints(n) -> np.ndarray:
+    return np.sqrt(n[1:] * n[:-1])
+
+
+def fit_family(family: str, n, level: float, zone_points: int) -> dict:
+    """The family's minimax fit at every exponent of n, in order, each from the previous optimum, and
+    at the geometric midpoints: q, the shader parameters and the zone error on the points."""
+    out = {}
+    for key, exponents in (("grid", np.asarray(n, dtype=np.float64)), ("mid", midpoints(np.asarray(n)))):
+        q, errors, start = [], [], None
+        for n_ in exponents:
+            start, error = lobe_families.fit_minimax(family, float(n_), level, start, zone_points)
+            q.append(start)
+            errors.append(error)
+        out[f"{key}_q"] = np.array(q)
+        out[f"{key}_zone_error"] = np.array(errors)
+        out[f"{key}_P"] = lobe_families.shader_parameters(family, exponents, np.array(q))
+    return out
+
+
+@functools.partial(jax.jit, static_argnames=("cells", "settings"))
+def _errors(index, n, P, level, cells: int, settings: SolverSettings):
+    def lobe(P_):
+        return lambda u, _: jax.lax.switch(index, [functools.partial(lobe_families.value_t, jnp, i)
+                                                   for i in range(len(lobe_families.NAMES))],
+                                           jnp.maximum(1.0 - u, 0.0), P_)
+    return jax.vmap(lambda n_, P_: lobe_errors(lobe(P_), n_, level, cells, settings))(n, P)
+
+
+def exact_errors(name: str, n, P, level, cells: int, settings: SolverSettings) -> dict:
+    """d and D of the family with shader parameters P (one row per n), measured exactly, in blocks of
+    one shape."""
+    n = np.asarray(n, dtype=np.float64)
+    d, D, ok = [], [], []
+    for start in range(0, n.size, BLOCK):
+        stop = min(start + BLOCK, n.size)
+        pad = BLOCK - (stop - start)
+        n_block = np.concatenate([n[start:stop], np.full(pad, n[stop - 1])])
+        P_block = np.concatenate([P[start:stop], np.repeat(P[stop - 1:stop], pad, axis=0)])
+        m = _errors(jnp.asarray(lobe_families.NAMES.index(name)), n_block, P_block, float(level), int(cells), settings)
+        d.append(np.asarray(m["d"])[:stop - start])
+        D.append(np.asarray(m["D"])[:stop - start])
+        ok.append(np.asarray(m["ok"])[:stop - start])
+    d, D, ok = (np.concatenate(v) for v in (d, D, ok))
+    require_converged(ok, f"extrema of the {name} lobe", n=n)
+    return dict(d=d, D=D)
+
+
+def parameter_lines(n, P, count: int) -> tuple[np.ndarray, np.ndarray]:
+    """Least-squares lines (slope, intercept) in n of the first `count` shader parameters."""
+    fits = np.array([np.polyfit(n, P[:, j], 1) for j in range(count)])
+    return fits[:, 0], fits[:, 1]
+
+
+def formula(family, slopes, intercepts) -> dict[str, str]:
+    """Each shader parameter's line as text: "1.44269 n - 0.377261"."""
+    return {p: f"{a:.6g} n {'-' if b < 0 else '+'} {abs(b):.6g}" for p, a, b in zip(family.parameters, slopes, intercepts)}
+
+
+def compiled_cycles(families) -> dict:
+    """{architecture: {family: cycles per wave net of the shader returning t}} of each family's shader,
+    compiled by RADV (its parameters uniforms), or {"reason": why not}."""
+    sources = {"wrapper": SHADER.format(body="return t;")}
+    names = list(families)
+    sources.update({f"family_{name}": SHADER.format(body=lobe_families.FAMILIES[name].glsl) for name in names})
+    try:
+        compiled, devices = machine_code.compile_shaders(sources)
+    except machine_code.CompilerMissing as e:
+        return dict(available=False, reason=str(e), cycles={}, devices={})
+    cycles = {ARCHITECTURES[chip]: {name: round(rows[f"family_{name}"]["cycles_per_wave"]
+                                                - rows["wrapper"]["cycles_per_wave"], 1) for name in names}
+              for chip, rows in compiled.items()}
+    return dict(available=True, reason="", cycles=cycles, devices=devices)
+
+
+def cost_tables(count: int) -> dict:
+    """`symbolic.gpu_costs.operation_costs` on `count` calibration forms, or why not."""
+    from ..symbolic import gpu_costs
+    try:
+        return dict(available=True, **gpu_costs.operation_costs(int(count), uniforms=True))
+    except machine_code.CompilerMissing as e:
+        return dict(available=False, reason=str(e), tables={}, held_out={})
+
+
+def predicted_cycles(name: str, table: dict) -> float:
+    """The family's cycles by the cost table (fitted on forms with uniform constants): its form's
+    operations, each clamp max(., 0) at the cost of an addition (one vector ALU instruction, as an
+    addition is), and each exp2 at the table's exp less a multiply (exp x compiles to
+    exp2(x log2 e))."""
+    from ..symbolic import gpu_costs, grammar
+    family = lobe_families.FAMILIES[name]
+    counts = dict(zip(grammar.OPERATIONS, gpu_costs.operation_counts(grammar.parse(family.grammar))))
+    cycles = sum(counts[op] * table[op] for op in grammar.OPERATIONS)
+    return round(float(cycles + family.clamps * table["+"] - counts["exp"] * table["*"]), 2)
+
+
+def front_of(rows) -> list[dict]:
+    """The rows no other row beats at equal or lower cycles (lowest d first at each cost)."""
+    front, best = [], np.inf
+    for row in sorted(rows, key=lambda r: (r["cycles"], r["d"])):
+        if row["d"] < best:
+            front.append(row)
+            best = row["d"]
+    return front
+
+
+def placement(cycles: float, d: float, front) -> dict | None:
+    """The front member that beats a lobe of `cycles` and max d `d`: the lowest d among the members of
+    at most its cycles and smaller d; None where the lobe is on the front (nothing beats it)."""
+    beating = [r for r in front if r["cycles"] <= cycles and r["d"] < d]
+    return min(beating, key=lambda r: r["d"]) if beating else None
+
+
+def registry_cycles(rows, lobe: str, chip: str, power: int):
+    """Compiled cycles of a registry lobe alone (n and its parameter per material) from gpu_isa's rows;
+    the run's fitted lobe is the family's row at the run's power."""
+    what = "lobe"
+    if lobe == "f_Q2":
+        lobe, what = registry.family_name(power), "family lobe"
+    row = next((r for r in rows if r["lobe"] == lobe and r["what"] == what and r["family"] == chip
+                and r["normalization"] == ""), None)
+    return None if row is None else float(row["net_cycles_per_wave"])
+
+
+def run(config, inputs, memo):
+    n_all = np.asarray(n_range(config), dtype=np.float64)
+    level = float(inputs["zone.level"])
+    settings = SolverSettings(config["solver.rtol"], config["solver.atol"], config["solver.max_steps"])
+    cells = config["comparison.grid_cells"]
+    ranges = [(max(float(lo), n_all[0]), min(float(hi), n_all[-1])) for lo, hi in config["lobe_search.n_ranges"]]
+    ranges = [(lo, hi) for lo, hi in ranges if lo < hi] or [(n_all[0], n_all[-1])]
+    names = list(config["lobe_search.families"])
+    n = n_grid(ranges, config["lobe_search.points_per_range"])
+
+    families = {}
+    for name in names:
+        fit = memo("lobe_family_fit", fit_family, family=name, n=n, level=level,
+                   zone_points=config["lobe_search.zone_points"])
+        exact = exact_errors(name, n, fit["grid_P"], level, cells, settings)
+        families[name] = dict(fit, d=exact["d"], D=exact["D"])
+
+    # Per range: the family's worst n on the grid, the grid check, and the line in n of its parameters
+    # measured at every integer n of the range.
+    members = []
+    for lo, hi in ranges:
+        inside = (n >= lo) & (n <= hi)
+        mids = midpoints(n)
+        mid_inside = (mids >= lo) & (mids <= hi)
+        integers = np.arange(np.ceil(lo), np.floor(hi) + 1.0)
+        for name in names:
+            f, family = families[name], lobe_families.FAMILIES[name]
+            i = int(np.argmax(np.where(inside, f["d"], -np.inf)))
+            grid_error = float(f["grid_zone_error"][inside].max())
+            mid_error = float(f["mid_zone_error"][mid_inside].max()) if mid_inside.any() else grid_error
+            count = len(family.parameters)
+            slopes, intercepts = parameter_lines(n[inside], f["grid_P"][inside], count)
+            P_line = np.zeros((integers.size, 3))
+            P_line[:, :count] = slopes * integers[:, None] + intercepts
+            line = exact_errors(name, integers, P_line, level, cells, settings)
+            j = int(np.argmax(line["d"]))
+            members.append(dict(
+                family=name, expression=family.formula, n_range=[lo, hi], d=float(f["d"][i]), n_at_max=float(n[i]),
+                D=float(f["D"][inside].max()), D_n_at_max=float(n[inside][np.argmax(f["D"][inside])]),
+                grid_check=max(mid_error / grid_error - 1.0, 0.0) if grid_error > 0 else 0.0,
+                parameters=formula(family, slopes, intercepts),
+                parameter_slopes=[float(a) for a in slopes], parameter_intercepts=[float(b) for b in intercepts],
+                d_line=float(line["d"][j]), d_line_n_at_max=float(integers[j]), D_line=float(line["D"].max())))
+
+    compiled = memo("lobe_family_cycles", compiled_cycles, families=sorted(names))
+    tables = memo("gpu_cost_tables", cost_tables, count=config["lobe_search.calibration_forms"])
+    lobes = inputs["lobe_comparison.lobes"]
+    placed_keys = [(i, lobe) for i, lobe in enumerate(lobes) if lobe["lobe"] == lobe["registry_key"]]
+    front, candidates, placements = [], [], []
+    if compiled["available"]:
+        for chip, architecture in ARCHITECTURES.items():
+            table = tables["tables"].get(architecture) if tables["available"] else None
+            for lo, hi in ranges:
+                rows = [dict(m, architecture=architecture, cycles=compiled["cycles"][architecture][m["family"]],
+                             cycles_predicted=predicted_cycles(m["family"], table) if table else float("nan"))
+                        for m in members if m["n_range"] == [lo, hi]]
+                on_front = front_of(rows)
+                for row in rows:
+                    row["on_front"] = row in on_front
+                candidates += rows
+                front += on_front
+                inside = (n_all >= lo) & (n_all <= hi)
+                for i, lobe in placed_keys:
+                    cycles = registry_cycles(inputs["gpu_isa.rows"], lobe["registry_key"], chip, inputs["gpu_isa.power"])
+                    if cycles is None:
+                        continue
+                    d = float(np.asarray(inputs["lobe_comparison.d_curves"])[i][inside].max())
+                    D = float(np.asarray(inputs["lobe_comparison.D_curves"])[i][inside].max())
+                    best = placement(cycles, d, on_front)
+                    placements.append(dict(
+                        lobe=lobe["registry_key"], label=lobe["label"], architecture=architecture, n_range=[lo, hi],
+                        cycles=cycles, d=d, D=D, on_front=best is None,
+                        dominated_by=best["family"] if best else "", dominated_by_cycles=best["cycles"] if best else -1.0,
+                        d_ratio=d / best["d"] if best else 1.0))
+    prediction_error = {a: max((abs(c["cycles_predicted"] - c["cycles"]) for c in candidates if c["architecture"] == a),
+                               default=float("nan")) for a in ARCHITECTURES.values()} if tables["available"] else {}
+    return dict(
+        available=bool(compiled["available"]), reason=compiled["reason"], devices=compiled["devices"],
+        cycles_prediction_max_error=prediction_error,
+        n_grid=n, ranges=[list(r) for r in ranges], families=names,
+        per_n=[dict(family=name, q=families[name]["grid_q"].tolist(), P=families[name]["grid_P"].tolist(),
+                    d=families[name]["d"].tolist(), D=families[name]["D"].tolist(),
+                    zone_error=families[name]["grid_zone_error"].tolist()) for name in names],
+        members=members, candidates=candidates, front=front, placements=placements,
+        grid_check_max=max(m["grid_check"] for m in members),
+        cost_tables=tables["tables"], cost_tables_held_out=tables["held_out"])
