@@ -42,8 +42,9 @@ IMPROVEMENT = 1e-6    # a restart that gains less than this, relative, ends the 
 @dataclasses.dataclass(frozen=True)
 class Family:
     """One form: its name, the formula in t, its shader parameters, the start of its q, the GLSL body
-    (reading the uniforms A, B, C), the form in `pipeline.symbolic.grammar`'s operations (for the
-    cost tables' prediction) and the clamps max(., 0) it adds to that form."""
+    (reading the uniforms A, B, C; HLSL reads it alike), the form in `pipeline.symbolic.grammar`'s
+    operations (for the cost tables' prediction), the clamps max(., 0) it adds to that form, and the
+    Python expression of the exported twin (in t, A, B, C)."""
 
     name: str
     formula: str
@@ -52,26 +53,27 @@ class Family:
     glsl: str
     grammar: str
     clamps: int
+    python: str
 
 
 FAMILIES: dict[str, Family] = {f.name: f for f in (
     Family("square_peak1", "max(k (t - 1) + 1, 0)^2", ("A", "B"), (0.45,),
-           "float b = max(A * t + B, 0.0);\n    return b * b;", "square(c * x + c)", 1),
+           "float b = max(A * t + B, 0.0);\n    return b * b;", "square(c * x + c)", 1, "max(A * t + B, 0.0) ** 2"),
     Family("square", "max(A t + B, 0)^2", ("A", "B"), (1.0, 0.45),
-           "float b = max(A * t + B, 0.0);\n    return b * b;", "square(c * x + c)", 1),
+           "float b = max(A * t + B, 0.0);\n    return b * b;", "square(c * x + c)", 1, "max(A * t + B, 0.0) ** 2"),
     Family("cube", "max(A t + B, 0)^3", ("A", "B"), (1.0, 0.3),
-           "float b = max(A * t + B, 0.0);\n    return b * b * b;", "cube(c * x + c)", 1),
+           "float b = max(A * t + B, 0.0);\n    return b * b * b;", "cube(c * x + c)", 1, "max(A * t + B, 0.0) ** 3"),
     Family("fourth", "max(A t + B, 0)^4", ("A", "B"), (1.0, 0.23),
            "float b = max(A * t + B, 0.0);\n    float b2 = b * b;\n    return b2 * b2;",
-           "square(square(c * x + c))", 1),
+           "square(square(c * x + c))", 1, "max(A * t + B, 0.0) ** 4"),
     Family("exp2_linear", "exp2(A t + B)", ("A", "B"), (0.0, 1.0),
-           "return exp2(A * t + B);", "exp(c * x + c)", 0),
+           "return exp2(A * t + B);", "exp(c * x + c)", 0, "2.0 ** (A * t + B)"),
     Family("exp2_quadratic", "exp2((A t + B) t + C)", ("A", "B", "C"), (0.0, 1.0, 0.5),
-           "return exp2((A * t + B) * t + C);", "exp((c * x + c) * x + c)", 0),
+           "return exp2((A * t + B) * t + C);", "exp((c * x + c) * x + c)", 0, "2.0 ** ((A * t + B) * t + C)"),
     Family("rational", "t / (A t + B)", ("A", "B"), (1.0, 1.0),
-           "return t / (A * t + B);", "x / (c * x + c)", 0),
+           "return t / (A * t + B);", "x / (c * x + c)", 0, "t / (A * t + B)"),
     Family("rational_square", "(t / (A t + B))^2", ("A", "B"), (1.0, 0.5),
-           "float r = t / (A * t + B);\n    return r * r;", "square(x / (c * x + c))", 0),
+           "float r = t / (A * t + B);\n    return r * r;", "square(x / (c * x + c))", 0, "(t / (A * t + B)) ** 2"),
 )}
 NAMES = tuple(FAMILIES)
 assert NAMES == LOBE_FAMILIES, "the config's lobe_search.families names these families, in this order"

@@ -696,5 +696,7 @@ def lobe_search_section(config, r, figures) -> list[str]:
                      + f" | {pct(m['d_line'])} | {m['D_line']:.4g} |")
     lines += ["", "The fronts rank by d, the paper's measure; D, the error over the whole lobe that the zone leaves "
               "out, is reported beside it and can be larger than the paper's lobe's for a form fitted on the zone "
-              "alone.", ""]
+              "alone. Every front member, with its parameters as lines in n, is exported as a function of (t, n) in "
+              "`shader/lobe_search.glsl`, `shader/lobe_search.hlsl` and the Python twin `shader/lobe_search_twin.py`.",
+              ""]
     return lines + embed(figures, "lobe_search")

@@ -241,8 +241,58 @@ def write(out: Path, config, results, stage_keys) -> list[str]:
     files = render_sources(config, lin["slope_used"], lin["intercept_used"], h["coef_scale_used"],
                            h["coef_offset_used"], f"{version} (results {tag})",
                            coef_note(h, results["exact_normalization"]))
+    if results.get("lobe_search", {}).get("front"):
+        files.update(search_sources(config, results["lobe_search"], f"{version} (results {tag})"))
     folder = out / "shader"
     folder.mkdir(exist_ok=True)
     for name, text in files.items():
         (folder / name).write_text(text)
     return [f"shader/{name}" for name in files]
+
+
+SEARCH_PREFIX = "cosfit_"
+
+
+def search_members(search) -> list[dict]:
+    """The members of the lobe search to export: per range, each form on the front of some
+    architecture, with its parameters as lines in n (the range's `members` row)."""
+    on_front = {(c["family"], tuple(c["n_range"])) for c in search["front"]}
+    return [m for m in search["members"] if (m["family"], tuple(m["n_range"])) in on_front]
+
+
+def search_function_name(member) -> str:
+    lo, hi = member["n_range"]
+    return f"{SEARCH_PREFIX}{member['family']}_n{lo:g}_{hi:g}".replace(".", "p")
+
+
+def search_sources(config, search, version_tag: str) -> dict[str, str]:
+    """The lobe search's front members as GLSL, HLSL and a Python twin: per member, a function of
+    (t, n) whose parameters A, B, C are the lines in n the search fitted (per material: compute them
+    once per n and pass them as uniforms in a shader that cares)."""
+    from ..optics import lobe_families
+
+    def line(a, b):
+        return f"{a!r} * n + ({b!r})"
+
+    glsl = [f"// Forms of the lobe search (cosquad-pipeline {version_tag}, run '{config.name}'): each approximates",
+            "// cos^n x over its range of n, t = cos x in [0, 1]; its parameters are lines in n (computed once per",
+            "// material). d: max relative error in the epicenter zone, D: max absolute error, over every integer",
+            "// n of the range, with these lines.", ""]
+    hlsl = list(glsl)
+    py = ['"""Python twin of lobe_search.glsl: the same functions, for tests and plots."""', "", "", ]
+    for m in search_members(search):
+        family = lobe_families.FAMILIES[m["family"]]
+        name = search_function_name(m)
+        doc = (f"{family.formula}, n in [{m['n_range'][0]:g}, {m['n_range'][1]:g}]: d {m['d_line']:.4g}, "
+               f"D {m['D_line']:.4g}")
+        params = [f"float {p} = {line(a, b)};" for p, a, b in
+                  zip(family.parameters, m["parameter_slopes"], m["parameter_intercepts"])]
+        for lines in (glsl, hlsl):
+            lines += [f"// {doc}", f"float {name}(float t, float n)", "{"] + [f"    {p}" for p in params]
+            lines += [f"    {row}" for row in family.glsl.splitlines()] + ["}", ""]
+        py += [f"def {name}(t, n):", f'    """{doc}"""']
+        py += [f"    {p} = {line(a, b)}" for p, a, b in
+               zip(family.parameters, m["parameter_slopes"], m["parameter_intercepts"])]
+        py += [f"    return {family.python}", "", ""]
+    return {"lobe_search.glsl": "\n".join(glsl), "lobe_search.hlsl": "\n".join(hlsl),
+            "lobe_search_twin.py": "\n".join(py).rstrip() + "\n"}

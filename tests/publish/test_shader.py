@@ -20,7 +20,10 @@ from pipeline.optics.lobes import linear_power_u
 def exported(paper_config, paper_run, tmp_path_factory):
     out = tmp_path_factory.mktemp("shader")
     names = shader.write(out, paper_config, paper_run, {"linear_coefficient": "a", "hemispherical": "b"})
-    assert sorted(names) == ["shader/cosquad.glsl", "shader/cosquad.hlsl", "shader/cosquad_twin.py"]
+    expected = ["shader/cosquad.glsl", "shader/cosquad.hlsl", "shader/cosquad_twin.py"]
+    if paper_run["lobe_search"]["front"]:        # the search's front members (tests/stages/test_lobe_search.py)
+        expected += ["shader/lobe_search.glsl", "shader/lobe_search.hlsl", "shader/lobe_search_twin.py"]
+    assert sorted(names) == sorted(expected)
     return out / "shader"
 
 

@@ -86,3 +86,67 @@ def test_the_placement_rule_on_planted_numbers():
     assert placement(5.0, 0.0125, front)["family"] == "a"       # b costs more
     assert placement(3.0, 0.0125, front) is None                 # nothing as cheap: on the front
     assert placement(8.0, 0.0005, front) is None                 # more accurate than all: on the front
+
+
+@pytest.fixture(scope="module")
+def exported(search, paper_config, tmp_path_factory):
+    from pipeline.publish import shader
+    folder = tmp_path_factory.mktemp("search_shader")
+    for name, text in shader.search_sources(paper_config, search, "test").items():
+        (folder / name).write_text(text)
+    return folder
+
+
+def _twin(folder):
+    import importlib.util
+    spec = importlib.util.spec_from_file_location("lobe_search_twin", folder / "lobe_search_twin.py")
+    twin = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(twin)
+    return twin
+
+
+def test_the_exported_twin_is_each_front_member_with_its_lines(search, exported, paper_run):
+    """Each exported function, at integer n of its range, equals the family's form with the lines'
+    parameters (1e-12: the same arithmetic in another order), and at the range's worst n its max
+    relative error on a dense grid of the zone (20001 points, numpy) is the d the search reports for
+    the lines (1e-4: what the grid misses between points, the search's being exact)."""
+    from pipeline.publish import shader
+    twin = _twin(exported)
+    members = shader.search_members(search)
+    assert {(m["family"], tuple(m["n_range"])) for m in members} == {(c["family"], tuple(c["n_range"]))
+                                                                     for c in search["front"]}
+    level = paper_run["zone"]["level"]
+    for m in members:
+        fn = getattr(twin, shader.search_function_name(m))
+        index = lobe_families.NAMES.index(m["family"])
+        lo, hi = m["n_range"]
+        for n in np.unique(np.round(np.geomspace(lo, hi, 5))):
+            P = np.zeros(3)
+            count = len(m["parameter_slopes"])
+            P[:count] = np.array(m["parameter_slopes"]) * n + np.array(m["parameter_intercepts"])
+            for t in np.linspace(0.0, 1.0, 11):
+                assert fn(t, n) == pytest.approx(float(lobe_families.value_t(np, index, t, P)), rel=1e-12, abs=1e-300)
+        n = m["d_line_n_at_max"]
+        u = np.linspace(0.0, lobe_families.zone_w(n, level) / n, 20001)
+        d = max(abs(fn(1.0 - x, n) / (1.0 - x) ** n - 1.0) for x in u)
+        assert d == pytest.approx(m["d_line"], rel=1e-4), m["family"]
+
+
+def test_the_exported_glsl_compiles_and_has_no_pow(exported):
+    from pipeline.optics import spirv
+    from pipeline.publish import shader
+    try:
+        spirv.tool("spirv-opt")
+    except spirv.ToolMissing as e:
+        pytest.skip(str(e))
+    source = (exported / "lobe_search.glsl").read_text()
+    calls = " + ".join(f"{name}(t_in, n)" for name in
+                       (line.split("(")[0].split()[-1] for line in source.splitlines() if line.startswith("float cosfit_")))
+    main = source + f"""
+layout(location = 0) in float t_in;
+layout(location = 0) out vec4 color;
+layout(binding = 0) uniform Material {{ float n; }};
+void main() {{ color = vec4({calls}); }}
+"""
+    counts = spirv.count(spirv.function_body(spirv.optimized_disassembly("#version 450\n" + main)))
+    assert "Pow" not in counts["ops"] and calls.count(shader.SEARCH_PREFIX) >= 2
