@@ -78,6 +78,7 @@ POWER_MAX = 16
 
 LOBE_FAMILIES = ("square_peak1", "square", "cube", "fourth", "exp2_linear", "exp2_quadratic", "rational",
                  "rational_square")
+LOBE_TARGETS = ("cos_n", "beckmann")
 LIBRARY_TERMS = ("1", "n", "1/n", "1/n^2", "n^2", "sqrt(n)", "log(n)")
 METRICS = ("relative_epicenter", "absolute", "rms")
 FITS = ("least_squares", "minimax")
@@ -206,6 +207,9 @@ SCHEMA: tuple[Key, ...] = (
     Key("lobe_search.families", list(LOBE_FAMILIES), "a list of distinct names from " + ", ".join(LOBE_FAMILIES),
         lambda v: isinstance(v, list) and 1 <= len(v) and len(set(v)) == len(v) and all(x in LOBE_FAMILIES for x in v),
         "cheap forms g(t; A, B, C) the lobe search fits to cos^n per n (pipeline.optics.lobe_families)"),
+    Key("lobe_search.target", "cos_n", " or ".join(f'"{t}"' for t in LOBE_TARGETS), lambda v: v in LOBE_TARGETS,
+        "what the lobe search approximates: cos^n (the paper's lobe), or Beckmann's D over its peak with the "
+        "roughness matched to n, a^2 = 2/(n + 2) (the registry's lobes are placed on cos^n's fronts only)"),
     Key("lobe_search.n_ranges", [[2, 10], [10, 100], [100, 1000], [2, 1000]],
         "a list of 1 to 8 pairs [lo, hi] of numbers with 1 <= lo < hi <= 100000",
         lambda v: isinstance(v, list) and 1 <= len(v) <= 8 and all(

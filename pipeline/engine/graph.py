@@ -366,6 +366,7 @@ STAGES: tuple[Stage, ...] = (
         "available": "whether RADV compiled the families (cycles and fronts; without it, fits and errors only) [bool]",
         "reason": "why not, where it did not [text]",
         "devices": "the driver's device name per chip family [dict]",
+        "target": "what the forms approximate: cos_n, or beckmann (Beckmann's D over its peak, a^2 = 2/(n + 2)) [text]",
         "n_grid": "exponents at which every family is fitted: log-spaced points over each range, ends included [array]",
         "ranges": "the n ranges of the fronts, within [n_min, n_max] [list]",
         "families": "the searched families (optics.lobe_families) [list]",

@@ -31,7 +31,7 @@ import math
 
 import numpy as np
 
-from ..engine.config import LOBE_FAMILIES
+from ..engine.config import LOBE_FAMILIES, LOBE_TARGETS
 
 LN2 = math.log(2.0)
 ZONE_POINTS = 256
@@ -77,6 +77,7 @@ FAMILIES: dict[str, Family] = {f.name: f for f in (
 )}
 NAMES = tuple(FAMILIES)
 assert NAMES == LOBE_FAMILIES, "the config's lobe_search.families names these families, in this order"
+TARGETS = LOBE_TARGETS          # what the search approximates (`target_u`)
 POWERS = {"square_peak1": 2, "square": 2, "cube": 3, "fourth": 4}
 
 
@@ -121,14 +122,33 @@ def value_t(xp, index: int, t, P):
     return (t / (A * t + B)) ** 2
 
 
-def zone_w(n, level) -> float:
-    """Edge of the epicenter zone {cos^n >= level} in w = n u."""
-    return -n * math.expm1(math.log(level) / n)
+def target_u(xp, target: str, u, n):
+    """The function the search approximates, of u = 1 - t, peak 1 at u = 0 (numpy or jax.numpy):
+    "cos_n", cos^n; "beckmann", Beckmann's D(t = N.H) over its peak, exp((t^2 - 1) / (a^2 t^2)) / t^4
+    with the roughness matched to n, a^2 = 2 / (n + 2) (as the `ndf` stage matches them), 0 where
+    t < 0.05 (below 1e-30 there for every n >= 1)."""
+    t = 1.0 - u
+    if target == "cos_n":
+        return t ** n
+    if target == "beckmann":
+        a2 = 2.0 / (n + 2.0)
+        safe = xp.maximum(t, 0.05)
+        return xp.where(t >= 0.05, xp.exp((safe * safe - 1.0) / (a2 * safe * safe)) / safe ** 4, 0.0)
+    raise KeyError(target)
 
 
-def zone_points(n, level, count: int = ZONE_POINTS) -> np.ndarray:
+def zone_w(n, level, target: str = "cos_n") -> float:
+    """Edge of the epicenter zone {target >= level} in w = n u: closed form for cos^n, else the root
+    of the (decreasing) target by Brent's method."""
+    if target == "cos_n":
+        return -n * math.expm1(math.log(level) / n)
+    from scipy.optimize import brentq
+    return brentq(lambda w: float(target_u(np, target, w / n, n)) - level, 0.0, 0.95 * n, xtol=1e-14, rtol=1e-14)
+
+
+def zone_points(n, level, count: int = ZONE_POINTS, target: str = "cos_n") -> np.ndarray:
     """u at `count` Chebyshev points of the zone [0, u_L] (its ends included)."""
-    w = zone_w(n, level) * 0.5 * (1.0 - np.cos(np.linspace(0.0, np.pi, count)))
+    w = zone_w(n, level, target) * 0.5 * (1.0 - np.cos(np.linspace(0.0, np.pi, count)))
     return w / n
 
 
@@ -149,21 +169,24 @@ def value_w(name: str, w, n: float, q):
 
 
 def zone_error(name: str, n, q, u, reference=None) -> float:
-    """max |g / cos^n - 1| of the family at one n over the points u (`reference`: cos^n there)."""
+    """max |g / f - 1| of the family at one n over the points u (`reference`: the target f there; cos^n
+    by default)."""
     reference = (1.0 - u) ** n if reference is None else reference
     with np.errstate(all="ignore"):
         r = np.abs(value_w(name, n * u, n, q) / reference - 1.0)
     return float(np.max(r)) if np.all(np.isfinite(r)) else np.inf
 
 
-def fit_minimax(name: str, n, level, start=None, count: int = ZONE_POINTS) -> tuple[np.ndarray, float]:
-    """(q, largest relative error on the zone's points) of the family at exponent n: Nelder-Mead from
-    the family's own start and from `start` (the previous n's optimum), the better kept, each
-    restarted from its result until a restart improves by less than `IMPROVEMENT` relative."""
+def fit_minimax(name: str, n, level, start=None, count: int = ZONE_POINTS,
+                target: str = "cos_n") -> tuple[np.ndarray, float]:
+    """(q, largest relative error on the zone's points) of the family at exponent n against the
+    target (`target_u`): Nelder-Mead from the family's own start and from `start` (the previous n's
+    optimum), the better kept, each restarted from its result until a restart improves by less than
+    `IMPROVEMENT` relative."""
     from scipy.optimize import minimize
 
-    u = zone_points(n, level, count)
-    reference = (1.0 - u) ** n
+    u = zone_points(n, level, count, target)
+    reference = target_u(np, target, u, n)
 
     def error(q):
         return zone_error(name, n, q, u, reference)

@@ -634,6 +634,12 @@ def mitsuba_section(config, r, figures) -> list[str]:
 
 
 ARCHITECTURE_NAMES = {"rdna3": "RDNA3", "rdna2": "RDNA2", "gcn5": "GCN5"}
+TARGET_TEXT = {"cos_n": "cos^n", "beckmann": "Beckmann's D over its peak, a^2 = 2 / (n + 2)"}
+
+
+def pct_small(x: float) -> str:
+    """A fraction as a percentage with 4 significant digits (small errors keep theirs)."""
+    return f"{100 * x:.4g} %"
 
 
 def f_Q2_standing(p) -> str:
@@ -649,37 +655,45 @@ def lobe_search_section(config, r, figures) -> list[str]:
     if not s:
         return []
     from ..optics import lobe_families
+    target = TARGET_TEXT.get(s["target"], s["target"])
     lines = ["## The lobe as a search: the closest cheap form per GPU and range of n", "",
+             f"What the forms approximate: **{target}** (`lobe_search.target`). "
              "The paper chose its form by hand and fitted only its coefficient. Here each form of the search "
              "(`pipeline/optics/lobe_families.py`; its parameters per material, so any function of n) is fitted at "
              f"each of {len(s['n_grid'])} exponents (log-spaced in each range, its ends included) by minimax of the "
              "relative error d in this run's epicenter zone; d and D of the fitted lobe are then measured exactly "
              "(grid and bisection, `optics.extrema`). A form's error on a range is its worst n. Fitted again halfway "
              "between neighbouring exponents, no form's worst error on a range grows by more than "
-             f"{pct(s['grid_check_max'])}: the grid holds the maximum. The forms searched (the default depth, "
+             f"{pct_small(s['grid_check_max'])}: the grid holds the maximum. The forms searched (the default depth, "
              "`lobe_search.families`):", ""]
     lines += [f"- `{name}`: `{lobe_families.FAMILIES[name].formula}`" for name in s["families"]]
     lines += [""]
     if not s["available"]:
         return lines + [f"No machine code, so no fronts: {s['reason']}.", ""]
+    placed = ("and the registry's lobes are placed with their own compiled cycles (`gpu_isa`, n and the lobe's "
+              "parameter per material)" if s["target"] == "cos_n" else
+              "(the registry's lobes approximate cos^n: they are not placed here)")
     lines += ["Each form is compiled by RADV with its parameters as uniforms; its cost is ACO's cycles per wave net "
-              "of the shader returning t, and the registry's lobes are placed with their own compiled cycles "
-              "(`gpu_isa`, n and the lobe's parameter per material). The cost tables fitted to random forms "
+              f"of the shader returning t, {placed}. The cost tables fitted to random forms "
               "(`symbolic.gpu_costs`) predict the forms' cycles within "
               + ", ".join(f"{v:.3g} cycles ({ARCHITECTURE_NAMES.get(a, a)})"
                           for a, v in s["cycles_prediction_max_error"].items())
               + ": the compiled cycles are what the fronts use.", "",
               "| GPU | n range | front: form (cycles, max d) | the paper's f_Q2 (cycles, max d) | f_Q2 |",
               "|---|---|---|---|---|"]
+    if s["target"] != "cos_n":
+        lines[-2:] = ["| GPU | n range | front: form (cycles, max d) |", "|---|---|---|"]
     for architecture in dict.fromkeys(c["architecture"] for c in s["candidates"]):
         for lo, hi in s["ranges"]:
             front = [c for c in s["front"] if c["architecture"] == architecture and c["n_range"] == [lo, hi]]
             paper = next((p for p in s["placements"] if p["architecture"] == architecture
                           and p["n_range"] == [lo, hi] and p["lobe"] == "f_Q2"), None)
-            lines.append(f"| {ARCHITECTURE_NAMES.get(architecture, architecture)} | [{lo:g}, {hi:g}] | "
-                         + "; ".join(f"{c['family']} ({c['cycles']:g}, {pct(c['d'])})" for c in front) + " | "
-                         + (f"{paper['cycles']:g}, {pct(paper['d'])} | {f_Q2_standing(paper)} |" if paper else
-                            "not measured | |"))
+            row = (f"| {ARCHITECTURE_NAMES.get(architecture, architecture)} | [{lo:g}, {hi:g}] | "
+                   + "; ".join(f"{c['family']} ({c['cycles']:g}, {pct_small(c['d'])})" for c in front) + " |")
+            if s["target"] == "cos_n":
+                row += (f" {paper['cycles']:g}, {pct(paper['d'])} | {f_Q2_standing(paper)} |" if paper else
+                        " not measured | |")
+            lines.append(row)
     widest = max(s["ranges"], key=lambda x: x[1] - x[0])
     lines += ["", f"Each form over n in [{widest[0]:g}, {widest[1]:g}]: its worst d and D with the best parameters per "
               "n, and with each shader parameter a line in n (least squares through the per-n optima, as the paper "
@@ -691,9 +705,9 @@ def lobe_search_section(config, r, figures) -> list[str]:
             continue
         cycles = [c for c in s["candidates"] if c["family"] == m["family"] and c["n_range"] == widest]
         lines.append(f"| {m['family']} | " + ", ".join(f"{c['cycles']:g} ({c['cycles_predicted']:g})" for c in cycles)
-                     + f" | {pct(m['d'])} | {m['D']:.4g} | "
+                     + f" | {pct_small(m['d'])} | {m['D']:.4g} | "
                      + "; ".join(f"{k} = {v}" for k, v in m["parameters"].items())
-                     + f" | {pct(m['d_line'])} | {m['D_line']:.4g} |")
+                     + f" | {pct_small(m['d_line'])} | {m['D_line']:.4g} |")
     lines += ["", "The fronts rank by d, the paper's measure; D, the error over the whole lobe that the zone leaves "
               "out, is reported beside it and can be larger than the paper's lobe's for a form fitted on the zone "
               "alone. Every front member, with its parameters as lines in n, is exported as a function of (t, n) in "

@@ -31,7 +31,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from ..optics import lobe_families, machine_code, registry
-from ..optics.extrema import lobe_errors
+from ..optics.extrema import error_extrema
 from ..optics.roots import SolverSettings
 from .common import n_range, require_converged
 
@@ -58,14 +58,14 @@ def midpoints(n) -> np.ndarray:
     return np.sqrt(n[1:] * n[:-1])
 
 
-def fit_family(family: str, n, level: float, zone_points: int) -> dict:
-    """The family's minimax fit at every exponent of n, in order, each from the previous optimum, and
-    at the geometric midpoints: q, the shader parameters and the zone error on the points."""
+def fit_family(family: str, n, level: float, zone_points: int, target: str = "cos_n") -> dict:
+    """The family's minimax fit to the target at every exponent of n, in order, each from the previous
+    optimum, and at the geometric midpoints: q, the shader parameters and the zone error on the points."""
     out = {}
     for key, exponents in (("grid", np.asarray(n, dtype=np.float64)), ("mid", midpoints(np.asarray(n)))):
         q, errors, start = [], [], None
         for n_ in exponents:
-            start, error = lobe_families.fit_minimax(family, float(n_), level, start, zone_points)
+            start, error = lobe_families.fit_minimax(family, float(n_), level, start, zone_points, target)
             q.append(start)
             errors.append(error)
         out[f"{key}_q"] = np.array(q)
@@ -74,26 +74,42 @@ def fit_family(family: str, n, level: float, zone_points: int) -> dict:
     return out
 
 
-@functools.partial(jax.jit, static_argnames=("cells", "settings"))
-def _errors(index, n, P, level, cells: int, settings: SolverSettings):
-    def lobe(P_):
-        return lambda u, _: jax.lax.switch(index, [functools.partial(lobe_families.value_t, jnp, i)
-                                                   for i in range(len(lobe_families.NAMES))],
-                                           jnp.maximum(1.0 - u, 0.0), P_)
-    return jax.vmap(lambda n_, P_: lobe_errors(lobe(P_), n_, level, cells, settings))(n, P)
+@functools.partial(jax.jit, static_argnames=("target", "cells", "settings"))
+def _errors(index, n, P, w_zone, target: str, cells: int, settings: SolverSettings):
+    """d and D of the family `NAMES[index]` (traced: one program for every family) against the target,
+    per n: the extrema of the relative error on the zone [0, w_zone] and of the absolute error on
+    [0, pi/2], each on a grid in log(1 + w) refined by bisection (`optics.extrema`)."""
+    forms = [functools.partial(lobe_families.value_t, jnp, i) for i in range(len(lobe_families.NAMES))]
+
+    def one(n_, P_, w_):
+        def g(u):
+            return jax.lax.switch(index, forms, jnp.maximum(1.0 - u, 0.0), P_)
+
+        def relative(s_, n__):
+            u = jnp.expm1(s_) / n__
+            return g(u) / lobe_families.target_u(jnp, target, u, n__) - 1.0
+
+        def absolute(s_, n__):
+            u = jnp.minimum(jnp.expm1(s_) / n__, 1.0)   # s = log(1 + n) may round to u just above 1
+            return g(u) - lobe_families.target_u(jnp, target, u, n__)
+
+        d_over, d_under, _, _, ok_d = error_extrema(relative, w_, n_, cells, settings)
+        D_over, D_under, _, _, ok_D = error_extrema(absolute, n_, n_, cells, settings)
+        return dict(d=jnp.maximum(d_over, d_under), D=jnp.maximum(D_over, D_under), ok=ok_d & ok_D)
+    return jax.vmap(one)(n, P, w_zone)
 
 
-def exact_errors(name: str, n, P, level, cells: int, settings: SolverSettings) -> dict:
-    """d and D of the family with shader parameters P (one row per n), measured exactly, in blocks of
-    one shape."""
+def exact_errors(name: str, n, P, level, cells: int, settings: SolverSettings, target: str = "cos_n") -> dict:
+    """d and D of the family with shader parameters P (one row per n) against the target, measured
+    exactly, in blocks of one shape."""
     n = np.asarray(n, dtype=np.float64)
+    w_zone = np.array([lobe_families.zone_w(float(x), level, target) for x in n])
     d, D, ok = [], [], []
     for start in range(0, n.size, BLOCK):
         stop = min(start + BLOCK, n.size)
         pad = BLOCK - (stop - start)
-        n_block = np.concatenate([n[start:stop], np.full(pad, n[stop - 1])])
-        P_block = np.concatenate([P[start:stop], np.repeat(P[stop - 1:stop], pad, axis=0)])
-        m = _errors(jnp.asarray(lobe_families.NAMES.index(name)), n_block, P_block, float(level), int(cells), settings)
+        block = [np.concatenate([a[start:stop], np.repeat(a[stop - 1:stop], pad, axis=0)]) for a in (n, P, w_zone)]
+        m = _errors(jnp.asarray(lobe_families.NAMES.index(name)), *block, target, int(cells), settings)
         d.append(np.asarray(m["d"])[:stop - start])
         D.append(np.asarray(m["D"])[:stop - start])
         ok.append(np.asarray(m["ok"])[:stop - start])
@@ -186,13 +202,14 @@ def run(config, inputs, memo):
     ranges = [(max(float(lo), n_all[0]), min(float(hi), n_all[-1])) for lo, hi in config["lobe_search.n_ranges"]]
     ranges = [(lo, hi) for lo, hi in ranges if lo < hi] or [(n_all[0], n_all[-1])]
     names = list(config["lobe_search.families"])
+    target = config["lobe_search.target"]
     n = n_grid(ranges, config["lobe_search.points_per_range"])
 
     families = {}
     for name in names:
         fit = memo("lobe_family_fit", fit_family, family=name, n=n, level=level,
-                   zone_points=config["lobe_search.zone_points"])
-        exact = exact_errors(name, n, fit["grid_P"], level, cells, settings)
+                   zone_points=config["lobe_search.zone_points"], target=target)
+        exact = exact_errors(name, n, fit["grid_P"], level, cells, settings, target)
         families[name] = dict(fit, d=exact["d"], D=exact["D"])
 
     # Per range: the family's worst n on the grid, the grid check, and the line in n of its parameters
@@ -212,7 +229,7 @@ def run(config, inputs, memo):
             slopes, intercepts = parameter_lines(n[inside], f["grid_P"][inside], count)
             P_line = np.zeros((integers.size, 3))
             P_line[:, :count] = slopes * integers[:, None] + intercepts
-            line = exact_errors(name, integers, P_line, level, cells, settings)
+            line = exact_errors(name, integers, P_line, level, cells, settings, target)
             j = int(np.argmax(line["d"]))
             members.append(dict(
                 family=name, expression=family.formula, n_range=[lo, hi], d=float(f["d"][i]), n_at_max=float(n[i]),
@@ -225,7 +242,9 @@ def run(config, inputs, memo):
     compiled = memo("lobe_family_cycles", compiled_cycles, families=sorted(names))
     tables = memo("gpu_cost_tables", cost_tables, count=config["lobe_search.calibration_forms"])
     lobes = inputs["lobe_comparison.lobes"]
-    placed_keys = [(i, lobe) for i, lobe in enumerate(lobes) if lobe["lobe"] == lobe["registry_key"]]
+    # The registry's lobes approximate cos^n: placed on its fronts only.
+    placed_keys = [(i, lobe) for i, lobe in enumerate(lobes) if lobe["lobe"] == lobe["registry_key"]
+                   and target == "cos_n"]
     front, candidates, placements = [], [], []
     if compiled["available"]:
         for chip, architecture in ARCHITECTURES.items():
@@ -255,7 +274,7 @@ def run(config, inputs, memo):
     prediction_error = {a: max((abs(c["cycles_predicted"] - c["cycles"]) for c in candidates if c["architecture"] == a),
                                default=float("nan")) for a in ARCHITECTURES.values()} if tables["available"] else {}
     return dict(
-        available=bool(compiled["available"]), reason=compiled["reason"], devices=compiled["devices"],
+        available=bool(compiled["available"]), reason=compiled["reason"], devices=compiled["devices"], target=target,
         cycles_prediction_max_error=prediction_error,
         n_grid=n, ranges=[list(r) for r in ranges], families=names,
         per_n=[dict(family=name, q=families[name]["grid_q"].tolist(), P=families[name]["grid_P"].tolist(),

@@ -150,3 +150,40 @@ void main() {{ color = vec4({calls}); }}
 """
     counts = spirv.count(spirv.function_body(spirv.optimized_disassembly("#version 450\n" + main)))
     assert "Pow" not in counts["ops"] and calls.count(shader.SEARCH_PREFIX) >= 2
+
+
+@pytest.mark.slow
+def test_a_second_target_runs_as_a_refit(light_config, light_cache, light_run, tmp_path):
+    """lobe_search.target = beckmann: the same search against Beckmann's D (over its peak, roughness
+    matched to n), as a refit that recomputes the lobe search alone. Its d at the worst n of a range,
+    with the per-n parameters, equals a dense numpy grid of the zone against `optics.distributions`'
+    Beckmann (an independent implementation of D; 1e-4 relative: what the grid misses), and the
+    registry's lobes, which approximate cos^n, are not placed on its fronts."""
+    import pipeline
+    from pipeline.engine.cache import Cache
+    from pipeline.engine.graph import closure
+    from pipeline.optics.distributions import alpha_of_n, beckmann
+    from pipeline.run import run_stages
+    from tests.conftest import LIGHT_CONFIG
+    from tests.helpers import copy_cache
+    copy_cache(light_cache, tmp_path / "cache")
+    config = pipeline.load_config(LIGHT_CONFIG, ("lobe_search.target=beckmann",))
+    results, _, computed = run_stages(config, Cache(tmp_path / "cache"), log=lambda s: None,
+                                      stages=closure(["lobe_search"]))
+    assert computed == ["lobe_search"]
+    s = results["lobe_search"]
+    assert s["target"] == "beckmann" and s["placements"] == []
+    level = light_run["zone"]["level"]
+    n = np.asarray(s["n_grid"])
+    for f in s["per_n"]:
+        index = lobe_families.NAMES.index(f["family"])
+        for i in (0, n.size // 2, n.size - 1):
+            alpha = float(alpha_of_n(n[i]))
+            peak = float(beckmann(1.0, alpha))
+            # The zone's edge from the independent D, by a dense scan (its root is found in the stage).
+            t = 1.0 - np.linspace(0.0, 1.0, 400001) ** 2 * 40.0 / n[i]
+            t = t[t > 0.05]
+            inside = t[beckmann(t, alpha) / peak >= level]
+            g = lobe_families.value_t(np, index, inside, np.asarray(f["P"][i]))
+            d = np.max(np.abs(g / (beckmann(inside, alpha) / peak) - 1.0))
+            assert d == pytest.approx(f["d"][i], rel=1e-4), (f["family"], n[i])
