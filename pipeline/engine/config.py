@@ -54,6 +54,14 @@ def _int_in(lo: int, hi: int) -> Callable[[Any], bool]:
     return lambda v: _is_int(v) and lo <= v <= hi
 
 
+GRAMMAR_OPERATIONS = ("+", "-", "*", "/", "exp", "log", "sqrt", "square", "cube", "pow")
+
+
+def _operation_list(v: str) -> bool:
+    items = [x.strip() for x in v.split(",")]
+    return len(items) == len(set(items)) and all(x in GRAMMAR_OPERATIONS for x in items)
+
+
 def _number_list(v: Any, lo: float, hi: float, longest: int) -> bool:
     return isinstance(v, list) and 1 <= len(v) <= longest and all(_is_number(x) and lo <= x <= hi for x in v)
 
@@ -216,6 +224,13 @@ SCHEMA: tuple[Key, ...] = (
             isinstance(r, list) and len(r) == 2 and all(_is_number(x) for x in r) and 1 <= r[0] < r[1] <= 100_000
             for r in v),
         "ranges of n of the lobe search's fronts (clipped to [n_min, n_max])"),
+    Key("lobe_search.grammar_complexity", 5, "an integer in [0, 8] (0: the families alone)", _int_in(0, 8),
+        "largest complexity of the grammar's forms in w = n (1 - t) that the lobe search screens beside its families"),
+    Key("lobe_search.grammar_operations", "+,-,*,/,exp,square,cube,sqrt",
+        "a comma list of distinct operations from +, -, *, /, exp, log, sqrt, square, cube, pow",
+        lambda v: isinstance(v, str) and _operation_list(v), "operations of the grammar's forms in the lobe search"),
+    Key("lobe_search.grammar_keep", 4, "an integer in [1, 16]", _int_in(1, 16),
+        "grammar forms kept after screening (those no cheaper form beats) and fitted per n like the families"),
     Key("lobe_search.points_per_range", 6, "an integer in [2, 200]", _int_in(2, 200),
         "log-spaced exponents per range at which each family is fitted (ends included; checked halfway between)"),
     Key("lobe_search.zone_points", 256, "an integer in [8, 4096]", _int_in(8, 4096),

@@ -370,10 +370,14 @@ STAGES: tuple[Stage, ...] = (
         "n_grid": "exponents at which every family is fitted: log-spaced points over each range, ends included [array]",
         "ranges": "the n ranges of the fronts, within [n_min, n_max] [list]",
         "families": "the searched families (optics.lobe_families) [list]",
-        "per_n": "per family: scaled parameters q, shader parameters (A, B, C), d and D (exact) and the fit's error "
-                 "on the zone's points at each n of n_grid [list]",
-        "members": "per family and range: formula, max d and D over the grid's n, the grid check, the shader "
-                   "parameters as lines in n and the max d and D of those lines over every integer n [list]",
+        "grammar_searched": "forms of the grammar (in w = n (1 - t)) screened beside the families [count]",
+        "grammar_kept": "those kept and fitted per n (grammar_1, grammar_2, ... in members) [list]",
+        "per_n": "per form: scaled parameters q, shader parameters (A, B, C; families), d and D (exact for the "
+                 "families, dense grids for the grammar's forms) and the fit's error on the zone's points at each n "
+                 "of n_grid [list]",
+        "members": "per form and range: formula, max d and D over the grid's n, the grid check, the parameters "
+                   "as lines in n and the max d and D of those lines over every integer n, whether it is a lobe "
+                   "(admissible: >= 0 on the whole hemisphere at every n) [list]",
         "candidates": "the members per architecture with compiled cycles, predicted cycles and on_front [list]",
         "front": "per architecture and range, the members no cheaper or equal-cost member beats on d: architecture, "
                  "n_range, family, expression, cycles (compiled), cycles_predicted, d, D, parameters [list]",

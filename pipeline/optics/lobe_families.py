@@ -168,21 +168,29 @@ def value_w(name: str, w, n: float, q):
     return np.abs(q[0]) * ((1.0 - w / n) / (1.0 + q[1] * w)) ** 2
 
 
-def zone_error(name: str, n, q, u, reference=None) -> float:
-    """max |g / f - 1| of the family at one n over the points u (`reference`: the target f there; cos^n
-    by default)."""
+def form_value_w(form, w, n: float, q):
+    """A family (by name) or any form given as a function value(w, n, q) (a grammar form's, from the
+    stage), at w = n u."""
+    if isinstance(form, str):
+        return value_w(form, w, n, q)
+    return form(w, n, q)
+
+
+def zone_error(name, n, q, u, reference=None) -> float:
+    """max |g / f - 1| of the family (or grammar form) at one n over the points u (`reference`: the
+    target f there; cos^n by default)."""
     reference = (1.0 - u) ** n if reference is None else reference
     with np.errstate(all="ignore"):
-        r = np.abs(value_w(name, n * u, n, q) / reference - 1.0)
+        r = np.abs(form_value_w(name, n * u, n, q) / reference - 1.0)
     return float(np.max(r)) if np.all(np.isfinite(r)) else np.inf
 
 
-def fit_minimax(name: str, n, level, start=None, count: int = ZONE_POINTS,
-                target: str = "cos_n") -> tuple[np.ndarray, float]:
-    """(q, largest relative error on the zone's points) of the family at exponent n against the
-    target (`target_u`): Nelder-Mead from the family's own start and from `start` (the previous n's
-    optimum), the better kept, each restarted from its result until a restart improves by less than
-    `IMPROVEMENT` relative."""
+def fit_minimax(name, n, level, start=None, count: int = ZONE_POINTS, target: str = "cos_n",
+                own_start=None) -> tuple[np.ndarray, float]:
+    """(q, largest relative error on the zone's points) of the family (or a form value(w, n, q), with
+    its `own_start`) at exponent n against the target (`target_u`): Nelder-Mead from the family's own
+    start and from `start` (the previous n's optimum), the better kept, each restarted from its
+    result until a restart improves by less than `IMPROVEMENT` relative."""
     from scipy.optimize import minimize
 
     u = zone_points(n, level, count, target)
@@ -207,5 +215,6 @@ def fit_minimax(name: str, n, level, start=None, count: int = ZONE_POINTS,
                 break
         return q, best
 
-    fits = [descend(FAMILIES[name].start)] + ([descend(start)] if start is not None else [])
+    own = FAMILIES[name].start if own_start is None else own_start
+    fits = [descend(own)] + ([descend(start)] if start is not None else [])
     return min(fits, key=lambda f: f[1])

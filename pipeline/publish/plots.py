@@ -774,6 +774,10 @@ def lobe_front(out, config, r):
             ax.step([c["cycles"] for c in front], [100 * c["d"] for c in front], where="post", color="C0", lw=1.2)
             labels: dict = {}
             for c in rows:
+                if not c["admissible"]:     # below 0 somewhere: not a lobe, never on a front
+                    ax.plot(c["cycles"], 100 * c["d"], "x", color="0.5", ms=4)
+                    labels.setdefault(c["cycles"], []).append((c["d"], c["family"] + " (< 0)", "0.5"))
+                    continue
                 ax.plot(c["cycles"], 100 * c["d"], "o", color="C0", ms=5 if c["on_front"] else 3.5,
                         mfc="C0" if c["on_front"] else "white")
                 labels.setdefault(c["cycles"], []).append((c["d"], c["family"], "C0"))
@@ -791,8 +795,8 @@ def lobe_front(out, config, r):
                 ax.set_ylabel(f"{ARCHITECTURE_NAMES.get(architecture, architecture)}\nmax d in the zone (%)")
             if i == len(architectures) - 1:
                 ax.set_xlabel("cycles per wave (compiled by RADV, net of the wrapper)", fontsize=8)
-    fig.suptitle("Cheap forms fitted per n (circles; filled: the front, joined) and the registry's lobes (squares; "
-                 "the paper's f_Q2 starred)", fontsize=11)
+    fig.suptitle("Cheap forms fitted per n (circles; filled: the front, joined; grey x: grammar forms below 0 "
+                 "somewhere, not lobes) and the registry's lobes (squares; the paper's f_Q2 starred)", fontsize=10)
     fig.tight_layout(rect=(0, 0, 1, 0.97))
     fig.canvas.draw()       # fixes the layout, the axes' limits and transforms: then the labels
     for ax, labels in stacks:

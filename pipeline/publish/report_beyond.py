@@ -667,6 +667,15 @@ def lobe_search_section(config, r, figures) -> list[str]:
              f"{pct_small(s['grid_check_max'])}: the grid holds the maximum. The forms searched (the default depth, "
              "`lobe_search.families`):", ""]
     lines += [f"- `{name}`: `{lobe_families.FAMILIES[name].formula}`" for name in s["families"]]
+    grammar_members = {m["family"]: m["expression"] for m in s["members"] if m["grammar"]}
+    if s["grammar_searched"]:
+        lines += ["", f"and what the grammar reaches: its {s['grammar_searched']} forms in w = n (1 - t) up to complexity "
+                  f"{config['lobe_search.grammar_complexity']} (operations {config['lobe_search.grammar_operations']}; "
+                  "`lobe_search.grammar_complexity`), screened by least squares at the grid's first and last n and "
+                  "kept where no form of fewer predicted cycles fits better (of those, the most accurate, at most "
+                  f"{config['lobe_search.grammar_keep']}), then fitted per n like the families (their d and D measured "
+                  "on dense grids):", ""]
+        lines += [f"- `{name}`: `{text}`" for name, text in grammar_members.items()]
     lines += [""]
     if not s["available"]:
         return lines + [f"No machine code, so no fronts: {s['reason']}.", ""]
@@ -708,6 +717,13 @@ def lobe_search_section(config, r, figures) -> list[str]:
                      + f" | {pct_small(m['d'])} | {m['D']:.4g} | "
                      + "; ".join(f"{k} = {v}" for k, v in m["parameters"].items())
                      + f" | {pct_small(m['d_line'])} | {m['D_line']:.4g} |")
+    if s["grammar_searched"]:
+        on = sorted({c["family"] for c in s["front"] if c["grammar"]})
+        negative = sorted({m["family"] for m in s["members"] if not m["admissible"]})
+        lines += ["", "The grammar's forms on a front: " + (", ".join(on) if on else
+                                                          "none (at this depth the families hold every front)") + "."
+                  + (f" Not lobes (below 0 somewhere on the hemisphere, so never on a front): {', '.join(negative)}."
+                     if negative else "")]
     lines += ["", "The fronts rank by d, the paper's measure; D, the error over the whole lobe that the zone leaves "
               "out, is reported beside it and can be larger than the paper's lobe's for a form fitted on the zone "
               "alone. Every front member, with its parameters as lines in n, is exported as a function of (t, n) in "

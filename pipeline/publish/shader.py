@@ -280,19 +280,27 @@ def search_sources(config, search, version_tag: str) -> dict[str, str]:
             "// n of the range, with these lines.", ""]
     hlsl = list(glsl)
     py = ['"""Python twin of lobe_search.glsl: the same functions, for tests and plots."""', "", "", ]
+    py += ["from math import exp, log, sqrt  # noqa: F401  (the grammar's forms may call them)", "", ""]
     for m in search_members(search):
-        family = lobe_families.FAMILIES[m["family"]]
         name = search_function_name(m)
-        doc = (f"{family.formula}, n in [{m['n_range'][0]:g}, {m['n_range'][1]:g}]: d {m['d_line']:.4g}, "
+        doc = (f"{m['expression']}, n in [{m['n_range'][0]:g}, {m['n_range'][1]:g}]: d {m['d_line']:.4g}, "
                f"D {m['D_line']:.4g}")
-        params = [f"float {p} = {line(a, b)};" for p, a, b in
-                  zip(family.parameters, m["parameter_slopes"], m["parameter_intercepts"])]
+        names = list(m["parameters"])
+        params = [(p, line(a, b)) for p, a, b in zip(names, m["parameter_slopes"], m["parameter_intercepts"])]
+        if m["grammar"]:
+            # A grammar form in w = n (1 - t), its constants c0, c1, ... lines in n.
+            from ..symbolic import grammar
+            text = grammar.glsl(grammar.parse(m["grammar"]), [], variable="w", uniforms="c")
+            for i in range(len(names)):
+                text = text.replace(f"c[{i}]", f"c{i}")
+            body_c, body_py = ["float w = n - n * t;", f"return {text};"], ["w = n - n * t", f"return {text}"]
+        else:
+            family = lobe_families.FAMILIES[m["family"]]
+            body_c, body_py = family.glsl.splitlines(), [f"return {family.python}"]
         for lines in (glsl, hlsl):
-            lines += [f"// {doc}", f"float {name}(float t, float n)", "{"] + [f"    {p}" for p in params]
-            lines += [f"    {row}" for row in family.glsl.splitlines()] + ["}", ""]
-        py += [f"def {name}(t, n):", f'    """{doc}"""']
-        py += [f"    {p} = {line(a, b)}" for p, a, b in
-               zip(family.parameters, m["parameter_slopes"], m["parameter_intercepts"])]
-        py += [f"    return {family.python}", "", ""]
+            lines += [f"// {doc}", f"float {name}(float t, float n)", "{"] + [f"    float {p} = {v};" for p, v in params]
+            lines += [f"    {row}" for row in body_c] + ["}", ""]
+        py += [f"def {name}(t, n):", f'    """{doc}"""'] + [f"    {p} = {v}" for p, v in params]
+        py += [f"    {row}" for row in body_py] + ["", ""]
     return {"lobe_search.glsl": "\n".join(glsl), "lobe_search.hlsl": "\n".join(hlsl),
             "lobe_search_twin.py": "\n".join(py).rstrip() + "\n"}

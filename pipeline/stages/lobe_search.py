@@ -12,6 +12,10 @@ found there beyond the grid's maximum is reported (`grid_check`). Each family's 
 are also fitted by a line in n per range, as the paper does for k, and measured at every integer n
 of the range: what a per-material line costs in accuracy.
 
+Beside the families, the grammar's forms in w = n (1 - t) (`lobe_search.grammar_complexity`) are
+screened and the best kept and fitted alike; a form that goes below 0 somewhere on the hemisphere at
+some n (a grammar form is not clamped) is not a lobe: it is reported, never on a front.
+
 Each family is compiled by RADV for RDNA3, RDNA2 and GCN5 (its parameters as uniforms) and its
 cycles per wave, net of the shader returning t, are its cost; the cost tables of
 `symbolic.gpu_costs` (fitted to `lobe_search.calibration_forms` random forms) give the predicted
@@ -46,6 +50,19 @@ float lobe(float t)
 }}
 void main() {{ color = vec4(lobe(t_in)); }}
 """
+# A grammar form is written in w = n (1 - t) (its constants of order 1 for every n): one multiply-add
+# more than a form in t.
+GRAMMAR_SHADER = """#version 450
+layout(location = 0) in float t_in;
+layout(location = 0) out vec4 color;
+layout(push_constant) uniform Material {{ float n; float c[8]; }};
+float lobe(float t)
+{{
+    float w = n - n * t;
+    return {expression};
+}}
+void main() {{ color = vec4(lobe(t_in)); }}
+"""
 BLOCK = 512        # exponents per exact measurement call (one compiled program)
 
 
@@ -58,20 +75,94 @@ def midpoints(n) -> np.ndarray:
     return np.sqrt(n[1:] * n[:-1])
 
 
-def fit_family(family: str, n, level: float, zone_points: int, target: str = "cos_n") -> dict:
-    """The family's minimax fit to the target at every exponent of n, in order, each from the previous
-    optimum, and at the geometric midpoints: q, the shader parameters and the zone error on the points."""
+def fit_family(family: str, n, level: float, zone_points: int, target: str = "cos_n", own_start=None) -> dict:
+    """The family's (or the grammar form's, by its text in w, from `own_start`) minimax fit to the
+    target at every exponent of n, in order, each from the previous optimum, and at the geometric
+    midpoints: q, the shader parameters (families) and the zone error on the points."""
+    from ..symbolic import grammar
+    form = family
+    if own_start is not None:
+        tree = grammar.parse(family)
+
+        def form(w, n_, q):
+            return grammar.evaluate_numpy(tree, q, w)
     out = {}
     for key, exponents in (("grid", np.asarray(n, dtype=np.float64)), ("mid", midpoints(np.asarray(n)))):
         q, errors, start = [], [], None
         for n_ in exponents:
-            start, error = lobe_families.fit_minimax(family, float(n_), level, start, zone_points, target)
+            start, error = lobe_families.fit_minimax(form, float(n_), level, start, zone_points, target, own_start)
             q.append(start)
             errors.append(error)
         out[f"{key}_q"] = np.array(q)
         out[f"{key}_zone_error"] = np.array(errors)
-        out[f"{key}_P"] = lobe_families.shader_parameters(family, exponents, np.array(q))
+        if own_start is None:
+            out[f"{key}_P"] = lobe_families.shader_parameters(family, exponents, np.array(q))
     return out
+
+
+DENSE_ZONE = 4001       # zone points on which a grammar form's d is measured
+DENSE_LOBE = 8001       # points in log(1 + w) over [0, pi/2] on which its D is measured
+
+
+def dense_errors(text: str, n, q, level, target: str = "cos_n") -> dict:
+    """d and D of a grammar form (its text in w = n (1 - t), constants q per n) on dense grids: d on
+    `DENSE_ZONE` Chebyshev points of the zone, D on `DENSE_LOBE` points uniform in log(1 + w) (the grid
+    of `optics.extrema`, without its refinement)."""
+    from ..symbolic import grammar
+    form = grammar.parse(text)
+    d, D, lowest = [], [], []
+    for n_, q_ in zip(np.asarray(n, dtype=np.float64), np.asarray(q)):
+        u = lobe_families.zone_points(n_, level, DENSE_ZONE, target)
+        with np.errstate(all="ignore"):
+            r = grammar.evaluate_numpy(form, q_, n_ * u) / lobe_families.target_u(np, target, u, n_) - 1.0
+            u_all = np.minimum(np.expm1(np.linspace(0.0, np.log1p(n_), DENSE_LOBE)) / n_, 1.0)
+            g = grammar.evaluate_numpy(form, q_, n_ * u_all)
+            a = g - lobe_families.target_u(np, target, u_all, n_)
+        d.append(np.max(np.abs(r)) if np.all(np.isfinite(r)) else np.inf)
+        D.append(np.max(np.abs(a)) if np.all(np.isfinite(a)) else np.inf)
+        lowest.append(np.min(g) if np.all(np.isfinite(g)) else -np.inf)
+    return dict(d=np.array(d), D=np.array(D), lowest=np.array(lowest))
+
+
+SCREEN_POINTS = 64      # zone points of the grammar's screening fit
+
+
+def grammar_reach(complexity: int, operations: str, level: float, n_screen, keep: int, target: str,
+                  table) -> dict:
+    """The grammar's forms in w = n (1 - t) (`symbolic.grammar`, the operations given, up to
+    `complexity`, each with a constant at least), fitted by least squares at each exponent of
+    n_screen (`symbolic.search.fit_forms`); kept: the forms that no form of fewer predicted cycles
+    (the table's, with the multiply-add that makes w) fits better at the worst of those exponents; of
+    those, the `keep` most accurate, cheapest first. Returns the number searched, the kept forms' text and constants
+    (fitted at the last exponent)."""
+    from ..symbolic import grammar, search
+    ops = grammar.operations(operations)
+    forms = [f for f in grammar.enumerate_forms(int(complexity), ops)
+             if grammar.constants(f) >= 1 and "x" in grammar.show(f)]
+    w, y = [], []
+    for n_ in n_screen:
+        u = lobe_families.zone_points(n_, level, SCREEN_POINTS, target)
+        w.append(n_ * u)
+        y.append(lobe_families.target_u(np, target, u, n_))
+    fits = search.fit_forms(forms, np.array(w), np.array(y))
+    score = np.array([max(sample[i][1] for sample in fits) for i in range(len(forms))])
+    score = np.where(np.isfinite(score), score, np.inf)
+    cost = np.array([grammar_predicted(grammar.show(f), table) if table else grammar.complexity(f) for f in forms])
+    pareto, best = [], np.inf
+    for i in np.lexsort((score, cost)):
+        if score[i] < best * (1.0 - 1e-6):
+            pareto.append(int(i))
+            best = score[i]
+    kept = pareto[-keep:]       # the most accurate of them
+    return dict(searched=len(forms), kept=[grammar.show(forms[i]) for i in kept],
+                constants=[[float(c) for c in fits[-1][i][0][:grammar.constants(forms[i])]] for i in kept])
+
+
+def grammar_predicted(text: str, table: dict) -> float:
+    """A grammar form's cycles by the cost table, with the multiply-add that makes w = n (1 - t)."""
+    from ..symbolic import gpu_costs, grammar
+    counts = gpu_costs.operation_counts(grammar.parse(text))
+    return round(float(np.dot(counts, [table[op] for op in grammar.OPERATIONS]) + table["*"] + table["-"]), 2)
 
 
 @functools.partial(jax.jit, static_argnames=("target", "cells", "settings"))
@@ -124,23 +215,28 @@ def parameter_lines(n, P, count: int) -> tuple[np.ndarray, np.ndarray]:
     return fits[:, 0], fits[:, 1]
 
 
-def formula(family, slopes, intercepts) -> dict[str, str]:
-    """Each shader parameter's line as text: "1.44269 n - 0.377261"."""
-    return {p: f"{a:.6g} n {'-' if b < 0 else '+'} {abs(b):.6g}" for p, a, b in zip(family.parameters, slopes, intercepts)}
+def formula(names, slopes, intercepts) -> dict[str, str]:
+    """Each parameter's line as text: "1.44269 n - 0.377261"."""
+    return {p: f"{a:.6g} n {'-' if b < 0 else '+'} {abs(b):.6g}" for p, a, b in zip(names, slopes, intercepts)}
 
 
-def compiled_cycles(families) -> dict:
-    """{architecture: {family: cycles per wave net of the shader returning t}} of each family's shader,
-    compiled by RADV (its parameters uniforms), or {"reason": why not}."""
+def compiled_cycles(families, grammar=()) -> dict:
+    """{architecture: {family or grammar form: cycles per wave net of the shader returning t}} of each
+    family's shader and each grammar form's (its text in w = n (1 - t)), compiled by RADV (parameters
+    uniforms), or {"reason": why not}."""
+    from ..symbolic import grammar as grammar_
     sources = {"wrapper": SHADER.format(body="return t;")}
-    names = list(families)
-    sources.update({f"family_{name}": SHADER.format(body=lobe_families.FAMILIES[name].glsl) for name in names})
+    names = list(families) + list(grammar)
+    sources.update({f"family_{i:02d}": SHADER.format(body=lobe_families.FAMILIES[name].glsl)
+                    for i, name in enumerate(families)})
+    sources.update({f"family_{len(families) + i:02d}": GRAMMAR_SHADER.format(
+        expression=grammar_.glsl(grammar_.parse(text), [], variable="w", uniforms="c")) for i, text in enumerate(grammar)})
     try:
         compiled, devices = machine_code.compile_shaders(sources)
     except machine_code.CompilerMissing as e:
         return dict(available=False, reason=str(e), cycles={}, devices={})
-    cycles = {ARCHITECTURES[chip]: {name: round(rows[f"family_{name}"]["cycles_per_wave"]
-                                                - rows["wrapper"]["cycles_per_wave"], 1) for name in names}
+    cycles = {ARCHITECTURES[chip]: {name: round(rows[f"family_{i:02d}"]["cycles_per_wave"]
+                                                - rows["wrapper"]["cycles_per_wave"], 1) for i, name in enumerate(names)}
               for chip, rows in compiled.items()}
     return dict(available=True, reason="", cycles=cycles, devices=devices)
 
@@ -160,6 +256,8 @@ def predicted_cycles(name: str, table: dict) -> float:
     addition is), and each exp2 at the table's exp less a multiply (exp x compiles to
     exp2(x log2 e))."""
     from ..symbolic import gpu_costs, grammar
+    if name not in lobe_families.FAMILIES:
+        return grammar_predicted(name, table)
     family = lobe_families.FAMILIES[name]
     counts = dict(zip(grammar.OPERATIONS, gpu_costs.operation_counts(grammar.parse(family.grammar))))
     cycles = sum(counts[op] * table[op] for op in grammar.OPERATIONS)
@@ -167,10 +265,12 @@ def predicted_cycles(name: str, table: dict) -> float:
 
 
 def front_of(rows) -> list[dict]:
-    """The rows no other row beats at equal or lower cycles (lowest d first at each cost)."""
+    """The rows no other row beats at equal or lower cycles (lowest d first at each cost). Errors equal
+    to 6 significant digits are a tie, kept by the row listed first (a family before a grammar form
+    that is the same function written in w)."""
     front, best = [], np.inf
-    for row in sorted(rows, key=lambda r: (r["cycles"], r["d"])):
-        if row["d"] < best:
+    for row in sorted(rows, key=lambda r: (r["cycles"], float(f"{r['d']:.6g}"))):
+        if row["d"] < best * (1.0 - 1e-6):
             front.append(row)
             best = row["d"]
     return front
@@ -203,16 +303,37 @@ def run(config, inputs, memo):
     ranges = [(lo, hi) for lo, hi in ranges if lo < hi] or [(n_all[0], n_all[-1])]
     names = list(config["lobe_search.families"])
     target = config["lobe_search.target"]
+    zone_points = config["lobe_search.zone_points"]
     n = n_grid(ranges, config["lobe_search.points_per_range"])
+    tables = memo("gpu_cost_tables", cost_tables, count=config["lobe_search.calibration_forms"])
 
-    families = {}
+    # Every searched form: the families, then what the grammar reaches.
+    forms = {}
     for name in names:
-        fit = memo("lobe_family_fit", fit_family, family=name, n=n, level=level,
-                   zone_points=config["lobe_search.zone_points"], target=target)
+        fit = memo("lobe_family_fit", fit_family, family=name, n=n, level=level, zone_points=zone_points, target=target)
         exact = exact_errors(name, n, fit["grid_P"], level, cells, settings, target)
-        families[name] = dict(fit, d=exact["d"], D=exact["D"])
+        family = lobe_families.FAMILIES[name]
+        forms[name] = dict(fit, d=exact["d"], D=exact["D"], params=fit["grid_P"][:, :len(family.parameters)],
+                           parameter_names=family.parameters, expression=family.formula)
+    reach = dict(searched=0, kept=[])
+    if config["lobe_search.grammar_complexity"] > 0:
+        from ..symbolic import grammar
+        reach = memo("lobe_grammar_reach", grammar_reach, complexity=config["lobe_search.grammar_complexity"],
+                     operations=config["lobe_search.grammar_operations"], level=level,
+                     n_screen=[float(n[0]), float(n[-1])], keep=config["lobe_search.grammar_keep"], target=target,
+                     table=tables["tables"].get("rdna3") if tables["available"] else None)
+        for i, (text, start) in enumerate(zip(reach["kept"], reach["constants"]), 1):
+            fit = memo("lobe_family_fit", fit_family, family=text, n=n, level=level, zone_points=zone_points,
+                       target=target, own_start=list(start))
+            dense = dense_errors(text, n, fit["grid_q"], level, target)
+            count = len(start)
+            forms[f"grammar_{i}"] = dict(fit, d=dense["d"], D=dense["D"], params=fit["grid_q"], grammar=text,
+                                         admissible=bool(np.all(dense["lowest"] >= 0.0)),
+                                         parameter_names=tuple(f"c{j}" for j in range(count)),
+                                         expression=f"{grammar.show(grammar.parse(text), variable='w')}, "
+                                                    "w = n (1 - t)")
 
-    # Per range: the family's worst n on the grid, the grid check, and the line in n of its parameters
+    # Per range: the form's worst n on the grid, the grid check, and the line in n of its parameters
     # measured at every integer n of the range.
     members = []
     for lo, hi in ranges:
@@ -220,27 +341,31 @@ def run(config, inputs, memo):
         mids = midpoints(n)
         mid_inside = (mids >= lo) & (mids <= hi)
         integers = np.arange(np.ceil(lo), np.floor(hi) + 1.0)
-        for name in names:
-            f, family = families[name], lobe_families.FAMILIES[name]
+        for name, f in forms.items():
             i = int(np.argmax(np.where(inside, f["d"], -np.inf)))
             grid_error = float(f["grid_zone_error"][inside].max())
             mid_error = float(f["mid_zone_error"][mid_inside].max()) if mid_inside.any() else grid_error
-            count = len(family.parameters)
-            slopes, intercepts = parameter_lines(n[inside], f["grid_P"][inside], count)
-            P_line = np.zeros((integers.size, 3))
-            P_line[:, :count] = slopes * integers[:, None] + intercepts
-            line = exact_errors(name, integers, P_line, level, cells, settings, target)
+            count = len(f["parameter_names"])
+            slopes, intercepts = parameter_lines(n[inside], f["params"][inside], count)
+            on_line = slopes * integers[:, None] + intercepts
+            if "grammar" in f:
+                line = dense_errors(f["grammar"], integers, on_line, level, target)
+            else:
+                P_line = np.zeros((integers.size, 3))
+                P_line[:, :count] = on_line
+                line = exact_errors(name, integers, P_line, level, cells, settings, target)
             j = int(np.argmax(line["d"]))
             members.append(dict(
-                family=name, expression=family.formula, n_range=[lo, hi], d=float(f["d"][i]), n_at_max=float(n[i]),
+                family=name, expression=f["expression"], grammar=f.get("grammar", ""), n_range=[lo, hi],
+                admissible=f.get("admissible", True),
+                d=float(f["d"][i]), n_at_max=float(n[i]),
                 D=float(f["D"][inside].max()), D_n_at_max=float(n[inside][np.argmax(f["D"][inside])]),
                 grid_check=max(mid_error / grid_error - 1.0, 0.0) if grid_error > 0 else 0.0,
-                parameters=formula(family, slopes, intercepts),
+                parameters=formula(f["parameter_names"], slopes, intercepts),
                 parameter_slopes=[float(a) for a in slopes], parameter_intercepts=[float(b) for b in intercepts],
                 d_line=float(line["d"][j]), d_line_n_at_max=float(integers[j]), D_line=float(line["D"].max())))
 
-    compiled = memo("lobe_family_cycles", compiled_cycles, families=sorted(names))
-    tables = memo("gpu_cost_tables", cost_tables, count=config["lobe_search.calibration_forms"])
+    compiled = memo("lobe_family_cycles", compiled_cycles, families=sorted(names), grammar=list(reach["kept"]))
     lobes = inputs["lobe_comparison.lobes"]
     # The registry's lobes approximate cos^n: placed on its fronts only.
     placed_keys = [(i, lobe) for i, lobe in enumerate(lobes) if lobe["lobe"] == lobe["registry_key"]
@@ -250,10 +375,11 @@ def run(config, inputs, memo):
         for chip, architecture in ARCHITECTURES.items():
             table = tables["tables"].get(architecture) if tables["available"] else None
             for lo, hi in ranges:
-                rows = [dict(m, architecture=architecture, cycles=compiled["cycles"][architecture][m["family"]],
-                             cycles_predicted=predicted_cycles(m["family"], table) if table else float("nan"))
+                rows = [dict(m, architecture=architecture, cycles=compiled["cycles"][architecture][m["grammar"] or m["family"]],
+                             cycles_predicted=predicted_cycles(m["grammar"] or m["family"], table) if table
+                             else float("nan"))
                         for m in members if m["n_range"] == [lo, hi]]
-                on_front = front_of(rows)
+                on_front = front_of([r for r in rows if r["admissible"]])
                 for row in rows:
                     row["on_front"] = row in on_front
                 candidates += rows
@@ -277,9 +403,10 @@ def run(config, inputs, memo):
         available=bool(compiled["available"]), reason=compiled["reason"], devices=compiled["devices"], target=target,
         cycles_prediction_max_error=prediction_error,
         n_grid=n, ranges=[list(r) for r in ranges], families=names,
-        per_n=[dict(family=name, q=families[name]["grid_q"].tolist(), P=families[name]["grid_P"].tolist(),
-                    d=families[name]["d"].tolist(), D=families[name]["D"].tolist(),
-                    zone_error=families[name]["grid_zone_error"].tolist()) for name in names],
+        grammar_searched=int(reach["searched"]), grammar_kept=list(reach["kept"]),
+        per_n=[dict(family=name, q=f["grid_q"].tolist(), P=f["grid_P"].tolist() if "grid_P" in f else [],
+                    d=f["d"].tolist(), D=f["D"].tolist(), zone_error=f["grid_zone_error"].tolist())
+               for name, f in forms.items()],
         members=members, candidates=candidates, front=front, placements=placements,
         grid_check_max=max(m["grid_check"] for m in members),
         cost_tables=tables["tables"], cost_tables_held_out=tables["held_out"])

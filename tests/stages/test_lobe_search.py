@@ -71,8 +71,9 @@ def test_the_cost_tables_predict_the_compiled_cycles_of_the_families(search):
 
 def test_each_family_s_parameter_lines_are_reported_with_what_they_cost(search):
     for m in search["members"]:
-        family = lobe_families.FAMILIES[m["family"]]
-        assert list(m["parameters"]) == list(family.parameters)
+        names = (lobe_families.FAMILIES[m["family"]].parameters if not m["grammar"] else
+                 tuple(f"c{i}" for i in range(len(m["parameter_slopes"]))))
+        assert list(m["parameters"]) == list(names)
         # The line's error is measured at every integer n of the range; the per-n optimum is a lower
         # bound wherever the range's worst n is an integer (its ends are).
         assert m["d_line"] >= m["d"] * (1 - 2e-4), m
@@ -116,16 +117,21 @@ def test_the_exported_twin_is_each_front_member_with_its_lines(search, exported,
     assert {(m["family"], tuple(m["n_range"])) for m in members} == {(c["family"], tuple(c["n_range"]))
                                                                      for c in search["front"]}
     level = paper_run["zone"]["level"]
+    from pipeline.symbolic import grammar
     for m in members:
         fn = getattr(twin, shader.search_function_name(m))
-        index = lobe_families.NAMES.index(m["family"])
         lo, hi = m["n_range"]
         for n in np.unique(np.round(np.geomspace(lo, hi, 5))):
-            P = np.zeros(3)
-            count = len(m["parameter_slopes"])
-            P[:count] = np.array(m["parameter_slopes"]) * n + np.array(m["parameter_intercepts"])
-            for t in np.linspace(0.0, 1.0, 11):
-                assert fn(t, n) == pytest.approx(float(lobe_families.value_t(np, index, t, P)), rel=1e-12, abs=1e-300)
+            values = np.array(m["parameter_slopes"]) * n + np.array(m["parameter_intercepts"])
+            t = np.linspace(0.0, 1.0, 11)
+            if m["grammar"]:        # a form in w = n (1 - t)
+                expected = grammar.evaluate_numpy(grammar.parse(m["grammar"]), values, n * (1.0 - t))
+            else:
+                P = np.zeros(3)
+                P[:values.size] = values
+                expected = lobe_families.value_t(np, lobe_families.NAMES.index(m["family"]), t, P)
+            for t_, e in zip(t, expected):
+                assert fn(t_, n) == pytest.approx(float(e), rel=1e-12, abs=1e-300)
         n = m["d_line_n_at_max"]
         u = np.linspace(0.0, lobe_families.zone_w(n, level) / n, 20001)
         d = max(abs(fn(1.0 - x, n) / (1.0 - x) ** n - 1.0) for x in u)
@@ -175,8 +181,9 @@ def test_a_second_target_runs_as_a_refit(light_config, light_cache, light_run, t
     assert s["target"] == "beckmann" and s["placements"] == []
     level = light_run["zone"]["level"]
     n = np.asarray(s["n_grid"])
+    from pipeline.symbolic import grammar
+    forms = {m["family"]: m["grammar"] for m in s["members"]}
     for f in s["per_n"]:
-        index = lobe_families.NAMES.index(f["family"])
         for i in (0, n.size // 2, n.size - 1):
             alpha = float(alpha_of_n(n[i]))
             peak = float(beckmann(1.0, alpha))
@@ -184,6 +191,67 @@ def test_a_second_target_runs_as_a_refit(light_config, light_cache, light_run, t
             t = 1.0 - np.linspace(0.0, 1.0, 400001) ** 2 * 40.0 / n[i]
             t = t[t > 0.05]
             inside = t[beckmann(t, alpha) / peak >= level]
-            g = lobe_families.value_t(np, index, inside, np.asarray(f["P"][i]))
+            if forms[f["family"]]:          # a grammar form in w = n (1 - t)
+                g = grammar.evaluate_numpy(grammar.parse(forms[f["family"]]), f["q"][i], n[i] * (1.0 - inside))
+            else:
+                g = lobe_families.value_t(np, lobe_families.NAMES.index(f["family"]), inside, np.asarray(f["P"][i]))
             d = np.max(np.abs(g / (beckmann(inside, alpha) / peak) - 1.0))
             assert d == pytest.approx(f["d"][i], rel=1e-4), (f["family"], n[i])
+
+
+def test_the_grammar_s_forms_are_screened_and_measured_like_the_families(search):
+    """The grammar reach kept forms (the screening ran), and a grammar form that is a family written
+    in w measures as that family: exp(c0 - c1 w) = exp2(A t + B) with A = c1 n / ln 2,
+    B = (c0 - c1 n) / ln 2. Its dense-grid d and D (4001 zone points, 8001 points in log(1 + w), no
+    refinement) against the family's exact ones: 1e-4 relative (what the grids miss near a peak,
+    about (pi / 4000)^2 of its curvature scale, with margin)."""
+    from pipeline.stages.lobe_search import dense_errors, exact_errors
+    from pipeline.optics.roots import SolverSettings
+    assert search["grammar_searched"] > 0 and search["grammar_kept"]
+    n = np.array([3.0, 40.0, 700.0])
+    q = np.array([[0.01, 0.9], [0.003, 1.01], [0.0, 1.002]])
+    dense = dense_errors("exp(c - (c * x))", n, q, 0.6)
+    P = np.stack([q[:, 1] * n, q[:, 0] - q[:, 1] * n, np.zeros(3)], axis=1) / np.log(2.0)
+    exact = exact_errors("exp2_linear", n, P, 0.6, 512, SolverSettings(1e-12, 1e-12, 256))
+    np.testing.assert_allclose(dense["d"], exact["d"], rtol=1e-4)
+    np.testing.assert_allclose(dense["D"], exact["D"], rtol=1e-4)
+
+
+def test_a_grammar_form_on_a_front_is_exported_in_w(paper_config, tmp_path):
+    """A planted front member that is a grammar form, sqrt(c0 - c1 w) * exp(c2 w) in w = n (1 - t),
+    its constants lines in n: the twin equals the form evaluated by the grammar, and the GLSL
+    compiles (where glslangValidator is installed)."""
+    import importlib.util
+    import shutil
+    import subprocess
+    import sys
+    from pathlib import Path
+    from pipeline.publish import shader
+    from pipeline.symbolic import grammar
+    text = "sqrt(c - (c * x)) * exp(c * x)"
+    member = dict(family="grammar_1", n_range=[2.0, 10.0], grammar=text, expression=text, admissible=True,
+                  parameters={"c0": "", "c1": "", "c2": ""}, parameter_slopes=[0.0, 0.01, -0.001],
+                  parameter_intercepts=[1.0, 0.2, -0.5], d_line=0.01, D_line=0.1)
+    search = dict(front=[dict(member, architecture="rdna3", cycles=4.0, d=0.01)], members=[member])
+    files = shader.search_sources(paper_config, search, "test")
+    (tmp_path / "twin.py").write_text(files["lobe_search_twin.py"])
+    spec = importlib.util.spec_from_file_location("planted_twin", tmp_path / "twin.py")
+    twin = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(twin)
+    fn = twin.cosfit_grammar_1_n2_10
+    for n in (2.0, 5.0, 10.0):
+        c = np.array(member["parameter_slopes"]) * n + np.array(member["parameter_intercepts"])
+        for t in (0.9, 0.95, 1.0):
+            w = np.array([n * (1 - t)])
+            assert fn(t, n) == pytest.approx(float(grammar.evaluate_numpy(grammar.parse(text), c, w)[0]), rel=1e-12)
+    local = Path(sys.executable).parent / "glslangValidator"
+    validator = str(local) if local.exists() else shutil.which("glslangValidator")
+    if validator is None:
+        pytest.skip("glslangValidator not found: the planted export was not compiled")
+    frag = tmp_path / "check.frag"
+    frag.write_text("#version 450\n" + files["lobe_search.glsl"] + """
+layout(location = 0) out vec4 color;
+void main() { color = vec4(cosfit_grammar_1_n2_10(0.97, 5.0)); }
+""")
+    done = subprocess.run([validator, str(frag)], capture_output=True, text=True)
+    assert done.returncode == 0, done.stdout + done.stderr
