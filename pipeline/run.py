@@ -21,6 +21,7 @@ import time
 from collections.abc import Callable
 from concurrent.futures import FIRST_COMPLETED, ThreadPoolExecutor, wait
 from pathlib import Path
+from types import MappingProxyType
 from typing import Any
 
 from .engine import checks as checks_mod, faults, graph, paths
@@ -222,6 +223,31 @@ def explain(config: Config, cache: Cache, only: tuple[str, ...] | None = None) -
     return out
 
 
+def file_results(config: Config, cache: Cache, results, keys) -> dict[str, dict[str, Any]]:
+    """The results of the stages of `results` under the config file's own settings (before `--set`),
+    where they are known without computing: a stage whose key is the run's has the run's result, any
+    other is read from the cache (absent: unknown, and so is every stage that reads it)."""
+    if not config.changed_from_file(config.values):
+        return dict(results)
+    own = Config(MappingProxyType(dict(config.file_values)), config.expectations, config.source,
+                 config.file_values)
+    found: dict[str, dict[str, Any]] = {}
+    for stage in graph.STAGES:
+        if stage.name not in results or not all(u in found for u in stage.upstream):
+            continue
+        key = key_of(stage, own, found)
+        if key == keys[stage.name]:
+            found[stage.name] = results[stage.name]
+            continue
+        try:
+            result = cache.load(stage.name, key)
+        except DamagedEntry:
+            result = None
+        if result is not None:
+            found[stage.name] = result
+    return found
+
+
 def _outputs_key(config: Config, keys: dict[str, str], baseline: RunOutcome | None) -> str:
     code = "".join(code_hash(m) for m in ("pipeline.publish.figures", "pipeline.publish.plots",
                                           "pipeline.publish.report",
@@ -251,7 +277,7 @@ def run_derivation(config: Config, cache_dir: Path = paths.CACHE, outputs: Path 
         with output_lock(out_dir, log) if out_dir is not None else contextlib.nullcontext():
             results, keys, computed = run_stages(config, cache, log, stages=stages,
                                                  on_result=drawer.update if drawer else None)
-            checks = checks_mod.evaluate(config, results)
+            checks = checks_mod.evaluate(config, results, file_results(config, cache, results, keys))
             faults.check_interrupted()
             if out_dir is not None:
                 publish(out_dir, _outputs_key(config, keys, baseline), log,

@@ -1,9 +1,11 @@
 """Checks of the reproduced numbers against the values the paper reports (config [expectations]).
 
-An expectation holds for the settings of the config file it is written in. It is checked only
-where the run's settings are those: if any config key that its result depends on (transitively,
-through the stage graph) was changed by `--set`, it is "not comparable (settings differ: KEY, ...)",
-shown with the paper's value beside the run's, and neither passes nor fails.
+An expectation holds for the settings of the config file it is written in. It is checked where its
+value is the one those settings give: where no config key that its result depends on (transitively,
+through the stage graph) was changed by `--set`, or where one was and the value is still the one the
+file's own settings give (known from the cache: a figure-only refit changes no checked value).
+Otherwise it is "not comparable (settings differ: KEY, ...)", shown with the paper's value beside the
+run's, and neither passes nor fails.
 
 Verdicts: "pass" (within the stated tolerance), "differs (documented)" (outside it, but the config
 documents the disagreement and its cause and the reproduced value equals the documented one within
@@ -59,8 +61,18 @@ def _deviation(reproduced, paper) -> float:
     return float(np.max(np.abs(r - p)))
 
 
-def evaluate(config, results) -> list[Check]:
-    """The checks of `config`'s expectations on the run's results."""
+def _same(a, b) -> bool:
+    try:
+        return bool(np.array_equal(np.asarray(a), np.asarray(b)))
+    except (TypeError, ValueError):
+        return a == b
+
+
+def evaluate(config, results, file_results=None) -> list[Check]:
+    """The checks of `config`'s expectations on the run's results. `file_results`: the results the
+    config file's own settings give, of the stages known (`pipeline.run.file_results`): where a
+    check's value is the same there, the settings `--set` changed did not touch it, and it is
+    checked."""
     out = []
     for e in config.expectations:
         if e.result.split(".", 1)[0] not in results:
@@ -68,6 +80,9 @@ def evaluate(config, results) -> list[Check]:
             continue
         value = lookup(results, e.result)
         differ = tuple(config.changed_from_file(graph.config_dependencies(e.result, config.values)))
+        if differ and file_results and e.result.split(".", 1)[0] in file_results:
+            if _same(value, lookup(file_results, e.result)):
+                differ = ()         # the value the file's settings give: comparable
         if differ:
             out.append(Check(e, value, _deviation(value, e.paper), NOT_COMPARABLE, differ))
             continue

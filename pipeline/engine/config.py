@@ -235,7 +235,7 @@ SCHEMA: tuple[Key, ...] = (
         "log-spaced exponents per range at which each family is fitted (ends included; checked halfway between)"),
     Key("lobe_search.zone_points", 256, "an integer in [8, 4096]", _int_in(8, 4096),
         "points of the epicenter zone on which each family's minimax fit runs (its d is then measured exactly)"),
-    Key("lobe_search.calibration_forms", 100, "an integer in [20, 2000]", _int_in(20, 2000),
+    Key("lobe_search.calibration_forms", 60, "an integer in [20, 2000]", _int_in(20, 2000),
         "random forms compiled to fit the cost tables that predict each family's cycles"),
     Key("render.resolution", 512, "an integer in [16, 4096]", lambda v: _is_int(v) and 16 <= v <= 4096,
         "width and height of each rendered image, in pixels"),

@@ -37,6 +37,7 @@ LN2 = math.log(2.0)
 ZONE_POINTS = 256
 RESTARTS = 6
 IMPROVEMENT = 1e-6    # a restart that gains less than this, relative, ends the fit
+GROWTH = 1.25         # an error this much above the previous n's calls for the family's own start too
 
 
 @dataclasses.dataclass(frozen=True)
@@ -186,11 +187,13 @@ def zone_error(name, n, q, u, reference=None) -> float:
 
 
 def fit_minimax(name, n, level, start=None, count: int = ZONE_POINTS, target: str = "cos_n",
-                own_start=None) -> tuple[np.ndarray, float]:
+                own_start=None, previous_error=None) -> tuple[np.ndarray, float]:
     """(q, largest relative error on the zone's points) of the family (or a form value(w, n, q), with
-    its `own_start`) at exponent n against the target (`target_u`): Nelder-Mead from the family's own
-    start and from `start` (the previous n's optimum), the better kept, each restarted from its
-    result until a restart improves by less than `IMPROVEMENT` relative."""
+    its `own_start`) at exponent n against the target (`target_u`): Nelder-Mead from `start` (the
+    previous n's optimum, whose error there was `previous_error`), and also from the family's own
+    start where there is no previous optimum or the error grew by more than `GROWTH` from it (the
+    better kept); each restarted from its result until a restart improves by less than `IMPROVEMENT`
+    relative."""
     from scipy.optimize import minimize
 
     u = zone_points(n, level, count, target)
@@ -216,5 +219,11 @@ def fit_minimax(name, n, level, start=None, count: int = ZONE_POINTS, target: st
         return q, best
 
     own = FAMILIES[name].start if own_start is None else own_start
-    fits = [descend(own)] + ([descend(start)] if start is not None else [])
-    return min(fits, key=lambda f: f[1])
+    if start is None:
+        return descend(own)
+    q, best = descend(start)
+    if previous_error is None or best > GROWTH * previous_error:
+        # The previous optimum may have led into a stall: the form's own start too.
+        fits = [(q, best), descend(own)]
+        q, best = min(fits, key=lambda f: f[1])
+    return q, best

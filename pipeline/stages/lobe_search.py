@@ -88,9 +88,10 @@ def fit_family(family: str, n, level: float, zone_points: int, target: str = "co
             return grammar.evaluate_numpy(tree, q, w)
     out = {}
     for key, exponents in (("grid", np.asarray(n, dtype=np.float64)), ("mid", midpoints(np.asarray(n)))):
-        q, errors, start = [], [], None
+        q, errors, start, error = [], [], None, None
         for n_ in exponents:
-            start, error = lobe_families.fit_minimax(form, float(n_), level, start, zone_points, target, own_start)
+            start, error = lobe_families.fit_minimax(form, float(n_), level, start, zone_points, target, own_start,
+                                                     error)
             q.append(start)
             errors.append(error)
         out[f"{key}_q"] = np.array(q)

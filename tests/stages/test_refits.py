@@ -144,10 +144,12 @@ def test_refit_writes_its_own_outputs_with_a_comparison(cache, tmp_path, paper_c
 @pytest.mark.slow
 def test_paper_expectations_are_not_comparable_where_a_refit_changes_their_settings(cache, paper_run):
     # Q = 0.5: the symbolic search of test_refit_writes_its_own_outputs_with_a_comparison is reused.
+    from pipeline.run import file_results
     config = pipeline.load_config(paths.PAPER_CONFIG, ("derivation.Q=0.5", "derivation.constants=fitted"))
-    results = run_stages(config, cache, log=lambda s: None, stages=PAPER_STAGES)[0]
+    results, keys, _ = run_stages(config, cache, log=lambda s: None, stages=PAPER_STAGES)
     from pipeline.engine import checks
-    verdicts = {c.expectation.id: c for c in checks.evaluate(config, results)}
+    # The paper's own results are in the cache: the values that moved are told apart by value.
+    verdicts = {c.expectation.id: c for c in checks.evaluate(config, results, file_results(config, cache, results, keys))}
     # The scan (P1, P2) does not read Q: still checked, still passing.
     assert verdicts["P1"].verdict == PASS and verdicts["P2"].verdict == PASS
     # The sample size does not depend on Q either.
@@ -160,6 +162,25 @@ def test_paper_expectations_are_not_comparable_where_a_refit_changes_their_setti
     # P9 and P10 (f_2's errors) do not depend on Q at all: checked, and pass.
     assert verdicts["P9"].verdict == PASS and verdicts["P10"].verdict == PASS
     assert not any(c.verdict == checks.FAIL for c in verdicts.values())
+
+
+@pytest.mark.slow
+def test_a_figure_only_refit_keeps_every_check_comparable(cache, paper_run):
+    """scan.curve_points changes the curves of Figs. 2 and 3 and nothing a check reads: every check is
+    compared, by the value the paper's settings give (read from the cache), and passes or differs as
+    documented, as in the paper's run. Without those values (no file results), the same checks would
+    be set aside by the settings rule alone."""
+    from pipeline.engine import checks
+    from pipeline.run import file_results
+    config = pipeline.load_config(paths.PAPER_CONFIG, ("scan.curve_points=180",))
+    results, keys, _ = run_stages(config, cache, log=lambda s: None, stages=PAPER_STAGES)
+    verdicts = checks.evaluate(config, results, file_results(config, cache, results, keys))
+    assert len(verdicts) == 34 and not [c for c in verdicts if c.verdict not in (PASS, checks.DIFFERS)]
+    assert {c.expectation.id for c in verdicts if c.verdict == checks.DIFFERS} == {
+        c.expectation.id for c in checks.evaluate(pipeline.load_config(paths.PAPER_CONFIG), paper_run)
+        if c.verdict == checks.DIFFERS}
+    by_settings = checks.evaluate(config, results)
+    assert sum(c.verdict == NOT_COMPARABLE for c in by_settings) >= 3     # the scan's own checks at least
 
 
 def test_rms_metric_optimum_is_a_minimum(cache):
