@@ -40,12 +40,15 @@ def test_the_exact_error_is_the_fit_s_error_where_its_points_see_the_peaks(searc
     fit's zone points (they lie in the zone) and exceeds it by what the points miss between them:
     at most 2e-4 relative with 256 Chebyshev points (the equioscillation test measures 1e-4 at
     n = 120; 2x margin for the forms whose peaks are sharper). Both up to the rounding of the exact
-    measure's form in t: A t + B cancels terms of size ~n to a value of order 1 (16 eps n absolute;
-    it shows where d is 1e-7 and below, for exp2 of a quadratic at large n)."""
-    n = np.asarray(search["n_grid"])
-    rounding = 16 * np.finfo(float).eps * n
+    measure's form in t, which cancels terms of size ~n to a value of order 1 (it shows where d is
+    1e-7 and below, for exp2 of a quadratic at large n)."""
     for f in search["per_n"]:
         d, sampled = np.array(f["d"]), np.array(f["zone_error"])
+        # The exact measure evaluates the form in t, A t + B (or (A t + B) t + C): its rounding is a few
+        # eps times |A| + |B| + |C| (of order n), relative in the value (for exp2, in the exponent). A
+        # grammar form is measured in w, where its constants are of order 1.
+        P = np.abs(np.array(f["P"])) if f["P"] else np.ones((d.size, 1))
+        rounding = 8 * np.finfo(float).eps * P.sum(axis=1)
         assert np.all(d >= sampled * (1 - 1e-9) - rounding), f["family"]
         assert np.all(d <= sampled * (1 + 2e-4) + rounding), (f["family"], np.max(d / sampled - 1))
 
