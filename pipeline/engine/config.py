@@ -224,7 +224,7 @@ SCHEMA: tuple[Key, ...] = (
             isinstance(r, list) and len(r) == 2 and all(_is_number(x) for x in r) and 1 <= r[0] < r[1] <= 100_000
             for r in v),
         "ranges of n of the lobe search's fronts (clipped to [n_min, n_max])"),
-    Key("lobe_search.grammar_complexity", 5, "an integer in [0, 8] (0: the families alone)", _int_in(0, 8),
+    Key("lobe_search.grammar_complexity", 0, "an integer in [0, 8] (0: the families alone)", _int_in(0, 8),
         "largest complexity of the grammar's forms in w = n (1 - t) that the lobe search screens beside its families"),
     Key("lobe_search.grammar_operations", "+,-,*,/,exp,square,cube,sqrt",
         "a comma list of distinct operations from +, -, *, /, exp, log, sqrt, square, cube, pow",

@@ -676,6 +676,10 @@ def lobe_search_section(config, r, figures) -> list[str]:
                   f"{config['lobe_search.grammar_keep']}), then fitted per n like the families (their d and D measured "
                   "on dense grids):", ""]
         lines += [f"- `{name}`: `{text}`" for name, text in grammar_members.items()]
+    else:
+        lines += ["", "The grammar's own forms are not searched at this depth (`lobe_search.grammar_complexity` = 0, "
+                  "chosen for the run's time); `--set lobe_search.grammar_complexity=5` (or up to 8) screens them "
+                  "beside the families as a refit."]
     lines += [""]
     if not s["available"]:
         return lines + [f"No machine code, so no fronts: {s['reason']}.", ""]

@@ -202,15 +202,30 @@ def test_a_second_target_runs_as_a_refit(light_config, light_cache, light_run, t
             assert d == pytest.approx(f["d"][i], rel=1e-4), (f["family"], n[i])
 
 
-def test_the_grammar_s_forms_are_screened_and_measured_like_the_families(search):
-    """The grammar reach kept forms (the screening ran), and a grammar form that is a family written
-    in w measures as that family: exp(c0 - c1 w) = exp2(A t + B) with A = c1 n / ln 2,
-    B = (c0 - c1 n) / ln 2. Its dense-grid d and D (4001 zone points, 8001 points in log(1 + w), no
-    refinement) against the family's exact ones: 1e-4 relative (what the grids miss near a peak,
-    about (pi / 4000)^2 of its curvature scale, with margin)."""
+@pytest.mark.slow
+def test_the_grammar_s_forms_are_screened_and_measured_like_the_families(light_cache, light_run, tmp_path):
+    """A refit with the grammar (complexity 5) screens its forms beside the families and keeps some,
+    fitted per n; those below 0 somewhere on the hemisphere are never on a front. And a grammar form
+    that is a family written in w measures as that family: exp(c0 - c1 w) = exp2(A t + B) with
+    A = c1 n / ln 2, B = (c0 - c1 n) / ln 2. Its dense-grid d and D (4001 zone points, 8001 points
+    in log(1 + w), no refinement) against the family's exact ones: 1e-4 relative (what the grids
+    miss near a peak, about (pi / 4000)^2 of its curvature scale, with margin)."""
+    import pipeline
+    from pipeline.engine.cache import Cache
+    from pipeline.engine.graph import closure
+    from pipeline.run import run_stages
     from pipeline.stages.lobe_search import dense_errors, exact_errors
     from pipeline.optics.roots import SolverSettings
-    assert search["grammar_searched"] > 0 and search["grammar_kept"]
+    from tests.conftest import LIGHT_CONFIG
+    from tests.helpers import copy_cache
+    copy_cache(light_cache, tmp_path / "cache")
+    config = pipeline.load_config(LIGHT_CONFIG, ("lobe_search.grammar_complexity=5",))
+    s = run_stages(config, Cache(tmp_path / "cache"), log=lambda s: None, stages=closure(["lobe_search"]))[0][
+        "lobe_search"]
+    assert s["grammar_searched"] > 10 and s["grammar_kept"]
+    grammar_members = [m for m in s["members"] if m["grammar"]]
+    assert len(grammar_members) == len(s["grammar_kept"]) * len(s["ranges"])
+    assert not [c for c in s["front"] if not c["admissible"]]
     n = np.array([3.0, 40.0, 700.0])
     q = np.array([[0.01, 0.9], [0.003, 1.01], [0.0, 1.002]])
     dense = dense_errors("exp(c - (c * x))", n, q, 0.6)
