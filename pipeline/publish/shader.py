@@ -299,7 +299,7 @@ def search_sources(config, search, version_tag: str) -> dict[str, str]:
             body_c, body_py = family.glsl.splitlines(), [f"return {family.python}"]
         for lines in (glsl, hlsl):
             lines += [f"// {doc}", f"float {name}(float t, float n)", "{"] + [f"    float {p} = {v};" for p, v in params]
-            lines += [f"    {row}" for row in body_c] + ["}", ""]
+            lines += [f"    {row.strip()}" for row in body_c] + ["}", ""]
         py += [f"def {name}(t, n):", f'    """{doc}"""'] + [f"    {p} = {v}" for p, v in params]
         py += [f"    {row}" for row in body_py] + ["", ""]
     return {"lobe_search.glsl": "\n".join(glsl), "lobe_search.hlsl": "\n".join(hlsl),
