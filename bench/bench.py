@@ -13,6 +13,8 @@ less than a time. Measured, each in a fresh cache and outputs folder:
   in another folder without the pipeline's environment (target: within 10 % of the LocalCluster);
 - a refit with `lobe.power = 4` (target: no slower than the Q refit), and the machine-code stage
   `gpu_isa` alone, cold (target 5 s);
+- the lobe search's time inside the cold run, and its refit for a second target
+  (`lobe_search.target=beckmann`, target 60 s);
 - the symbolic-regression stage alone, cold (a refit of `symbolic.seed` with an empty XLA cache:
   its time as the run log states it; target 10 s, absolute, for the 50-point sample up to
   complexity 12);
@@ -137,6 +139,12 @@ def main() -> int:
             seconds, out = timed([py, "-c", COUNTED_REPRODUCE], env)
             compiles = next(s for s in out.splitlines() if s.startswith("XLA compilations"))
             rows.append(("cold reproduce (empty cache)", seconds, 12.0, compiles))
+            # The lobe search inside that run (its stages run two at a time: its own time, not what it adds).
+            line = next((s for s in out.splitlines() if "lobe_search" in s and "computed in" in s), None)
+            if line is not None:
+                stage = float(line.split("computed in")[1].split("s")[0])
+                rows.append(("lobe_search, inside the cold run", stage, None,
+                             "beside the other stages; the issue's target: it adds <= 20 s to a cold reproduce"))
             seconds, out = timed([py, "-m", "pipeline", "refit", "--config", "configs/paper.toml", "--set",
                                   "derivation.Q=0.55", "--set", "derivation.constants=fitted", "--out", "bench_q"], env)
             rows.append(("refit derivation.Q=0.55", seconds, 8.0, recomputed(out)))
@@ -190,6 +198,11 @@ def main() -> int:
             rows.append(("symbolic regression, cold", stage, None,
                          "stage alone, complexity <= 12, compile included; target <= 10 s "
                          + ("ok" if stage <= 10 else "MISSED")))
+            # The lobe search for a second target, as a refit (every other stage cached): target 60 s.
+            seconds, out = timed([py, "-m", "pipeline", "refit", "--config", "configs/paper.toml", "--set",
+                                  "lobe_search.target=beckmann", "--out", "bench_beckmann"], env)
+            rows.append(("refit lobe_search.target=beckmann", seconds, None,
+                         recomputed(out) + "; target <= 60 s " + ("ok" if seconds <= 60 else "MISSED")))
             # The machine-code stage alone, cold (fresh cache): what it adds to a cold run.
             _, out = timed([py, "-m", "pipeline", "reproduce", "--only", "gpu_isa"],
                            dict(env, PIPELINE_CACHE_DIR=os.path.join(tmp, "cache_isa"),
