@@ -12,9 +12,11 @@ found there beyond the grid's maximum is reported (`grid_check`). Each family's 
 are also fitted by a line in n per range, as the paper does for k, and measured at every integer n
 of the range: what a per-material line costs in accuracy.
 
-Beside the families, the grammar's forms in w = n (1 - t) (`lobe_search.grammar_complexity`) are
-screened and the best kept and fitted alike; a form that goes below 0 somewhere on the hemisphere at
-some n (a grammar form is not clamped) is not a lobe: it is reported, never on a front.
+Beside the families, the grammar's forms in w = n (1 - t) (`lobe_search.grammar_complexity`; 0 by
+default, for the run's time: a refit) are screened and the best kept and fitted alike; a form that
+goes below 0 somewhere on the hemisphere at some n (a grammar form is not clamped) is not a lobe: it
+is reported, never on a front. The target is cos^n, or Beckmann's D over its peak
+(`lobe_search.target`: the same search for another function a shader approximates).
 
 Each family is compiled by RADV for RDNA3, RDNA2 and GCN5 (its parameters as uniforms) and its
 cycles per wave, net of the shader returning t, are its cost; the cost tables of
