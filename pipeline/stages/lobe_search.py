@@ -42,29 +42,13 @@ from ..optics.roots import SolverSettings
 from .common import n_range, require_converged
 
 ARCHITECTURES = {family: name.lower() for family, name in machine_code.FAMILIES.items()}
-SHADER = """#version 450
-layout(location = 0) in float t_in;
-layout(location = 0) out vec4 color;
-layout(push_constant) uniform Material {{ float A; float B; float C; }};
-float lobe(float t)
-{{
-    {body}
-}}
-void main() {{ color = vec4(lobe(t_in)); }}
-"""
-# A grammar form is written in w = n (1 - t) (its constants of order 1 for every n): one multiply-add
-# more than a form in t.
-GRAMMAR_SHADER = """#version 450
-layout(location = 0) in float t_in;
-layout(location = 0) out vec4 color;
-layout(push_constant) uniform Material {{ float n; float c[8]; }};
-float lobe(float t)
-{{
-    float w = n - n * t;
-    return {expression};
-}}
-void main() {{ color = vec4(lobe(t_in)); }}
-"""
+# The lobe shader of `optics.machine_code` with this search's uniforms: a family's parameters A, B, C;
+# a grammar form's n and constants (written in w = n (1 - t), its constants of order 1 for every n:
+# one multiply-add more than a form in t).
+MATERIAL = "float n; float k; float rate;"
+assert MATERIAL in machine_code.UNIFORM, "the lobe shader's uniform block, which these shaders replace"
+SHADER = machine_code.UNIFORM.replace(MATERIAL, "float A; float B; float C;")
+GRAMMAR_SHADER = machine_code.UNIFORM.replace(MATERIAL, "float n; float c[8];")
 BLOCK = 512        # exponents per exact measurement call (one compiled program)
 
 
@@ -233,7 +217,9 @@ def compiled_cycles(families, grammar=()) -> dict:
     sources.update({f"family_{i:02d}": SHADER.format(body=lobe_families.FAMILIES[name].glsl)
                     for i, name in enumerate(families)})
     sources.update({f"family_{len(families) + i:02d}": GRAMMAR_SHADER.format(
-        expression=grammar_.glsl(grammar_.parse(text), [], variable="w", uniforms="c")) for i, text in enumerate(grammar)})
+        body="float w = n - n * t;\n    return "
+             + grammar_.glsl(grammar_.parse(text), [], variable="w", uniforms="c") + ";")
+        for i, text in enumerate(grammar)})
     try:
         compiled, devices = machine_code.compile_shaders(sources)
     except machine_code.CompilerMissing as e:

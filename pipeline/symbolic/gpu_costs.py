@@ -30,16 +30,7 @@ SEED = 0
 
 
 # A form whose constants are per-material uniforms (`grammar.glsl(..., uniforms="c")`).
-UNIFORM_CONSTANTS = """#version 450
-layout(location = 0) in float t_in;
-layout(location = 0) out vec4 color;
-layout(push_constant) uniform Material {{ float c[{count}]; }};
-float lobe(float t)
-{{
-    {body}
-}}
-void main() {{ color = vec4(lobe(t_in)); }}
-"""
+UNIFORM_CONSTANTS = UNIFORM.replace("float n; float k; float rate;", "float c[{count}];")
 MAX_CONSTANTS = 8
 
 

@@ -90,6 +90,11 @@ def test_the_placement_rule_on_planted_numbers():
     assert placement(5.0, 0.0125, front)["family"] == "a"       # b costs more
     assert placement(3.0, 0.0125, front) is None                 # nothing as cheap: on the front
     assert placement(8.0, 0.0005, front) is None                 # more accurate than all: on the front
+    # The report's sentence follows the placement: planted numbers flip it.
+    from pipeline.publish.report_beyond import f_Q2_standing
+    beaten = dict(on_front=False, dominated_by="b", dominated_by_cycles=6.0, d_ratio=12.5)
+    assert f_Q2_standing(beaten) == "beaten: b at 6 cycles has a 12.5x smaller max d"
+    assert f_Q2_standing(dict(beaten, on_front=True)) == "on the front"
 
 
 @pytest.fixture(scope="module")
