@@ -237,6 +237,13 @@ SCHEMA: tuple[Key, ...] = (
         "points of the epicenter zone on which each family's minimax fit runs (its d is then measured exactly)"),
     Key("lobe_search.calibration_forms", 60, "an integer in [20, 2000]", _int_in(20, 2000),
         "random forms compiled to fit the cost tables that predict each family's cycles"),
+    Key("decision.max_d", 0.02, "a number in (0, 1)", _open_unit,
+        "budget of the decision: largest max d (relative error in the epicenter zone) a shipped lobe may have"),
+    Key("decision.max_D", 0.15, "a number in (0, 1)", _open_unit,
+        "budget of the decision: largest max D (absolute error, peak 1; plus the float16 error in fp16)"),
+    Key("decision.max_energy_excess", 0.01, "a number in (0, 1)", _open_unit,
+        "budget of the decision with n per pixel: how much more than arrives a coef computed in the shader may "
+        "reflect (largest albedo - 1)"),
     Key("render.resolution", 512, "an integer in [16, 4096]", lambda v: _is_int(v) and 16 <= v <= 4096,
         "width and height of each rendered image, in pixels"),
     Key("render.exponents", [10, 100, 1000], "a list of 1 to 8 numbers in [1, 100000]",

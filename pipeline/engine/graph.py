@@ -473,6 +473,30 @@ STAGES: tuple[Stage, ...] = (
         "zoom_highlight": "per zoomed pixel, the sphere whose visible highlight it is in, or -1 [array]",
         "noise_to_difference_max": "largest ratio of Monte Carlo noise to the lobe difference over a highlight [ratio]",
     }),
+    _stage("decision", "beyond", RANGE + POWER + ("decision.*",),
+           ("q_choice.Q_used", "linear_coefficient.slope_used", "linear_coefficient.intercept_used",
+            "hemispherical.coef_scale_used", "hemispherical.coef_offset_used",
+            "lobe_comparison.lobes", "lobe_comparison.d_curves", "lobe_comparison.D_curves", "lobe_comparison.rows",
+            "gpu_isa.available", "gpu_isa.reason", "gpu_isa.rows",
+            "power_front.members", "power_front.d_curves", "power_front.D_curves",
+            "lobe_search.ranges", "lobe_search.n_grid", "lobe_search.families", "lobe_search.members",
+            "lobe_search.candidates", "ndf.lobes", "ndf.d_curves", "ndf.D_curves"), {
+        "available": "whether machine code was measured, so that scenarios could be decided [bool]",
+        "reason": "why not, where it was not [text]",
+        "rule": "the declared rule with the run's budgets, as text [text]",
+        "budgets": "decision.max_d, decision.max_D and decision.max_energy_excess [dict]",
+        "candidates": "per candidate, use (lobe: against cos^n; ndf: against Beckmann) and n range: max d and D at "
+                      "equal peak, the normalized peak over the reference's, the float16 error and its route, cycles "
+                      "per architecture with n per material, and per pixel each normalization's cycles, largest "
+                      "albedo and float16 error [list]",
+        "table": "per architecture, n range, use (phong, blinn, ndf), n_per (material, pixel) and precision (fp32, "
+                 "fp16): winner, runner_up, reason, qualifying candidates and the winner's cycles, d, D, peak ratio "
+                 "and float16 error [list]",
+        "facts": "the facts that change the common case's answer (n per pixel, fp16, the spherical Gaussian's class, "
+                 "the normalized peak), each with the scenarios it changes, most first [list]",
+        "paper_line_vs_per_n_optimum": "per range: f_Q2's max d with the run's line, the per-n minimax optimum of its "
+                                       "own family (square_peak1, Beaudoin and Guardado's table) and their ratio [list]",
+    }),
 )
 
 BY_NAME: Mapping[str, Stage] = MappingProxyType({s.name: s for s in STAGES})

@@ -120,10 +120,8 @@ def check_available() -> str:
 def glsl_expression(expr) -> str:
     """A sympy expression in n as GLSL, integer powers written as products (as a shader author
     writes them) and pi as a number."""
-    expr = sp.sympify(expr).subs(sp.pi, sp.Float(float(sp.pi), 17))
-    expr = expr.replace(lambda e: e.is_Pow and e.exp.is_Integer and 1 < e.exp <= 8,
-                        lambda e: sp.Mul(*([e.base] * int(e.exp)), evaluate=False))
-    return sp.glsl_code(expr)
+    from .coef_forms import glsl
+    return glsl(sp.sympify(expr).subs(sp.pi, sp.Float(float(sp.pi), 17)))
 
 
 def spirv_binary(source: str, folder: Path, name: str, stage: str = "frag") -> Path:

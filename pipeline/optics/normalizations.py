@@ -21,6 +21,7 @@ import numpy as np
 import sympy as sp
 
 from . import integrals
+from .coef_forms import reciprocal_form
 from .registry import Parameters, k_Q2, symbols
 
 GOTANDA = (0.0397436, 0.0856832)
@@ -49,8 +50,9 @@ def normalizations(p: Parameters) -> dict[str, Normalization]:
     power = int(p.power)
     k_expr = k_Q2(n, sp.Float(a), sp.Float(b))
     big = {which: integrals.coef_of_k(integrals.integral(which, power)).args[0][0] for which in ("phong", "blinn")}
-    exact_phong = big["phong"].subs(integrals.k, unit(k_expr))
-    exact_blinn = big["blinn"].subs(integrals.k, unit(k_expr))
+    # As a shader computes them: in r = 1 / k, no pow and no power of k that overflows float16 (coef_forms).
+    exact_phong = reciprocal_form(big["phong"], k_expr)
+    exact_blinn = reciprocal_form(big["blinn"], k_expr)
     phong_fn, _ = integrals.exact_coef_code("phong", power)
     blinn_fn, _ = integrals.exact_coef_code("blinn", power)
     (p1, p0), (b1, b0) = integrals.asymptote("phong", power), integrals.asymptote("blinn", power)

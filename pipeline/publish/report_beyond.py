@@ -248,7 +248,9 @@ def verdict_section(config, r) -> list[str]:
         cheap = q2_code["transcendental"] == 0
         sg, schlick = machine_row(r, "SG"), machine_row(r, "Schlick")
         exact_px = machine_row(r, "f_Q2", "lobe and coef, n per pixel", normalization="phong exact_phong")
-        lines.append(f"- **\"No expensive operations\"**: {'yes' if cheap else 'no'}, in the machine code a GPU "
+        per_pixel = "yes" if exact_px and exact_px["net_transcendental"] == 0 else "no"
+        lines.append(f"- **\"No expensive operations\"**: {'yes' if cheap else 'no'} with n per material, {per_pixel} "
+                     f"with n per pixel and the exact coef, in the machine code a GPU "
                      f"runs (RADV, RDNA3, net of the wrapper): f_Q2 is {machine_text(q2_code)}, against "
                      f"{machine_text(pow_code)} for cos^n (pow is log, multiply, exp), {machine_text(sg)} for a "
                      f"spherical Gaussian and {machine_text(schlick)} for Schlick's lobe (machine-code table above). "
@@ -397,11 +399,16 @@ def render_verdict(s) -> str:
     shares = [f"{row['scene']} n = {row['n']:g}: {100 * row['flip_share_epicenter']:.0f} % in the epicenter, "
               f"{100 * row['flip_share_blooming']:.0f} % in the rest of the visible highlight"
               for row in s["statistics"] if row["lobe"] == "f_Q2"]
+    like_f_2 = sum(abs(a["f_Q2"] - a["f_2"]) < abs(a["f_Q2"] - a[registry.REFERENCE]) for a in s["visible_areas"])
+    smaller = sum(a["f_Q2"] < a[registry.REFERENCE] for a in s["visible_areas"])
+    outside = sum(row["flip_share_epicenter"] < 0.5 for row in s["statistics"] if row["lobe"] == "f_Q2")
+    rows_q2 = sum(1 for row in s["statistics"] if row["lobe"] == "f_Q2")
     return (f"**What the images show.** By FLIP over the visible highlight, f_Q2 is closer to cos^n than f_2 in "
-            f"{closer} of {total} scene and exponent pairs, and by little. Both quadratic lobes end where cos^n "
-            "still glows: their visible highlights are far smaller than the reference's (" + "; ".join(parts)
-            + "). f_Q2's FLIP error lies mostly outside the epicenter, where its accuracy was designed ("
-            + "; ".join(shares) + "): f_Q2 looks like f_2, not like cos^n.")
+            f"{closer} of {total} scene and exponent pairs (largest FLIP: f_Q2 {s['flip_f_Q2_max']:.4f}, f_2 "
+            f"{s['flip_f_2_max']:.4f}). f_Q2's visible highlight is smaller than the reference's in {smaller} of "
+            f"{len(s['visible_areas'])} pairs and closer in area to f_2's than to cos^n's in {like_f_2} (" + "; ".join(parts)
+            + f"). Its FLIP error lies mostly outside the epicenter, where its accuracy was designed, in {outside} of "
+            f"{rows_q2} images (" + "; ".join(shares) + ").")
 
 
 MAIN_FAMILY = "gfx1100"       # the chip family whose machine code the verdict and the front quote (RDNA3)
@@ -562,24 +569,71 @@ def ndf_section(config, r, figures) -> list[str]:
     if code and all(code.values()):
         q = code[registry.family_name(r["gpu_isa"]["power"])]
         saving = code["GGX"]["net_cycles_per_wave"] - q["net_cycles_per_wave"]
-        lines += [f"**For an engine that already ships GGX**: f_Q2 as its D saves {saving:g} cycles per wave per "
-                  "light on RDNA3 (D alone, of a BRDF whose G, F and lights cost more), and gives another look: it "
-                  f"ends near 1.5 alpha where GGX has its long tail, and it is "
+        lines += [f"**For an engine that already ships GGX**: f_Q2 as its D "
+                  + (f"saves {saving:g} cycles per wave per light" if saving > 0 else f"costs {-saving:g} cycles per wave more")
+                  + " on RDNA3 (D alone, of a BRDF whose G, F and lights cost more); it ends near 1.5 alpha where GGX "
+                  "has its long tail, and it is "
                   + ("farther from" if mr["flip_f_Q2_vs_beckmann_max"] > mr["flip_ggx_vs_beckmann_max"] else "no farther from")
                   + f" Beckmann (FLIP up to {mr['flip_f_Q2_vs_beckmann_max']:.3f}) than GGX is (up to "
-                  f"{mr['flip_ggx_vs_beckmann_max']:.3f}). "
-                  "Not a replacement for GGX; a cheaper highlight of its own shape.", ""]
+                  f"{mr['flip_ggx_vs_beckmann_max']:.3f}). " + ndf_decision_text(r), ""]
     return lines + embed(figures, "ndf")
 
 
+def ndf_decision_text(r) -> str:
+    """What the decision table says of the NDF use (n per material, fp32), from its rows."""
+    d = r.get("decision")
+    if not d or not d["available"]:
+        return ""
+    rows = [x for x in d["table"] if x["use"] == "ndf" and x["n_per"] == "material" and x["precision"] == "fp32"]
+    won = {}
+    for x in rows:
+        won.setdefault(x["winner"] or "nothing", []).append(f"{x['architecture'].upper()} {x['n_range'][0]:g}-{x['n_range'][1]:g}")
+    return ("By the decision's rule (its budgets on d and D against Beckmann), the NDF scenarios go to "
+            + "; ".join(f"{name} ({', '.join(where)})" for name, where in won.items()) + ".")
+
+
 NDF_NAMES = {"ggx": "GGX", "f_b": "cos^n", "f_2": "f_2", "f_Q2": "f_Q2"}
+
+
+def decision_section(config, r) -> list[str]:
+    """The candidates' measures on the widest range, from which the summary's answers are decided, and how
+    far the paper's line is from its own family's per-n optimum."""
+    d = r.get("decision")
+    if not d:
+        return []
+    lines = ["## The decision: measures per candidate", "",
+             f"The summary's answers are the `decision` stage's (`pipeline/stages/decision.py`): {d['rule']}. "
+             f"{len(d['table'])} scenarios (`decision.table`). Where machine code was not measured nothing is "
+             "decided" + (f" ({d['reason']})." if not d["available"] else ".")]
+    if not d["candidates"]:
+        return lines + [""]
+    widest = max((c["n_range"] for c in d["candidates"]), key=lambda x: x[1] - x[0])
+    arch = list(dict.fromkeys(a for c in d["candidates"] for a in c["cycles"]))
+    lines += ["", f"Measures for n in [{widest[0]:g}, {widest[1]:g}] (d, D at equal peak; the normalized peak over the "
+              "reference's, farthest from 1; the float16 error over the visible highlight and its better route; cycles "
+              "per wave with n per material):", "",
+              "| candidate | against | max d | max D | normalized peak | float16 error | "
+              + " | ".join(a.upper() for a in arch) + " |", "|---|---|---|---|---|---|" + "---|" * len(arch)]
+    for c in d["candidates"]:
+        if c["n_range"] != widest:
+            continue
+        lines.append(f"| {c['name']} | {'Beckmann' if c['use'] == 'ndf' else 'cos^n'} | {pct_small(c['d'])} | "
+                     f"{c['D']:.4g} | {c['peak_ratio']:.4g}x | {c['fp16_error']:.3g} ({c['fp16_route']} route) | "
+                     + " | ".join(f"{c['cycles'][a]:g}" if a in c["cycles"] else "-" for a in arch) + " |")
+    if d["paper_line_vs_per_n_optimum"]:
+        lines += ["", "**The paper's line against its family's per-n optimum** (Beaudoin and Guardado's per-n minimax "
+                  "k of the same family, ShaderX 2002: `square_peak1` of the lobe search fitted at each n): "
+                  + "; ".join(f"n in [{x['n_range'][0]:g}, {x['n_range'][1]:g}]: max d {pct_small(x['d_line'])} with "
+                              f"the line, {pct_small(x['d_per_n_optimum'])} per n ({x['ratio']:.4g}x)"
+                              for x in d["paper_line_vs_per_n_optimum"]) + "."]
+    return lines + [""]
 
 
 def sections(config, r, figures) -> list[str]:
     return (exact_section(config, r, figures) + albedo_section(config, r, figures)
             + comparison_section(config, r, figures) + cost_section(config, r) + machine_code_section(config, r)
             + front_section(config, r, figures) + lobe_search_section(config, r, figures) + half_section(config, r)
-            + verdict_section(config, r)
+            + decision_section(config, r) + verdict_section(config, r)
             + render_section(config, r, figures) + mitsuba_section(config, r, figures)
             + ndf_section(config, r, figures))
 

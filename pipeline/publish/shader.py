@@ -14,7 +14,7 @@ from pathlib import Path
 
 import sympy as sp
 
-from ..optics import integrals, registry
+from ..optics import coef_forms, integrals, registry
 from ..engine.cache import digest
 
 t, n = sp.symbols("t n", real=True)
@@ -25,10 +25,10 @@ def functions(slope: float, intercept: float, coef_scale: float, coef_offset: fl
               power: int = 2) -> dict[str, tuple]:
     """name -> (arguments, sympy expression) with the constants filled in, evaluated to floats."""
     k = sp.Float(slope) * n + sp.Float(intercept)
-    values = {integrals.slope: slope, integrals.intercept: intercept}
 
     def exact_coef(which):
-        return integrals.coef_of_n(integrals.integral(which, power)).subs(values).subs(integrals.n, n)
+        # In r = 1 / k: no pow, nothing that overflows float16 (optics.coef_forms).
+        return coef_forms.exact_coef_of_n(which, power, k)
     exprs = {
         "k": ((n,), k),
         "coef": ((n,), sp.Float(coef_scale) * (sp.Float(coef_offset) + n)),
@@ -50,8 +50,10 @@ DOCS = {
               "in float16 at large n, 1 - k u does not",
     "u": "u = 1 - dot(N, H) without cancellation, |N x H|^2 / (1 + N.H); 1 (the lobe's edge) for a back-facing H",
     "coef": "the run's normalization scale (offset + n) (the paper's 0.214 (0.807 + n))",
-    "coef_exact": "exact Phong-form normalization 1 / (2 pi Int(n)): albedo 1 at normal incidence",
-    "coef_blinn": "exact Blinn-form normalization (t = dot(N, H)), at normal view",
+    "coef_exact": "exact Phong-form normalization 1 / (2 pi Int(n)): albedo 1 at normal incidence; written in "
+                  "r = 1 / k: no pow, and no power of k that overflows half precision",
+    "coef_blinn": "exact Blinn-form normalization (t = dot(N, H)), at normal view; written in r = 1 / k: no pow, "
+                  "and no power of k that overflows half precision",
     "ndf": "the lobe as a microfacet normal distribution D(h), t = dot(N, H): normalized so that "
            "int D (N.H) dw_h = 1 (the Phong-form exact coef, not the Blinn-form one); use in "
            "f = D G F / (4 N.L N.V)",
@@ -59,12 +61,11 @@ DOCS = {
 
 
 def _glsl(expr) -> str:
-    return sp.glsl_code(expr)
+    return coef_forms.glsl(expr)
 
 
 def _hlsl(expr) -> str:
-    # C99 and HLSL share the expression syntax used here, except fmax.
-    return sp.ccode(expr).replace("fmax(", "max(")
+    return coef_forms.hlsl(expr)
 
 
 def _python(expr) -> str:
@@ -243,11 +244,57 @@ def write(out: Path, config, results, stage_keys) -> list[str]:
                            coef_note(h, results["exact_normalization"]))
     if results.get("lobe_search", {}).get("front"):
         files.update(search_sources(config, results["lobe_search"], f"{version} (results {tag})"))
+    files["cosquad.brdf"] = brdf_source(config, files["cosquad.glsl"], f"{version} (results {tag})")
     folder = out / "shader"
     folder.mkdir(exist_ok=True)
     for name, text in files.items():
         (folder / name).write_text(text)
     return [f"shader/{name}" for name in files]
+
+
+# Disney's BRDF Explorer (github.com/wdas/brdf): an "analytic" .brdf file holds parameter lines
+# ([type] [name] [min] [max] [default]; float, bool or color) and a GLSL function
+# vec3 BRDF(vec3 L, vec3 V, vec3 N, vec3 X, vec3 Y), which the viewer pastes into its shader templates
+# (GLSL 4.10) after one uniform per parameter. Lines starting with '#' are the file's comments.
+BRDF_PARAMETERS = ["float n 1 1000 100", "float lobe 0 2 1", "bool blinn 1", "bool normalized 1"]
+BRDF_FUNCTION = """const float PI = 3.14159265358979323846;
+
+// The lobe's BRDF value f (the viewer multiplies by N.L): lobe 0 is cos^n, 1 the run's f_Q2, 2 the spherical
+// Gaussian exp(n (t - 1)); t = N.H (blinn) or R.V. normalized: each lobe's exact coef of its form
+// (cos^n: (n + 2) / (2 pi) and Giesen's Blinn form; f_Q2: {p}coef_exact and {p}coef_blinn; the spherical
+// Gaussian: its Phong-form coef n^2 / (2 pi (n - 1 + exp(-n))) for both forms).
+vec3 BRDF(vec3 L, vec3 V, vec3 N, vec3 X, vec3 Y)
+{{
+    vec3 H = normalize(L + V);
+    vec3 R = reflect(-L, N);
+    float t = blinn ? max(dot(N, H), 0.0) : max(dot(R, V), 0.0);
+    int which = int(lobe + 0.5);
+    float value;
+    float coef;
+    if (which == 0) {{
+        value = pow(t, n);
+        coef = blinn ? (n + 2.0) * (n + 4.0) / (8.0 * PI * (exp2(-0.5 * n) + n)) : (n + 2.0) / (2.0 * PI);
+    }} else if (which == 1) {{
+        value = {p}lobe(t, n);
+        coef = blinn ? {p}coef_blinn(n) : {p}coef_exact(n);
+    }} else {{
+        value = exp(n * (t - 1.0));
+        coef = n * n / (2.0 * PI * (n - 1.0 + exp(-n)));
+    }}
+    return vec3(normalized ? coef * value : value);
+}}
+"""
+
+
+def brdf_source(config, glsl: str, version_tag: str) -> str:
+    """cosquad.brdf for BRDF Explorer: the exported GLSL functions and a BRDF function that selects
+    cos^n, f_Q2 or the spherical Gaussian, the Phong or Blinn form, with or without normalization."""
+    return "\n".join(["analytic", "",
+                      f"# cos^n, the run's f_Q2 and a spherical Gaussian, exported by cosquad-pipeline {version_tag}",
+                      f"# from run '{config.name}'. lobe: 0 cos^n, 1 f_Q2, 2 exp(n (t - 1)); blinn: t = N.H, else R.V;",
+                      "# normalized: each lobe's exact coef (albedo 1 at normal incidence).", "",
+                      "::begin parameters", *BRDF_PARAMETERS, "::end parameters", "",
+                      "::begin shader", glsl.rstrip(), "", BRDF_FUNCTION.format(p=PREFIX).rstrip(), "::end shader", ""])
 
 
 SEARCH_PREFIX = "cosfit_"

@@ -20,7 +20,7 @@ from pipeline.optics.lobes import linear_power_u
 def exported(paper_config, paper_run, tmp_path_factory):
     out = tmp_path_factory.mktemp("shader")
     names = shader.write(out, paper_config, paper_run, {"linear_coefficient": "a", "hemispherical": "b"})
-    expected = ["shader/cosquad.glsl", "shader/cosquad.hlsl", "shader/cosquad_twin.py"]
+    expected = ["shader/cosquad.glsl", "shader/cosquad.hlsl", "shader/cosquad_twin.py", "shader/cosquad.brdf"]
     if paper_run["lobe_search"]["front"]:        # the search's front members (tests/stages/test_lobe_search.py)
         expected += ["shader/lobe_search.glsl", "shader/lobe_search.hlsl", "shader/lobe_search_twin.py"]
     assert sorted(names) == sorted(expected)
@@ -113,6 +113,94 @@ void main() { color = vec4(cosquad_lobe(t_in, n)); }
     with_pow = source.replace("float b2 = b * b;", "float b2 = pow(b, 2.0);")
     assert with_pow != source
     assert _main_instructions(with_pow)["ops"].get("Pow") == 1
+
+
+def test_the_exported_coefs_have_no_pow_and_hold_in_float16(exported):
+    """The exact coefs as exported (in r = 1 / k, optics.coef_forms): no pow in the GLSL, no transcendental
+    instruction after spirv-opt, and evaluated in float16 (one rounding per operation) within ten unit
+    roundoffs (10 * 2^-11: about ten operations) of float64 at every integer n in [2, 1000], where the same
+    coefs written in k overflow float16 (k^4 > 65504 from n = 36, k^2 from n = 572 on the paper's line)."""
+    from pipeline.optics import integrals
+    from pipeline.stages.decision import coef_float16_error
+    fns = shader.functions(0.448, 0.099, 0.214, 0.807)
+    n = np.arange(2.0, 1001.0)
+    for name, which in (("coef_exact", "phong"), ("coef_blinn", "blinn")):
+        _, expr = fns[name]
+        assert "pow(" not in shader._glsl(expr) and "pow(" not in shader._hlsl(expr)
+        assert coef_float16_error(expr, n) <= 10 * 2.0 ** -11
+        in_k = integrals.coef_of_n(integrals.integral(which)).subs({integrals.slope: 0.448, integrals.intercept: 0.099})
+        assert coef_float16_error(in_k, n) == np.inf
+    from pipeline.optics import spirv as shader_cost
+    try:
+        shader_cost.tool("spirv-opt")
+    except shader_cost.ToolMissing as e:
+        pytest.skip(str(e))
+    source = "#version 450\n" + (exported / "cosquad.glsl").read_text() + """
+layout(location = 0) in float n_in;
+layout(location = 0) out vec4 color;
+void main() { color = vec4(cosquad_coef_exact(n_in), cosquad_coef_blinn(n_in), 0.0, 0.0); }
+"""
+    counts = _main_instructions(source)
+    assert counts["transcendental"] == 0 and not set(counts["ops"]) & set(shader_cost.TRANSCENDENTAL)
+
+
+def brdf_explorer_shader(path: Path) -> str:
+    """A .brdf file as BRDF Explorer reads it (src/brdf/BRDFBase.cpp of github.com/wdas/brdf): the first
+    line names the type ("analytic"), blank lines and lines starting with '#' are skipped, `::begin
+    parameters` lines declare `uniform float|bool|vec3 name;` (floats: name min max default), and the
+    `::begin shader` lines are pasted into a GLSL 4.10 template (brdftemplatesphere.frag: its uniforms,
+    ::INSERT_UNIFORMS_HERE::, ::INSERT_BRDF_FUNCTION_HERE::, then a main that calls BRDF)."""
+    lines = path.read_text().splitlines()
+    assert lines[0].split(" ")[0] == "analytic"
+    section, uniforms, shader_lines = "", [], []
+    for line in lines[1:]:
+        trimmed = line.strip()
+        if not trimmed or trimmed.startswith("#"):
+            continue
+        token = trimmed.split()
+        if token[0] == "::begin":
+            assert section == ""
+            section = token[1]
+        elif token[0] == "::end":
+            assert token[1] == section
+            section = ""
+        elif section == "parameters":
+            kind = {"float": "float", "bool": "bool", "color": "vec3"}[token[0]]
+            assert len(token) == {"float": 5, "bool": 3, "color": 5}[token[0]], trimmed
+            uniforms.append(f"uniform {kind} {token[1]};")
+        else:
+            assert section == "shader", section
+            shader_lines.append(line)
+    assert section == "" and uniforms and shader_lines
+    return "\n".join(["#version 410", "uniform vec3 incidentVector;", "uniform float useNDotL;",
+                      "in vec4 worldSpaceVert;", "in vec4 eyeSpaceVert;", "out vec4 fragColor;", *uniforms,
+                      *shader_lines, """
+void main(void)
+{
+    vec3 normal = normalize(worldSpaceVert.xyz);
+    vec3 viewVec = -normalize(eyeSpaceVert.xyz);
+    vec3 tangent = normalize(cross(vec3(0.0, 1.0, 0.0), normal));
+    vec3 bitangent = cross(normal, tangent);
+    vec3 b = max(BRDF(incidentVector, viewVec, normal, tangent, bitangent), vec3(0.0));
+    if (useNDotL != 0) b *= dot(normal, incidentVector);
+    fragColor = vec4(b, 1.0);
+}
+"""])
+
+
+def test_the_brdf_explorer_file_compiles_as_brdf_explorer_would_compile_it(exported, tmp_path):
+    validator = _validator()
+    if validator is None:
+        pytest.skip("glslangValidator not found: the .brdf export was not compiled")
+    frag = tmp_path / "brdf_explorer.frag"
+    frag.write_text(brdf_explorer_shader(exported / "cosquad.brdf"))
+    done = subprocess.run([validator, str(frag)], capture_output=True, text=True)
+    assert done.returncode == 0, done.stdout + done.stderr
+    # The harness can fail: a parameter the shader reads but the file does not declare.
+    broken = tmp_path / "broken.brdf"
+    broken.write_text((exported / "cosquad.brdf").read_text().replace("bool normalized 1\n", ""))
+    frag.write_text(brdf_explorer_shader(broken))
+    assert subprocess.run([validator, str(frag)], capture_output=True, text=True).returncode != 0
 
 
 def test_twin_lobe_of_u_matches_the_lobe_of_t(exported):

@@ -1,0 +1,576 @@
+"""Decisions (beyond the paper): which lobe a renderer should ship, per scenario, by one declared rule.
+
+A scenario is an architecture (each `gpu_isa` chip: rdna3, rdna2, gcn5) x a range of n (the lobe
+search's ranges) x a use ("phong": the lobe of t = R.V; "blinn": of t = N.H; "ndf": the microfacet
+distribution, against Beckmann at the matched roughness a^2 = 2 / (n + 2)) x where n lives
+("material": the lobe's parameters and coef are uniforms, the coef computed exactly on the CPU;
+"pixel": both computed in the shader) x the precision ("fp32", "fp16").
+
+The candidates: the reference itself (cos^n; Beckmann for the NDF), every registry lobe that
+approximates it, the family's other powers (`power_front`, each with its own line), the lobe search's
+families with their parameters as lines in n per range (what its exported shader computes), and for
+the NDF GGX and the family. Per candidate and range (`candidates`):
+- `d`, `D`: max over the range at equal peak (1 at t = 1), as the stages measured them
+  (`lobe_comparison`, `power_front`, `lobe_search`'s d_line and D_line, `ndf`);
+- `peak_ratio`: its normalized peak over the reference's (Phong-form coefs, 1 / (2 pi int g t dt); for
+  the NDF the same integral, int D (N.h) dw_h = 1), the value farthest from 1 at the grid's n in the
+  range: what a material switched to it without retuning gets at the highlight's centre;
+- `fp16_error`: the largest absolute error (peak 1) of its float16 evaluation over the visible
+  highlight (where the reference >= 1/255) at the grid's n in the range, the better of two routes
+  (t = dot(N, H) in float16; u = 1 - t from the cross product, the form rewritten in u: `FLOAT16`),
+  against its own float64 value;
+- per architecture, `cycles` with n per material (the lobe's shader alone) and, for the registry's
+  lobes, `pixel_cycles` per normalization of each form (lobe and coef compiled together, n per pixel),
+  with that coef's largest albedo (`lobe_comparison`) and its float16 error relative to its float64
+  value (inf where it overflows float16).
+
+The rule (`RULE`): a candidate qualifies when its max d <= `decision.max_d`, its max D (plus its
+float16 error in fp16: the two bound the error of what the shader returns) <= `decision.max_D`
+and, with n per pixel, its coef's largest albedo exceeds 1 by at most `decision.max_energy_excess`.
+The winner is the cheapest candidate that qualifies, equal cycles going to the smaller d, then to the
+earlier listed; the runner-up is the next by the same order. The reference qualifies in fp32 by
+construction (d = D = 0), so it wins when nothing cheaper qualifies; in fp16 nothing may qualify,
+and the row says so. A candidate whose cost was not compiled for the scenario is not ranked in it.
+Each row's `reason` is written from its numbers.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from scipy.integrate import quad
+
+from ..optics import lobe_families, machine_code, registry
+from ..optics.normalizations import normalizations
+from .common import n_range
+from .half_precision import _vectors
+
+ARCHITECTURES = {family: name.lower() for family, name in machine_code.FAMILIES.items()}
+USES = ("phong", "blinn", "ndf")
+N_PER = ("material", "pixel")
+PRECISIONS = ("fp32", "fp16")
+VISIBLE = 1.0 / 255.0
+SAMPLES = 4096
+RULE = ("a candidate qualifies when max d <= {max_d:.4g} % and max D (plus its float16 error in fp16) <= {max_D:.4g} "
+        "of the peak over the range (and, with n per pixel, its coef reflects at most {excess:.4g} % more than "
+        "arrives); the cheapest that qualifies wins (ties: the smaller d); the reference wins when nothing cheaper "
+        "qualifies")
+
+
+def rule_text(max_d: float, max_D: float, max_energy_excess: float) -> str:
+    return RULE.format(max_d=100 * max_d, max_D=max_D, excess=100 * max_energy_excess)
+
+
+# ---------------------------------------------------------------------------------------------------
+# Each candidate's value in float64 (of t) and in float16 (of t16 and u16, per route).
+
+def _f16(x):
+    return np.asarray(x, dtype=np.float64).astype(np.float16)
+
+
+def _transcendental16(f, x16):
+    """A transcendental of a float16 argument as a GPU computes it: at higher precision, rounded."""
+    return f(x16.astype(np.float32)).astype(np.float16)
+
+
+def _power16(base16, power: int):
+    from .half_precision import float16_power
+    return float16_power(base16, power)
+
+
+def linear_power(k: float, power: int):
+    """max(k (t - 1) + 1, 0)^power: (float64 of t, float16 routes)."""
+    def v64(t):
+        return np.maximum(k * (t - 1.0) + 1.0, 0.0) ** power
+
+    def v16(t16, u16):
+        k16, one = _f16(k), np.float16(1)
+        return {"t": _power16(np.maximum(k16 * t16 + (one - k16), np.float16(0)), power),
+                "u": _power16(np.maximum(one - k16 * u16, np.float16(0)), power)}
+    return v64, v16
+
+
+def cos_power(n: float):
+    def v64(t):
+        return np.maximum(t, 0.0) ** n
+
+    def v16(t16, u16):
+        power = lambda x: np.power(np.clip(x.astype(np.float32), 0, 1), np.float32(n)).astype(np.float16)
+        return {"t": power(t16), "u": power((np.float16(1) - u16).astype(np.float16))}
+    return v64, v16
+
+
+def exponential(rate: float):
+    """exp(rate (t - 1)): the spherical Gaussians."""
+    def v64(t):
+        return np.exp(rate * (t - 1.0))
+
+    def v16(t16, u16):
+        r16 = _f16(rate)
+        return {"t": _transcendental16(np.exp, (r16 * t16 - r16).astype(np.float16)),
+                "u": _transcendental16(np.exp, (-(r16 * u16)).astype(np.float16))}
+    return v64, v16
+
+
+def schlick(n: float):
+    """t / (n - n t + t)."""
+    def v64(t):
+        return t / (n - n * t + t)
+
+    def v16(t16, u16):
+        n16, one = _f16(n), np.float16(1)
+        return {"t": (t16 / (n16 - n16 * t16 + t16)).astype(np.float16),
+                "u": ((one - u16) / (n16 * u16 + (one - u16))).astype(np.float16)}
+    return v64, v16
+
+
+def family(name: str, P):
+    """A lobe-search family at shader parameters P = (A, B, C). Its u route folds the per-material
+    constants (in float64, then rounded to float16 as uniforms): A t + B = (A + B) - A u, and
+    (A t + B) t + C = (A u - (2 A + B)) u + (A + B + C)."""
+    index = lobe_families.NAMES.index(name)
+    A, B, C = (float(p) for p in P)
+
+    def v64(t):
+        return lobe_families.value_t(np, index, np.asarray(t, dtype=np.float64), np.array([A, B, C]))
+
+    def v16(t16, u16):
+        a, b, c = _f16(A), _f16(B), _f16(C)
+        a0, a1 = _f16(A + B), _f16(A)
+        one, zero = np.float16(1), np.float16(0)
+        if name in lobe_families.POWERS:
+            m = lobe_families.POWERS[name]
+            return {"t": _power16(np.maximum(a * t16 + b, zero), m), "u": _power16(np.maximum(a0 - a1 * u16, zero), m)}
+        if name == "exp2_linear":
+            return {"t": _transcendental16(np.exp2, (a * t16 + b).astype(np.float16)),
+                    "u": _transcendental16(np.exp2, (a0 - a1 * u16).astype(np.float16))}
+        if name == "exp2_quadratic":
+            q1, q0 = _f16(2 * A + B), _f16(A + B + C)
+            return {"t": _transcendental16(np.exp2, ((a * t16 + b) * t16 + c).astype(np.float16)),
+                    "u": _transcendental16(np.exp2, ((a1 * u16 - q1) * u16 + q0).astype(np.float16))}
+        ratio_t = (t16 / (a * t16 + b)).astype(np.float16)
+        ratio_u = ((one - u16) / (a0 - a1 * u16)).astype(np.float16)
+        if name == "rational":
+            return {"t": ratio_t, "u": ratio_u}
+        return {"t": (ratio_t * ratio_t).astype(np.float16), "u": (ratio_u * ratio_u).astype(np.float16)}
+    return v64, v16
+
+
+def beckmann_over_peak(n: float):
+    """Beckmann's D over its peak at a^2 = 2 / (n + 2): exp((t^2 - 1) / (a^2 t^2)) / t^4."""
+    a2 = 2.0 / (n + 2.0)
+
+    def v64(t):
+        t = np.maximum(np.asarray(t, dtype=np.float64), 1e-3)
+        return np.exp((t * t - 1.0) / (a2 * t * t)) / t ** 4
+
+    def v16(t16, u16):
+        a16, one = _f16(a2), np.float16(1)
+        t2 = (t16 * t16).astype(np.float16)
+        out_t = _transcendental16(np.exp, ((t2 - one) / (a16 * t2)).astype(np.float16))
+        out_t = (out_t / (t2 * t2)).astype(np.float16)
+        s = (one - u16).astype(np.float16)
+        s2 = (s * s).astype(np.float16)
+        out_u = _transcendental16(np.exp, (-(u16 * (np.float16(2) - u16)) / (a16 * s2)).astype(np.float16))
+        return {"t": out_t, "u": (out_u / (s2 * s2)).astype(np.float16)}
+    return v64, v16
+
+
+def ggx_over_peak(n: float):
+    """GGX's D over its peak at a^2 = 2 / (n + 2): (a^2 / (a^2 t^2 + 1 - t^2))^2."""
+    a2 = 2.0 / (n + 2.0)
+
+    def v64(t):
+        return (a2 / (a2 * t * t + 1.0 - t * t)) ** 2
+
+    def v16(t16, u16):
+        a16, one = _f16(a2), np.float16(1)
+        q_t = (a16 / (a16 * t16 * t16 + (one - t16 * t16))).astype(np.float16)
+        s = (one - u16).astype(np.float16)
+        q_u = (a16 / (a16 * s * s + u16 * (np.float16(2) - u16))).astype(np.float16)
+        return {"t": (q_t * q_t).astype(np.float16), "u": (q_u * q_u).astype(np.float16)}
+    return v64, v16
+
+
+def float16_error(make, n_values, reference) -> tuple[float, str]:
+    """(largest absolute float16 error over the n values, its better route): `make(n)` gives a
+    candidate's (float64, float16) pair at n, `reference(n)` the reference's, whose visible highlight
+    (>= 1/255 of its peak) is sampled."""
+    worst = {"t": 0.0, "u": 0.0}
+    for n in n_values:
+        v64, v16 = make(n)
+        ref64, _ = reference(n)
+        x = np.linspace(0.0, _visible_angle(ref64), SAMPLES)
+        N, H = (v.astype(np.float16) for v in _vectors(x, seed=0))
+        t16 = np.sum(N * H, axis=1, dtype=np.float16)
+        cross = np.cross(N, H).astype(np.float16)
+        u16 = (np.sum(cross * cross, axis=1, dtype=np.float16) / (np.float16(1) + t16)).astype(np.float16)
+        exact = v64(np.cos(x))
+        with np.errstate(all="ignore"):
+            routes = v16(t16, u16)
+        for route, values in routes.items():
+            error = np.abs(values.astype(np.float64) - exact)
+            worst[route] = max(worst[route], float(np.max(np.where(np.isfinite(error), error, np.inf))))
+    route = min(worst, key=worst.get)
+    return worst[route], route
+
+
+def _visible_angle(v64) -> float:
+    """The angle where a lobe (peak 1, decreasing) falls to 1/255, by bisection on [0, pi/2]."""
+    lo, hi = 0.0, 0.5 * np.pi
+    if v64(np.cos(hi)) >= VISIBLE:
+        return hi
+    for _ in range(60):
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if v64(np.cos(mid)) >= VISIBLE else (lo, mid)
+    return lo
+
+
+def phong_integral(v64, n: float) -> float:
+    """int_0^1 g(t) t dt (2 pi times it is the lobe's albedo at normal incidence in the Phong form), in
+    u = 1 - t with breakpoints where a lobe of width 1/n changes."""
+    points = [p for p in (0.5 / n, 2.0 / n, 8.0 / n, 32.0 / n) if p < 1.0]
+    value, _ = quad(lambda u: float(v64(np.array(1.0 - u))) * (1.0 - u), 0.0, 1.0, points=points or None,
+                    limit=400, epsabs=0.0, epsrel=1e-10)
+    return value
+
+
+def coef_float16_error(expr, n_values) -> float:
+    """The largest relative error of a normalization coef(n) (sympy, in n) evaluated in float16 (one
+    rounding per operation, integer powers as products), inf where it overflows."""
+    import sympy as sp
+    expr = sp.sympify(expr)
+    (n,) = expr.free_symbols
+    expr = expr.doit()
+    expr = expr.subs(sp.pi, sp.Float(math.pi, 17))
+    f = sp.lambdify(n, expr.replace(lambda e: e.is_Pow and e.exp.is_Integer and 1 < e.exp <= 8,
+                                    lambda e: sp.Mul(*([e.base] * int(e.exp)), evaluate=False)), "numpy")
+    g = sp.lambdify(n, expr, "numpy")
+    nv = np.asarray(n_values, dtype=np.float64)
+    with np.errstate(all="ignore"):
+        half = np.asarray(f(nv.astype(np.float16)), dtype=np.float64)
+        exact = np.asarray(g(nv), dtype=np.float64)
+        error = np.abs(half / exact - 1.0)
+    return float(np.max(np.where(np.isfinite(error), error, np.inf)))
+
+
+# ---------------------------------------------------------------------------------------------------
+# The rule.
+
+def ranked(options: list[dict]) -> list[dict]:
+    """Options (dicts with `cycles`, `d` and `qualifies`) in the rule's order: qualifying first, the
+    cheapest first, equal cycles by the smaller d, then as listed."""
+    order = sorted(range(len(options)), key=lambda i: (not options[i]["qualifies"], options[i]["cycles"],
+                                                      options[i]["d"], i))
+    return [options[i] for i in order]
+
+
+def decide(options: list[dict], reference: str, budget: dict) -> dict:
+    """The winner and runner-up of one scenario, and the reason in numbers. `options`: per candidate
+    name, label, cycles, d, D (plus float16 error in fp16), albedo_max (per pixel) and fp16_error; the
+    reference among them. `budget`: max_d, max_D, max_energy_excess, precision, n_per."""
+    for o in options:
+        energy_ok = budget["n_per"] == "material" or o["albedo_max"] - 1.0 <= budget["max_energy_excess"]
+        o["qualifies"] = bool(o["d"] <= budget["max_d"] and o["D_total"] <= budget["max_D"] and energy_ok)
+    order = ranked(options)
+    qualifying = [o for o in order if o["qualifies"]]
+    ref = next((o for o in options if o["name"] == reference), None)
+    if not qualifying:
+        closest = min(options, key=lambda o: (max(o["d"] / budget["max_d"], o["D_total"] / budget["max_D"]), o["cycles"]))
+        lost = [o for o in options if o["d"] <= budget["max_d"] and o["D"] <= budget["max_D"] < o["D_total"]]
+        return dict(winner="", runner_up="", qualifying=0, reason=_float16_text(lost) + (
+            f"nothing qualifies: the closest, {closest['name']}, has max d {_pct(closest['d'])} and max D "
+            f"{closest['D_total']:.4g}" + (f" (float16 error {closest['fp16_error']:.3g})" if budget["precision"] == "fp16"
+                                            else "") + f" against budgets {_pct(budget['max_d'])} and {budget['max_D']:.4g}"))
+    win = qualifying[0]
+    runner = qualifying[1] if len(qualifying) > 1 else None
+    lost = [o for o in options if not o["qualifies"] and o["d"] <= budget["max_d"]
+            and o["D"] <= budget["max_D"] < o["D_total"]] if budget["precision"] == "fp16" else []
+    text = f"{win['name']} qualifies at {win['cycles']:g} cycles (max d {_pct(win['d'])}, max D {win['D_total']:.4g}"
+    text += (f", albedo up to {win['albedo_max']:.4f})" if budget["n_per"] == "pixel" else ")")
+    if win["name"] == reference:
+        cheaper = [o for o in order if o["cycles"] < win["cycles"]]
+        if cheaper:
+            best = min(cheaper, key=lambda o: (o["d"], o["D_total"]))
+            text += (f"; nothing cheaper qualifies: the closest cheaper, {best['name']} at {best['cycles']:g} cycles, "
+                     f"has max d {_pct(best['d'])} and max D {best['D_total']:.4g}")
+        else:
+            text += "; no candidate is cheaper"
+    elif ref is not None:
+        text += f"; {reference} costs {ref['cycles']:g}" + ("" if ref["qualifies"] else " and does not qualify")
+    if runner is not None:
+        text += f"; runner-up {runner['name']} at {runner['cycles']:g} cycles, max d {_pct(runner['d'])}"
+    text += f"; {len(qualifying)} of {len(options)} candidates qualify"
+    if lost:
+        text += "; " + _float16_text(lost).removesuffix(": ")
+    return dict(winner=win["name"], runner_up=runner["name"] if runner else "", qualifying=len(qualifying), reason=text)
+
+
+def _float16_text(lost) -> str:
+    """Which options the float16 error disqualifies, and why (a coef that overflows float16 said so)."""
+    if not lost:
+        return ""
+    parts = []
+    for o in lost:
+        why = ("its coef overflows float16" if not math.isfinite(o["coef_fp16_error"])
+               else f"float16 error {o['fp16_error']:.3g}")
+        parts.append(f"{o['name']} ({why})")
+    return "in float16, " + ", ".join(parts) + (" no longer qualifies: " if len(parts) == 1 else " no longer qualify: ")
+
+
+def _pct(x: float) -> str:
+    return f"{100 * x:.3g} %"
+
+
+# ---------------------------------------------------------------------------------------------------
+
+def _registry_lobe(key: str, p: registry.Parameters):
+    lobe = registry.LOBES[key]
+
+    def make(n):
+        k = float(lobe.parameter(np, n, p))
+        if lobe.shape == "linear_power":
+            return linear_power(k, lobe.power_of(p))
+        if lobe.shape == "power":
+            return cos_power(k)
+        if lobe.shape == "schlick":
+            return schlick(k)
+        return exponential(k)
+    return make
+
+
+def _cycles(rows, chip: str, lobe: str, what: str, normalization: str = ""):
+    row = next((r for r in rows if r["family"] == chip and r["lobe"] == lobe and r["what"] == what
+                and r["normalization"] == normalization), None)
+    return None if row is None else float(row["net_cycles_per_wave"])
+
+
+def run(config, inputs, memo):
+    n_all = np.asarray(n_range(config), dtype=np.float64)
+    power = config["lobe.power"]
+    budget = dict(max_d=config["decision.max_d"], max_D=config["decision.max_D"],
+                  max_energy_excess=config["decision.max_energy_excess"])
+    p = registry.Parameters(Q=inputs["q_choice.Q_used"], slope=inputs["linear_coefficient.slope_used"],
+                            intercept=inputs["linear_coefficient.intercept_used"],
+                            coef_scale=inputs["hemispherical.coef_scale_used"],
+                            coef_offset=inputs["hemispherical.coef_offset_used"], power=power)
+    ranges = [tuple(r) for r in inputs["lobe_search.ranges"]]
+    grid = np.asarray(inputs["lobe_search.n_grid"], dtype=np.float64)
+    gpu_rows = inputs["gpu_isa.rows"] if inputs["gpu_isa.available"] else []
+    chips = [chip for chip in ARCHITECTURES if any(r["family"] == chip for r in gpu_rows)]
+    norms = normalizations(p)
+    albedo = {(r["lobe"], r["form"], r["normalization"]): r["albedo_max"] for r in inputs["lobe_comparison.rows"]}
+
+    # Candidates: (name, label, target, make(n) -> (float64, float16) pair, d/D per range, cycles).
+    cands = [dict(name=registry.REFERENCE, label="cos^n (the reference)", target="cos_n",
+                  make=lambda n: cos_power(n), dD=lambda lo, hi: (0.0, 0.0), lobe_key=registry.REFERENCE)]
+    d_curves, D_curves = (np.asarray(inputs[f"lobe_comparison.{c}"]) for c in ("d_curves", "D_curves"))
+    for i, lobe in enumerate(inputs["lobe_comparison.lobes"]):
+        key = lobe["registry_key"]
+        if lobe["lobe"] != key or key == registry.REFERENCE:
+            continue
+        cands.append(dict(name=lobe["name"], label=lobe["label"], target="cos_n", make=_registry_lobe(key, p),
+                          dD=_range_max(n_all, d_curves[i], D_curves[i]), lobe_key=key))
+    pf_d, pf_D = (np.asarray(inputs[f"power_front.{c}"]) for c in ("d_curves", "D_curves"))
+    for i, member in enumerate(inputs["power_front.members"]):
+        if member["power"] == power:
+            continue
+        slope, intercept, m = member["slope"], member["intercept"], member["power"]
+        cands.append(dict(name=member["name"], label=f"{member['name']} ({slope:.4g} n + {intercept:.4g})",
+                          target="cos_n", make=lambda n, a=slope, b=intercept, m=m: linear_power(a * n + b, m),
+                          dD=_range_max(n_all, pf_d[i], pf_D[i]), lobe_key=member["name"]))
+    search = {(m["family"], tuple(m["n_range"])): m for m in inputs["lobe_search.members"]
+              if not m["grammar"] and m["admissible"]}
+    for name in inputs["lobe_search.families"]:
+        lines = {r: search[(name, r)] for r in ranges if (name, r) in search}
+        if not lines:
+            continue
+        cands.append(dict(name=name, label=lobe_families.FAMILIES[name].formula + " (parameters as lines in n)",
+                          target="cos_n", search=lines, lobe_key=name))
+    ndf_d, ndf_D = (np.asarray(inputs[f"ndf.{c}"]) for c in ("d_curves", "D_curves"))
+    ndf_names = list(inputs["ndf.lobes"]) + ["GGX"]
+    ndf_cands = [dict(name="Beckmann", label="Beckmann (the reference)", target="beckmann",
+                      make=beckmann_over_peak, dD=lambda lo, hi: (0.0, 0.0), ndf_row="Beckmann")]
+    for i, name in enumerate(ndf_names):
+        make = (ggx_over_peak if name == "GGX" else
+                (lambda n: cos_power(n)) if name == registry.REFERENCE else _registry_lobe(name, p))
+        row = {"f_Q2": registry.family_name(power), "f_2": registry.family_name(2)}.get(name, name)
+        ndf_cands.append(dict(name=name, label=name, target="beckmann", make=make,
+                              dD=_range_max(n_all, ndf_d[i], ndf_D[i]), ndf_row=row))
+
+    # Measures per candidate and range.
+    measures = []
+    for lo, hi in ranges:
+        n_here = grid[(grid >= lo) & (grid <= hi)]
+        for c in cands + ndf_cands:
+            if "search" in c:
+                if (lo, hi) not in c["search"]:
+                    continue
+                member = c["search"][(lo, hi)]
+                slopes, intercepts = np.asarray(member["parameter_slopes"]), np.asarray(member["parameter_intercepts"])
+
+                def make(n, s=slopes, b=intercepts, name=c["name"]):
+                    P = np.zeros(3)
+                    P[:len(s)] = s * n + b
+                    return family(name, P)
+                d, D = member["d_line"], member["D_line"]
+            else:
+                make, (d, D) = c["make"], c["dD"](lo, hi)
+            reference = cos_power if c["target"] == "cos_n" else beckmann_over_peak
+            ratios = [phong_integral(reference(n)[0], n) / phong_integral(make(n)[0], n) for n in n_here]
+            peak = max(ratios, key=lambda r: abs(math.log(r)))
+            fp16, route = float16_error(make, n_here, reference)
+            measure = dict(name=c["name"], label=c["label"], use="ndf" if c["target"] == "beckmann" else "lobe",
+                           n_range=[lo, hi], d=float(d), D=float(D), peak_ratio=float(peak), fp16_error=fp16,
+                           fp16_route=route, cycles={}, pixel={})
+            for chip in chips:
+                arch = ARCHITECTURES[chip]
+                if c["target"] == "beckmann":
+                    cycles = _cycles(gpu_rows, chip, c["ndf_row"], "NDF")
+                elif "search" in c:
+                    cycles = next((r["cycles"] for r in inputs["lobe_search.candidates"] if r["architecture"] == arch
+                                   and r["family"] == c["name"] and tuple(r["n_range"]) == (lo, hi)), None)
+                elif c["lobe_key"] == "f_Q2" or c["lobe_key"].startswith("f_Q") and c["lobe_key"] != "f_Q":
+                    cycles = _cycles(gpu_rows, chip, registry.family_name(power) if c["lobe_key"] == "f_Q2"
+                                     else c["lobe_key"], "family lobe")
+                else:
+                    cycles = _cycles(gpu_rows, chip, c["lobe_key"], "lobe")
+                if cycles is not None:
+                    measure["cycles"][arch] = cycles
+                if c["target"] == "cos_n" and c["lobe_key"] in registry.LOBES and not (c["lobe_key"] == "f_Q2" and power != 2):
+                    for form, key in registry.LOBES[c["lobe_key"]].energy:
+                        px = _cycles(gpu_rows, chip, c["lobe_key"], "lobe and coef, n per pixel", f"{form} {key}")
+                        if px is None:
+                            continue
+                        measure["pixel"].setdefault(arch, []).append(dict(
+                            form=form, normalization=key, cycles=px,
+                            albedo_max=float(albedo.get((c["name"], form, key), np.nan)),
+                            coef_fp16_error=coef_float16_error(norms[key].expr, n_here)))
+            measures.append(measure)
+
+    table = scenario_table(measures, ranges, chips, budget)
+    found = facts(measures, table, budget)
+    paper_line = []
+    for lo, hi in ranges:
+        own = search.get(("square_peak1", (lo, hi)))
+        f_Q2 = next((m for m in measures if m["name"] == registry.family_name(power) and m["n_range"] == [lo, hi]
+                     and m["use"] == "lobe"), None)
+        if own is not None and f_Q2 is not None and power == 2:
+            paper_line.append(dict(n_range=[lo, hi], d_line=f_Q2["d"], d_per_n_optimum=own["d"],
+                                   ratio=f_Q2["d"] / own["d"]))
+    return dict(available=bool(chips), reason="" if chips else (inputs["gpu_isa.reason"] or "no machine code"),
+                rule=rule_text(budget["max_d"], budget["max_D"], budget["max_energy_excess"]),
+                budgets=budget, candidates=measures, table=table, facts=found,
+                paper_line_vs_per_n_optimum=paper_line)
+
+
+def _range_max(n_all, d, D):
+    def at(lo, hi):
+        inside = (n_all >= lo) & (n_all <= hi)
+        return float(np.asarray(d)[inside].max()), float(np.asarray(D)[inside].max())
+    return at
+
+
+def scenario_options(measures, n_range, arch: str, use: str, n_per: str, precision: str) -> list[dict]:
+    """The options of one scenario: per candidate of the use's target measured on the range, its cost
+    there (per pixel: one option per normalization of the use's form), d, D plus its float16 error in
+    fp16, and its coef's albedo and float16 error per pixel."""
+    target_use = "ndf" if use == "ndf" else "lobe"
+    options = []
+    for m in measures:
+        if m["use"] != target_use or m["n_range"] != list(n_range):
+            continue
+        if n_per == "material":
+            if arch not in m["cycles"]:
+                continue
+            variants = [dict(name=m["name"], cycles=m["cycles"][arch], albedo_max=1.0, coef_fp16_error=0.0)]
+        else:
+            variants = [dict(name=f"{m['name']} + {v['normalization']}", cycles=v["cycles"], albedo_max=v["albedo_max"],
+                             coef_fp16_error=v["coef_fp16_error"])
+                        for v in m["pixel"].get(arch, []) if v["form"] == use]
+        for v in variants:
+            fp16 = m["fp16_error"] + v["coef_fp16_error"] if precision == "fp16" else 0.0
+            options.append(dict(v, label=m["label"], lobe=m["name"], d=m["d"], D=m["D"], fp16_error=fp16,
+                                D_total=m["D"] + fp16, peak_ratio=m["peak_ratio"]))
+    return options
+
+
+def scenario_table(measures, ranges, chips, budget) -> list[dict]:
+    """One row per scenario: the winner and runner-up by `decide`, or why there is none."""
+    rows = []
+    for chip in chips:
+        arch = ARCHITECTURES[chip]
+        for lo, hi in ranges:
+            for use in USES:
+                reference = "Beckmann" if use == "ndf" else registry.REFERENCE
+                for n_per in N_PER:
+                    for precision in PRECISIONS:
+                        options = scenario_options(measures, (lo, hi), arch, use, n_per, precision)
+                        row = dict(architecture=arch, n_range=[lo, hi], use=use, n_per=n_per, precision=precision,
+                                   candidates=len(options))
+                        ref_name = reference if n_per == "material" else next(
+                            (o["name"] for o in options if o["lobe"] == reference), reference)
+                        if not any(o["lobe"] == reference for o in options):
+                            row.update(winner="", runner_up="", qualifying=0, reason=(
+                                f"not decided: the reference {reference} was not compiled "
+                                f"{'with n per pixel' if n_per == 'pixel' else 'per material'} for {arch}"))
+                        else:
+                            row.update(decide(options, ref_name, dict(budget, n_per=n_per, precision=precision)))
+                        win = next((o for o in options if o["name"] == row["winner"]), None)
+                        row.update(winner_lobe=win["lobe"] if win else "", winner_cycles=win["cycles"] if win else -1.0,
+                                   winner_d=win["d"] if win else -1.0, winner_D=win["D_total"] if win else -1.0,
+                                   winner_peak_ratio=win["peak_ratio"] if win else -1.0,
+                                   winner_fp16_error=win["fp16_error"] if win else -1.0)
+                        rows.append(row)
+    return rows
+
+
+EXP_CLASS = ("SG", "SG_Lagarde", "exp2_linear", "exp2_quadratic")   # the spherical Gaussian's class: exp of t
+
+
+def _key(row):
+    return row["architecture"], tuple(row["n_range"]), row["use"]
+
+
+def facts(measures, table, budget) -> list[dict]:
+    """The facts that change the common case's answer (Phong or Blinn lobe, n per material, fp32), each
+    with how many of its decided scenarios they change, most first:
+
+    - "n_per_pixel": the winner's lobe differs when n, and so the coef, is per pixel;
+    - "fp16": the winner differs in half precision;
+    - "exp_class": the winner differs when the spherical Gaussian's class (exp or exp2 of a function of t:
+      `EXP_CLASS`) is left out (decided again without it);
+    - "normalized_peak": the winner's normalized peak differs from the reference's by more than max_d
+      (the budget of the relative error at the highlight's centre): a material switched to it needs
+      retuning.
+
+    Each fact carries its scenarios' winners before and after ("changed": list of dicts)."""
+    common = [r for r in table if r["use"] != "ndf" and r["n_per"] == "material" and r["precision"] == "fp32"
+              and r["winner"]]
+    by = {(_key(r), r["n_per"], r["precision"]): r for r in table}
+    found = []
+
+    def changes(name, pairs):
+        found.append(dict(fact=name, count=len(pairs), of=len(common), changed=[
+            dict(architecture=r["architecture"], n_range=r["n_range"], use=r["use"], before=r["winner"], after=after,
+                 **extra) for r, after, extra in pairs]))
+
+    pixel = [(r, by[(_key(r), "pixel", "fp32")]) for r in common]
+    changes("n_per_pixel", [(r, o["winner"], dict(before_cycles=r["winner_cycles"], after_cycles=o["winner_cycles"]))
+                            for r, o in pixel if o["winner_lobe"] != r["winner_lobe"]])
+    half = [(r, by[(_key(r), "material", "fp16")]) for r in common]
+    changes("fp16", [(r, o["winner"], dict(reason=o["reason"])) for r, o in half if o["winner"] != r["winner"]])
+    without = []
+    for r in common:
+        options = [o for o in scenario_options(measures, r["n_range"], r["architecture"], r["use"], "material", "fp32")
+                   if o["lobe"] not in EXP_CLASS]
+        again = decide(options, registry.REFERENCE, dict(budget, n_per="material", precision="fp32"))
+        if again["winner"] != r["winner"]:
+            cycles = next(o["cycles"] for o in options if o["name"] == again["winner"]) if again["winner"] else -1.0
+            without.append((r, again["winner"], dict(before_cycles=r["winner_cycles"], after_cycles=cycles)))
+    changes("exp_class", without)
+    changes("normalized_peak", [(r, r["winner"], dict(peak_ratio=r["winner_peak_ratio"],
+                                                                     retune_scale=1.0 / r["winner_peak_ratio"])) for r in common
+                                if abs(r["winner_peak_ratio"] - 1.0) > budget["max_d"]])
+    return sorted(found, key=lambda f: -f["count"])
