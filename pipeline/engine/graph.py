@@ -480,7 +480,7 @@ STAGES: tuple[Stage, ...] = (
             "gpu_isa.available", "gpu_isa.reason", "gpu_isa.rows",
             "power_front.members", "power_front.d_curves", "power_front.D_curves",
             "lobe_search.ranges", "lobe_search.n_grid", "lobe_search.families", "lobe_search.members",
-            "lobe_search.candidates", "ndf.lobes", "ndf.d_curves", "ndf.D_curves"), {
+            "lobe_search.candidates", "lobe_search.per_n", "ndf.lobes", "ndf.d_curves", "ndf.D_curves"), {
         "available": "whether machine code was measured, so that scenarios could be decided [bool]",
         "reason": "why not, where it was not [text]",
         "rule": "the declared rule with the run's budgets, as text [text]",
@@ -494,6 +494,8 @@ STAGES: tuple[Stage, ...] = (
                  "and float16 error [list]",
         "facts": "the facts that change the common case's answer (n per pixel, fp16, the spherical Gaussian's class, "
                  "the normalized peak), each with the scenarios it changes, most first [list]",
+        "per_n": "the common case's winner per architecture at each n of the lobe search's grid, by the same rule "
+                  "on the candidates' d and D at that n (the search's forms at their per-n fit) [dict]",
         "paper_line_vs_per_n_optimum": "per range: f_Q2's max d with the run's line, the per-n minimax optimum of its "
                                        "own family (square_peak1, Beaudoin and Guardado's table) and their ratio [list]",
     }),

@@ -72,8 +72,9 @@ FIGURES = (
            "directional_albedo", ("directional_albedo",)),
     Figure("lobe_comparison.png", "Cheap lobes side by side: d and D per n", "lobe_comparison", "lobe_comparison",
            ("lobe_comparison",), RANGE),
-    Figure("error_cost_front.png", "Error against cost: every power of the family and the cheap lobes, per n range",
-           "power_front", "error_cost_front", ("power_front", "lobe_comparison", "gpu_isa"), RANGE),
+    Figure("error_cost_front.png", "The decision's common case per architecture and n range: max d against cycles "
+           "of every candidate, the budget and the winner, and the winner at each n", "decision", "error_cost_front",
+           ("decision",)),
     Figure("lobe_front.png", "The lobe search: max d against compiled cycles per architecture and n range",
            "lobe_search", "lobe_front", ("lobe_search",)),
     Figure("mitsuba_zoom.png", "Mitsuba: the sphere of the largest n rendered zoomed, so that its statistics rest on "

@@ -562,67 +562,86 @@ def mitsuba_crops(out, config, r):
 
 
 def error_cost_front(out, config, r):
-    """Error against cost: per n range (columns) and measure (rows: max d, max D), one point per lobe
-    at its cost per pixel, the family's powers joined by a line, the paper's power starred. Lobes of
-    equal cost are spread sideways a little so that each stays visible."""
-    from .report_beyond import machine_row
-    c, f, n = r["lobe_comparison"], r["power_front"], n_range(config)
-    measured = bool(r["gpu_isa"]["available"])
-
-    def cost(lobe, what, ops):
-        if measured:
-            row = machine_row(r, lobe, what)
-            return None if row is None else float(row["net_cycles_per_wave"])
-        return float(sum(ops.values()))
-    ranges = [m["n_range"] for m in f["members"][0]["by_range"]]
-    others = []     # (label, color, cost, [(d, D) per range])
-    for i, lobe in enumerate(c["lobes"]):
-        if lobe["registry_key"] in (registry.REFERENCE, "f_Q2") or lobe["lobe"] != lobe["registry_key"]:
-            continue
-        per = [(float(c["d_curves"][i][(n >= lo) & (n <= hi)].max()), float(c["D_curves"][i][(n >= lo) & (n <= hi)].max()))
-               for lo, hi in ranges]
-        others.append((lobe["label"], lobe_style(lobe)["color"], cost(lobe["registry_key"], "lobe", lobe["ops_pixel"]), per))
-    family = [(m["name"], cost(m["name"], "family lobe", m["ops_pixel"]), [(b["d"], b["D"]) for b in m["by_range"]])
-              for m in f["members"]]
-    # Equal costs side by side: a small offset per member of a tie, in the order listed.
-    ties: dict = {}
-    spread = 0.12 if measured else 0.08
-    def dodge(x):
-        k = ties.get(x, 0)
-        ties[x] = k + 1
-        return x + spread * ((k + 1) // 2) * (1 if k % 2 else -1)
-    x_family = [dodge(x) if x is not None else None for _, x, _ in family]
-    x_others = [dodge(x) if x is not None else None for _, _, x, _ in others]
-    fig, axes = plt.subplots(2, len(ranges), figsize=(4.4 * len(ranges), 7.4), squeeze=False)
-    for row, (measure, scale) in enumerate((("d", 100.0), ("D", 1.0))):
-        for j, (lo, hi) in enumerate(ranges):
-            ax = axes[row, j]
-            ys = [scale * per[j][row] for _, _, per in family]
-            ax.plot(x_family, ys, color="C0", marker="o", lw=1.4, ms=5)
-            for (name, _, _), x, y in zip(family, x_family, ys):
-                star = name == registry.family_name(2)
-                if star:
-                    ax.plot([x], [y], marker="*", ms=16, color="gold", mec="black", ls="none", zorder=5)
-                ax.annotate(keep(name), (x, y), textcoords="offset points", xytext=(5, 4), fontsize=8, color="C0",
-                            fontweight="bold" if star else "normal")
-            for (label, color, _, per), x in zip(others, x_others):
-                if x is None:
+    """The decision's common case (Phong or Blinn lobe, n per material, fp32), per architecture (rows)
+    and n range (columns): max d against cycles per wave of every candidate with its d > 0: the
+    registry's lobes (squares; the paper's f_Q2 starred), the family's other powers (circles), the lobe
+    search's forms with their lines in n (triangles); cos^n's cost dotted, the budget max_d dashed, the
+    winner ringed. Points of equal cost keep their cost: their labels are stacked. Bottom: the winner
+    at each n of the grid, per architecture, by the same rule."""
+    d = r["decision"]
+    if not d["available"] or not d["table"]:
+        fig, ax = plt.subplots(figsize=(8, 2))
+        ax.axis("off")
+        ax.text(0.5, 0.5, "No machine code, nothing decided: " + d["reason"], ha="center", va="center", wrap=True)
+        return _save(fig, out, "error_cost_front.png", tight=False)
+    cands = [m for m in d["candidates"] if m["use"] == "lobe"]
+    architectures = list(dict.fromkeys(row["architecture"] for row in d["table"]))
+    ranges_ = list(dict.fromkeys(tuple(m["n_range"]) for m in cands))
+    marker = {"registry": "s", "power": "o", "search": "^"}
+    color = {"registry": "C3", "power": "C0", "search": "C2"}
+    fig = plt.figure(figsize=(4.3 * len(ranges_), 3.3 * len(architectures) + 2.2))
+    grid = fig.add_gridspec(len(architectures) + 1, len(ranges_), height_ratios=[3.3] * len(architectures) + [1.6])
+    stacks = []
+    top = max(m["cycles"][a] for m in cands for a in m["cycles"])
+    for i, a in enumerate(architectures):
+        for j, (lo, hi) in enumerate(ranges_):
+            ax = fig.add_subplot(grid[i, j])
+            here = [m for m in cands if tuple(m["n_range"]) == (lo, hi) and a in m["cycles"]]
+            row = next(x for x in d["table"] if x["architecture"] == a and tuple(x["n_range"]) == (lo, hi)
+                       and x["use"] == "phong" and x["n_per"] == "material" and x["precision"] == "fp32")
+            labels: dict = {}
+            for m in here:
+                if m["kind"] == "reference":
+                    ax.axvline(m["cycles"][a], color="black", ls=":", lw=1)
+                    ax.text(m["cycles"][a], 1.0, " cos^n (d = 0)", transform=ax.get_xaxis_transform(), fontsize=6.5,
+                            va="top", ha="left")
                     continue
-                y = scale * per[j][row]
-                ax.plot([x], [y], marker="s", ls="none", color=color, ms=5)
-                ax.annotate(label, (x, y), textcoords="offset points", xytext=(5, -8), fontsize=7, color=color)
-            ax.set(yscale="log", title=f"n in [{lo:g}, {hi:g}]" if row == 0 else None)
+                star = m["name"] == "f_Q2"
+                x, y = m["cycles"][a], 100 * m["d"]
+                ax.plot(x, y, "*" if star else marker[m["kind"]], color="gold" if star else color[m["kind"]],
+                        mec="black" if star else color[m["kind"]], ms=13 if star else 5, zorder=5)
+                if m["name"] == row["winner"]:
+                    ax.plot(x, y, "o", mfc="none", mec="black", ms=13, mew=1.2, zorder=6)
+                best_here = min(o["d"] for o in here if o["cycles"][a] == x and o["kind"] != "reference")
+                if star or m["name"] == row["winner"] or m["d"] == best_here:     # the others: by marker only
+                    labels.setdefault(x, []).append((m["d"], keep(m["name"]) + (" (winner)" if m["name"] == row["winner"]
+                                                                               else ""), "black" if star else color[m["kind"]]))
+            ax.axhline(100 * d["budgets"]["max_d"], color="0.4", ls="--", lw=0.9)
+            ax.set(yscale="log", xlim=(0, top * 1.45))
             ax.grid(alpha=0.3, which="both")
+            stacks.append((ax, labels))
+            if i == 0:
+                ax.set_title(f"n in [{lo:g}, {hi:g}]", fontsize=10)
             if j == 0:
-                ax.set_ylabel("max relative error d in the epicenter zone (%)" if measure == "d" else
-                              "max absolute error D over [0, pi/2]")
-            if row == 1:
-                ax.set_xlabel("cycles per wave, RDNA3 (ACO's estimate, net of the wrapper)" if measured else
-                              "operations per pixel (sympy count; machine code not measured)", fontsize=8)
-    fig.suptitle("Error against cost: the family (k (cos x - 1) + 1)^m (blue line; the paper's m = 2 starred) "
-                 "and the other cheap lobes (squares)", fontsize=11)
+                ax.set_ylabel(f"{ARCHITECTURE_NAMES.get(a, a)}\nmax d in the zone (%)")
+            if i == len(architectures) - 1:
+                ax.set_xlabel("cycles per wave, n per material (RADV, net of the wrapper)", fontsize=8)
+    strip = fig.add_subplot(grid[len(architectures), :])
+    n = np.asarray(d["per_n"]["n"])
+    edges = np.concatenate([[n[0]], np.sqrt(n[1:] * n[:-1]), [n[-1]]])
+    names = list(dict.fromkeys(w for a in architectures for w in d["per_n"]["winners"][a]))
+    palette = {name: f"C{k % 10}" for k, name in enumerate(names)}
+    for i, a in enumerate(architectures):
+        for k, w in enumerate(d["per_n"]["winners"][a]):
+            strip.barh(i, edges[k + 1] - edges[k], left=edges[k], color=palette[w], height=0.8, edgecolor="none")
+    strip.set(xscale="log", yticks=range(len(architectures)), xlim=(n[0], n[-1]),
+              yticklabels=[ARCHITECTURE_NAMES.get(a, a) for a in architectures])
+    strip.invert_yaxis()
+    strip.set_xlabel("n: the winner at each n of the grid (same rule, the search's forms at their per-n fit)", fontsize=8)
+    strip.legend(handles=[plt.Rectangle((0, 0), 1, 1, color=palette[w]) for w in names],
+                 labels=[keep(w) for w in names], ncol=min(len(names), 6), fontsize=7, loc="upper center",
+                 bbox_to_anchor=(0.5, -0.45), frameon=False)
+    fig.suptitle("The decision, common case (Phong or Blinn lobe, n per material, fp32): max d against cost; dashed: "
+                 "the budget max_d; ringed: the winner. Squares: the registry's lobes (the paper's f_Q2 starred); "
+                 "circles: the family's powers; triangles: the lobe search's forms (parameters as lines in n). "
+                 "Labelled: the winner, f_Q2 and the best at each cost",
+                 fontsize=9.5, wrap=True)
     _names_at_power(fig)
-    fig.tight_layout(rect=(0, 0, 1, 0.96))
+    fig.tight_layout(rect=(0, 0.02, 1, 0.95))
+    fig.canvas.draw()
+    for ax, labels in stacks:
+        _stacked_labels(fig, ax, labels)
+    _names_at_power(fig)
     return _save(fig, out, "error_cost_front.png", tight=False)
 
 

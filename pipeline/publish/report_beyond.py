@@ -595,7 +595,7 @@ def ndf_decision_text(r) -> str:
 NDF_NAMES = {"ggx": "GGX", "f_b": "cos^n", "f_2": "f_2", "f_Q2": "f_Q2"}
 
 
-def decision_section(config, r) -> list[str]:
+def decision_section(config, r, figures) -> list[str]:
     """The candidates' measures on the widest range, from which the summary's answers are decided, and how
     far the paper's line is from its own family's per-n optimum."""
     d = r.get("decision")
@@ -626,14 +626,14 @@ def decision_section(config, r) -> list[str]:
                   + "; ".join(f"n in [{x['n_range'][0]:g}, {x['n_range'][1]:g}]: max d {pct_small(x['d_line'])} with "
                               f"the line, {pct_small(x['d_per_n_optimum'])} per n ({x['ratio']:.4g}x)"
                               for x in d["paper_line_vs_per_n_optimum"]) + "."]
-    return lines + [""]
+    return lines + [""] + embed(figures, "decision")
 
 
 def sections(config, r, figures) -> list[str]:
     return (exact_section(config, r, figures) + albedo_section(config, r, figures)
             + comparison_section(config, r, figures) + cost_section(config, r) + machine_code_section(config, r)
             + front_section(config, r, figures) + lobe_search_section(config, r, figures) + half_section(config, r)
-            + decision_section(config, r) + verdict_section(config, r)
+            + decision_section(config, r, figures) + verdict_section(config, r)
             + render_section(config, r, figures) + mitsuba_section(config, r, figures)
             + ndf_section(config, r, figures))
 

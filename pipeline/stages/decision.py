@@ -36,15 +36,16 @@ Each row's `reason` is written from its numbers.
 
 from __future__ import annotations
 
+import functools
 import math
 
 import numpy as np
 from scipy.integrate import quad
 
 from ..optics import lobe_families, machine_code, registry
+from ..optics.float16 import float16_power, vectors
 from ..optics.normalizations import normalizations
 from .common import n_range
-from .half_precision import _vectors
 
 ARCHITECTURES = {family: name.lower() for family, name in machine_code.FAMILIES.items()}
 USES = ("phong", "blinn", "ndf")
@@ -75,7 +76,6 @@ def _transcendental16(f, x16):
 
 
 def _power16(base16, power: int):
-    from .half_precision import float16_power
     return float16_power(base16, power)
 
 
@@ -201,11 +201,7 @@ def float16_error(make, n_values, reference) -> tuple[float, str]:
     for n in n_values:
         v64, v16 = make(n)
         ref64, _ = reference(n)
-        x = np.linspace(0.0, _visible_angle(ref64), SAMPLES)
-        N, H = (v.astype(np.float16) for v in _vectors(x, seed=0))
-        t16 = np.sum(N * H, axis=1, dtype=np.float16)
-        cross = np.cross(N, H).astype(np.float16)
-        u16 = (np.sum(cross * cross, axis=1, dtype=np.float16) / (np.float16(1) + t16)).astype(np.float16)
+        x, t16, u16 = _highlight(_visible_angle(ref64))
         exact = v64(np.cos(x))
         with np.errstate(all="ignore"):
             routes = v16(t16, u16)
@@ -214,6 +210,18 @@ def float16_error(make, n_values, reference) -> tuple[float, str]:
             worst[route] = max(worst[route], float(np.max(np.where(np.isfinite(error), error, np.inf))))
     route = min(worst, key=worst.get)
     return worst[route], route
+
+
+@functools.lru_cache(maxsize=64)
+def _highlight(angle: float):
+    """(x, t, u): angles over [0, angle] and, from float16 vectors N, H at those angles (fixed seed),
+    t = N.H and u = |N x H|^2 / (1 + N.H) in float16, as a shader forms them."""
+    x = np.linspace(0.0, angle, SAMPLES)
+    N, H = (v.astype(np.float16) for v in vectors(x, seed=0))
+    t16 = np.sum(N * H, axis=1, dtype=np.float16)
+    cross = np.cross(N, H).astype(np.float16)
+    u16 = (np.sum(cross * cross, axis=1, dtype=np.float16) / (np.float16(1) + t16)).astype(np.float16)
+    return x, t16, u16
 
 
 def _visible_angle(v64) -> float:
@@ -363,23 +371,26 @@ def run(config, inputs, memo):
     albedo = {(r["lobe"], r["form"], r["normalization"]): r["albedo_max"] for r in inputs["lobe_comparison.rows"]}
 
     # Candidates: (name, label, target, make(n) -> (float64, float16) pair, d/D per range, cycles).
-    cands = [dict(name=registry.REFERENCE, label="cos^n (the reference)", target="cos_n",
-                  make=lambda n: cos_power(n), dD=lambda lo, hi: (0.0, 0.0), lobe_key=registry.REFERENCE)]
+    cands = [dict(name=registry.REFERENCE, label="cos^n (the reference)", target="cos_n", kind="reference",
+                    make=lambda n: cos_power(n), dD=lambda lo, hi: (0.0, 0.0), lobe_key=registry.REFERENCE,
+                  curves=(np.zeros_like(n_all), np.zeros_like(n_all)))]
     d_curves, D_curves = (np.asarray(inputs[f"lobe_comparison.{c}"]) for c in ("d_curves", "D_curves"))
     for i, lobe in enumerate(inputs["lobe_comparison.lobes"]):
         key = lobe["registry_key"]
         if lobe["lobe"] != key or key == registry.REFERENCE:
             continue
-        cands.append(dict(name=lobe["name"], label=lobe["label"], target="cos_n", make=_registry_lobe(key, p),
-                          dD=_range_max(n_all, d_curves[i], D_curves[i]), lobe_key=key))
+        cands.append(dict(name=lobe["name"], label=lobe["label"], target="cos_n", kind="registry",
+                          make=_registry_lobe(key, p),
+                          dD=_range_max(n_all, d_curves[i], D_curves[i]), lobe_key=key, curves=(d_curves[i], D_curves[i])))
     pf_d, pf_D = (np.asarray(inputs[f"power_front.{c}"]) for c in ("d_curves", "D_curves"))
     for i, member in enumerate(inputs["power_front.members"]):
         if member["power"] == power:
             continue
         slope, intercept, m = member["slope"], member["intercept"], member["power"]
         cands.append(dict(name=member["name"], label=f"{member['name']} ({slope:.4g} n + {intercept:.4g})",
-                          target="cos_n", make=lambda n, a=slope, b=intercept, m=m: linear_power(a * n + b, m),
-                          dD=_range_max(n_all, pf_d[i], pf_D[i]), lobe_key=member["name"]))
+                          target="cos_n", kind="power",
+                          make=lambda n, a=slope, b=intercept, m=m: linear_power(a * n + b, m),
+                          dD=_range_max(n_all, pf_d[i], pf_D[i]), lobe_key=member["name"], curves=(pf_d[i], pf_D[i])))
     search = {(m["family"], tuple(m["n_range"])): m for m in inputs["lobe_search.members"]
               if not m["grammar"] and m["admissible"]}
     for name in inputs["lobe_search.families"]:
@@ -387,16 +398,16 @@ def run(config, inputs, memo):
         if not lines:
             continue
         cands.append(dict(name=name, label=lobe_families.FAMILIES[name].formula + " (parameters as lines in n)",
-                          target="cos_n", search=lines, lobe_key=name))
+                          target="cos_n", kind="search", search=lines, lobe_key=name))
     ndf_d, ndf_D = (np.asarray(inputs[f"ndf.{c}"]) for c in ("d_curves", "D_curves"))
     ndf_names = list(inputs["ndf.lobes"]) + ["GGX"]
-    ndf_cands = [dict(name="Beckmann", label="Beckmann (the reference)", target="beckmann",
+    ndf_cands = [dict(name="Beckmann", label="Beckmann (the reference)", target="beckmann", kind="ndf",
                       make=beckmann_over_peak, dD=lambda lo, hi: (0.0, 0.0), ndf_row="Beckmann")]
     for i, name in enumerate(ndf_names):
         make = (ggx_over_peak if name == "GGX" else
                 (lambda n: cos_power(n)) if name == registry.REFERENCE else _registry_lobe(name, p))
         row = {"f_Q2": registry.family_name(power), "f_2": registry.family_name(2)}.get(name, name)
-        ndf_cands.append(dict(name=name, label=name, target="beckmann", make=make,
+        ndf_cands.append(dict(name=name, label=name, target="beckmann", kind="ndf", make=make,
                               dD=_range_max(n_all, ndf_d[i], ndf_D[i]), ndf_row=row))
 
     # Measures per candidate and range.
@@ -421,7 +432,8 @@ def run(config, inputs, memo):
             ratios = [phong_integral(reference(n)[0], n) / phong_integral(make(n)[0], n) for n in n_here]
             peak = max(ratios, key=lambda r: abs(math.log(r)))
             fp16, route = float16_error(make, n_here, reference)
-            measure = dict(name=c["name"], label=c["label"], use="ndf" if c["target"] == "beckmann" else "lobe",
+            measure = dict(name=c["name"], label=c["label"], kind=c["kind"],
+                           use="ndf" if c["target"] == "beckmann" else "lobe",
                            n_range=[lo, hi], d=float(d), D=float(D), peak_ratio=float(peak), fp16_error=fp16,
                            fp16_route=route, cycles={}, pixel={})
             for chip in chips:
@@ -451,6 +463,7 @@ def run(config, inputs, memo):
 
     table = scenario_table(measures, ranges, chips, budget)
     found = facts(measures, table, budget)
+    per_n = per_n_winners(measures, cands, n_all, grid, inputs["lobe_search.per_n"], budget)
     paper_line = []
     for lo, hi in ranges:
         own = search.get(("square_peak1", (lo, hi)))
@@ -461,7 +474,7 @@ def run(config, inputs, memo):
                                    ratio=f_Q2["d"] / own["d"]))
     return dict(available=bool(chips), reason="" if chips else (inputs["gpu_isa.reason"] or "no machine code"),
                 rule=rule_text(budget["max_d"], budget["max_D"], budget["max_energy_excess"]),
-                budgets=budget, candidates=measures, table=table, facts=found,
+                budgets=budget, candidates=measures, table=table, facts=found, per_n=per_n,
                 paper_line_vs_per_n_optimum=paper_line)
 
 
@@ -574,3 +587,31 @@ def facts(measures, table, budget) -> list[dict]:
                                                                      retune_scale=1.0 / r["winner_peak_ratio"])) for r in common
                                 if abs(r["winner_peak_ratio"] - 1.0) > budget["max_d"]])
     return sorted(found, key=lambda f: -f["count"])
+
+
+def per_n_winners(measures, cands, n_all, grid, search_per_n, budget) -> dict:
+    """The common case's winner (Phong or Blinn lobe, n per material, fp32) at each n of the lobe
+    search's grid, by the same rule on each candidate's d and D at that n alone: the registry's lobes and
+    the family's powers from their curves over every integer n (interpolated), the search's forms at
+    their per-n fit (`lobe_search.per_n`: the shipped lines err a little more, `d_line`)."""
+    at_n = {}
+    for c in cands:
+        if "curves" in c:
+            at_n[c["name"]] = tuple(np.interp(grid, n_all, np.asarray(curve)) for curve in c["curves"])
+    for row in search_per_n:
+        if row["family"] in lobe_families.FAMILIES:
+            at_n[row["family"]] = (np.asarray(row["d"]), np.asarray(row["D"]))
+    architectures = list(dict.fromkeys(a for m in measures for a in m["cycles"]))
+    cycles = {a: {m["name"]: m["cycles"][a] for m in measures if m["use"] == "lobe" and a in m["cycles"]}
+              for a in architectures}
+    winners = {}
+    for a in architectures:
+        names = [name for name in at_n if name in cycles[a]]
+        column = []
+        for i in range(len(grid)):
+            options = [dict(name=name, cycles=cycles[a][name], d=float(at_n[name][0][i]), D=float(at_n[name][1][i]),
+                            D_total=float(at_n[name][1][i]), albedo_max=1.0, fp16_error=0.0, coef_fp16_error=0.0)
+                       for name in names]
+            column.append(decide(options, registry.REFERENCE, dict(budget, n_per="material", precision="fp32"))["winner"])
+        winners[a] = column
+    return dict(n=[float(x) for x in grid], winners=winners)

@@ -17,39 +17,17 @@ means visible bands) and the largest absolute error against the float64 lobe (pe
 
 import numpy as np
 
-from ..optics.registry import power_steps
+from ..optics.float16 import float16_power, vectors
 
 SAMPLES = 20000
 VISIBLE = 1.0 / 255.0
-
-
-def _vectors(x, seed):
-    """Unit vectors N, H (float64) at the angles x between them, in random orientations."""
-    rng = np.random.default_rng(seed)
-    N = rng.normal(size=(len(x), 3))
-    N /= np.linalg.norm(N, axis=1, keepdims=True)
-    r = rng.normal(size=(len(x), 3))
-    r -= np.sum(r * N, axis=1, keepdims=True) * N
-    r /= np.linalg.norm(r, axis=1, keepdims=True)
-    return N, np.cos(x)[:, None] * N + np.sin(x)[:, None] * r
-
-
-def float16_power(base, power: int):
-    """base^power in float16 as the exported shader computes it (`power_steps`: squarings and
-    multiplies, each rounded to float16)."""
-    values = {"b": base.astype(np.float16)}
-    steps, result = power_steps("b", power)
-    for name, expression in steps:
-        left, right = (values[v.strip()] for v in expression.split("*"))
-        values[name] = (left * right).astype(np.float16)
-    return values[result]
 
 
 def half_lobes(n: float, k: float, seed: int = 0, power: int = 2) -> list[dict]:
     """Rows (lobe, route, distinct values, max absolute error) at exponent n, f_Q2 coefficient k
     (f_Qm at power m; the rows keep the registry key f_Q2)."""
     x = np.linspace(0.0, np.arccos(VISIBLE ** (1.0 / n)), SAMPLES)
-    N, H = (v.astype(np.float16) for v in _vectors(x, seed))
+    N, H = (v.astype(np.float16) for v in vectors(x, seed))
     one, zero, k16 = np.float16(1), np.float16(0), np.float16(k)
     t = np.sum(N * H, axis=1, dtype=np.float16)
     cross = np.cross(N, H).astype(np.float16)

@@ -1,9 +1,10 @@
 """The half-precision stage against a direct float16 evaluation written out here, one rounding per
-operation, on the same pairs of vectors (`half_precision._vectors`, the stage's inputs)."""
+operation, on the same pairs of vectors (`optics.float16.vectors`, the stage's inputs)."""
 
 import numpy as np
 
-from pipeline.stages.half_precision import SAMPLES, VISIBLE, _vectors
+from pipeline.optics.float16 import vectors
+from pipeline.stages.half_precision import SAMPLES, VISIBLE
 
 
 def half(a):
@@ -22,7 +23,7 @@ def direct_rows(n, k):
     the paper's power 2, every operation of the shader rounded to float16 in the order a shader
     writes it (dot products as `dot`; pow through float32, as GPUs evaluate it)."""
     x = np.linspace(0.0, np.arccos(VISIBLE ** (1.0 / n)), SAMPLES)
-    N, H = (half(v) for v in _vectors(x, 0))
+    N, H = (half(v) for v in vectors(x, 0))
     t = dot(N, H)
     c = np.stack([half(half(N[:, 1] * H[:, 2]) - half(N[:, 2] * H[:, 1])),
                   half(half(N[:, 2] * H[:, 0]) - half(N[:, 0] * H[:, 2])),

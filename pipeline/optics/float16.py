@@ -1,0 +1,29 @@
+"""Half precision as a shader computes it: one rounding to float16 per operation (numpy's float16
+arithmetic), and the unit vectors N, H at given angles whose dot and cross products a shader forms.
+Shared by the `half_precision` stage and the decision's float16 measure."""
+
+import numpy as np
+
+from .registry import power_steps
+
+
+def vectors(x, seed):
+    """Unit vectors N, H (float64) at the angles x between them, in random orientations."""
+    rng = np.random.default_rng(seed)
+    N = rng.normal(size=(len(x), 3))
+    N /= np.linalg.norm(N, axis=1, keepdims=True)
+    r = rng.normal(size=(len(x), 3))
+    r -= np.sum(r * N, axis=1, keepdims=True) * N
+    r /= np.linalg.norm(r, axis=1, keepdims=True)
+    return N, np.cos(x)[:, None] * N + np.sin(x)[:, None] * r
+
+
+def float16_power(base, power: int):
+    """base^power in float16 as the exported shader computes it (`power_steps`: squarings and
+    multiplies, each rounded to float16)."""
+    values = {"b": base.astype(np.float16)}
+    steps, result = power_steps("b", power)
+    for name, expression in steps:
+        left, right = (values[v.strip()] for v in expression.split("*"))
+        values[name] = (left * right).astype(np.float16)
+    return values[result]
