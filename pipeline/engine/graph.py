@@ -403,6 +403,11 @@ STAGES: tuple[Stage, ...] = (
                       "highlight, absolute error, PSNR) [list]",
         "flip_maps": "FLIP error maps: scene x n x candidate x H x W [array, float16 in [0, 1]]",
         "visible_areas": "per scene and n: pixels of each lobe's visible highlight [list, pixels]",
+        "shipped_display": "f_Q2 with its own exact Blinn-form coef, as an adopter ships it: scene x n x H x W x RGB "
+                           "[array, uint8 sRGB]",
+        "shipped_statistics": "per scene and n: that coef, its ratio to the reference's (the normalized peaks' "
+                              "ratio), and the mean FLIP over the visible highlight against the reference, as "
+                              "shipped and at equal peak [list]",
         "visible_area_ratio_f_Q2": "f_Q2's visible highlight over the reference's, first scene, largest n [ratio]",
         "visible_area_ratio_n": "that n [1]",
         "visible_area_scene": "that scene [text]",

@@ -85,6 +85,8 @@ FIGURES = (
            "ndf", "microfacet_renders", ("microfacet_render",)),
     Figure("render_n{n}.png", "Renders at n = {n}: reference, f_2, f_Q2", "render", "renders", ("render",),
            ("render.*",)),
+    Figure("render_shipped.png", "f_Q2 at equal peak and as shipped, with its own exact coef, beside cos^n",
+           "render", "render_shipped", ("render",), ("render.resolution", "render.exponents")),
     Figure("render_crops_n{n}.png", "Highlight crops at n = {n}: linear luminance, one scale, and a profile",
            "render", "render_crops", ("render",), ("render.exponents",)),
     Figure("render_errors_n{n}.png", "Render errors at n = {n}: FLIP maps and absolute error", "render", "render_errors", ("render",),

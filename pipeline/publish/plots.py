@@ -439,6 +439,35 @@ def renders(out, config, r):
     return names
 
 
+def render_shipped(out, config, r):
+    """Per exponent (rows), the first scene: the reference cos^n with Giesen's coef, f_Q2 at equal peak
+    (Giesen's coef) and f_Q2 as shipped (its own exact Blinn-form coef)."""
+    s = r["render"]
+    res = config["render.resolution"]
+    exponents = list(config["render.exponents"])
+    fig, axes = plt.subplots(len(exponents), 3, figsize=(3 * res / 100, len(exponents) * res / 100 + 0.8), dpi=100,
+                             squeeze=False)
+    f_Q2 = s["lobes"].index("f_Q2")
+    for j, n in enumerate(exponents):
+        row = next(x for x in s["shipped_statistics"] if x["scene"] == s["scenes"][0] and x["n"] == float(n))
+        for col, (image, title) in enumerate((
+                (s["display"][0, j, 0], "cos^n, Giesen's coef"),
+                (s["display"][0, j, f_Q2], f"f_Q2, Giesen's coef (equal peak): FLIP {row['equal_peak_flip_highlight']:.3f}"),
+                (s["shipped_display"][0, j], f"f_Q2, its exact coef ({row['coef_over_reference']:.3f}x): "
+                                             f"FLIP {row['flip_highlight']:.3f}"))):
+            ax = axes[j, col]
+            ax.imshow(image, interpolation="nearest")
+            ax.set_axis_off()
+            ax.set_title(f"n = {n:g}: {title}", fontsize=8.5)
+    height = len(exponents) * res / 100 + 0.8
+    fig.suptitle(f"{s['scenes'][0]}: f_Q2 at equal peak and as shipped (its own normalization); FLIP over the visible "
+                 "highlight against cos^n", fontsize=10, y=1 - 0.1 / height)
+    fig.subplots_adjust(left=0.005, right=0.995, bottom=0.005, top=1 - 0.6 / height, wspace=0.02,
+                        hspace=0.25 / (res / 100))
+    _names_at_power(fig)
+    return _save(fig, out, "render_shipped.png", dpi=100, tight=False)
+
+
 def render_errors(out, config, r):
     """Per exponent: FLIP error maps and absolute luminance errors of each candidate, each kind on one
     colour scale shared by the lobes and scenes of the figure."""

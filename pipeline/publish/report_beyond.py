@@ -376,7 +376,7 @@ def render_section(config, r, figures) -> list[str]:
         lines.append(f"| {row['scene']} | {row['n']:g} | {row['lobe']} | {pct(row['max_rel'])} | "
                      f"{pct(row['d_bound'])} | {row['flip_frame']:.4f} | "
                      f"{row['flip_highlight']:.4f} | {area[row['lobe']]} ({area[registry.REFERENCE]}) | {row['psnr']:.1f} |")
-    lines += ["", render_verdict(s), ""]
+    lines += ["", render_verdict(s), "", shipped_text(s), ""]
     lines += embed(figures, "render")
     lines += ["Shader: `shader/cosquad.glsl` and `shader/cosquad.hlsl` hold the run's k(n), lobe (of t and of u), "
               "coef(n), the exact Phong- and Blinn-form normalizations with the constants filled in, and the "
@@ -385,6 +385,20 @@ def render_section(config, r, figures) -> list[str]:
               "`shader/cosquad_twin.py` is the same code printed as Python, which the tests evaluate "
               "against the pipeline's lobe.", ""]
     return lines
+
+
+def shipped_text(s) -> str:
+    """f_Q2 as shipped (its own exact Blinn-form coef) against f_Q2 at equal peak, from the statistics."""
+    rows = s["shipped_statistics"]
+    worse = sum(x["flip_highlight"] > x["equal_peak_flip_highlight"] for x in rows)
+    return ("**As shipped.** With its own exact Blinn-form coef, f_Q2's highlight peak is the coef's ratio to "
+            "Giesen's times the reference's (" + "; ".join(f"{x['scene']} n = {x['n']:g}: {x['coef_over_reference']:.4f}x"
+                                                          for x in rows if x["scene"] == s["scenes"][0])
+            + f"), and its FLIP over the visible highlight is larger than at equal peak in {worse} of {len(rows)} "
+            "scene and exponent pairs (" + "; ".join(f"{x['scene']} n = {x['n']:g}: {x['flip_highlight']:.4f} "
+                                                    f"against {x['equal_peak_flip_highlight']:.4f}" for x in rows)
+            + f"): a material switched to it gets a {'brighter' if min(x['coef_over_reference'] for x in rows) > 1 else 'dimmer' if max(x['coef_over_reference'] for x in rows) < 1 else 'different'} "
+            "highlight centre unless retuned (`render_shipped.png`).")
 
 
 def render_verdict(s) -> str:

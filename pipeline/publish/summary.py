@@ -27,7 +27,8 @@ def _winner(row) -> str:
     """A scenario's winner in a few words, or that nothing qualifies."""
     if not row["winner"]:
         return "nothing qualifies" if row["reason"].startswith(("nothing", "in float16")) else "not decided"
-    return f"{row['winner']}: {row['winner_cycles']:g} cycles, max d {_pct(row['winner_d'])}"
+    route = {"u": ", u = 1 - N.H from the cross product", "t": ", t = N.H"}.get(row["winner_fp16_route"], "")
+    return f"{row['winner']}: {row['winner_cycles']:g} cycles, max d {_pct(row['winner_d'])}{route}"
 
 
 def _rows(table, **where):

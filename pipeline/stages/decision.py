@@ -505,6 +505,7 @@ def scenario_options(measures, n_range, arch: str, use: str, n_per: str, precisi
         for v in variants:
             fp16 = m["fp16_error"] + v["coef_fp16_error"] if precision == "fp16" else 0.0
             options.append(dict(v, label=m["label"], lobe=m["name"], d=m["d"], D=m["D"], fp16_error=fp16,
+                                fp16_route=m["fp16_route"],
                                 D_total=m["D"] + fp16, peak_ratio=m["peak_ratio"]))
     return options
 
@@ -534,7 +535,8 @@ def scenario_table(measures, ranges, chips, budget) -> list[dict]:
                         row.update(winner_lobe=win["lobe"] if win else "", winner_cycles=win["cycles"] if win else -1.0,
                                    winner_d=win["d"] if win else -1.0, winner_D=win["D_total"] if win else -1.0,
                                    winner_peak_ratio=win["peak_ratio"] if win else -1.0,
-                                   winner_fp16_error=win["fp16_error"] if win else -1.0)
+                                   winner_fp16_error=win["fp16_error"] if win else -1.0,
+                                   winner_fp16_route=win["fp16_route"] if win and precision == "fp16" else "")
                         rows.append(row)
     return rows
 

@@ -2,7 +2,8 @@
 Giesen's exact normalization, against f_2 and f_Q2, on the scenes of `pipeline.optics.raytrace`, at the
 exponents of `render.exponents`. render.normalization = "reference" gives every lobe Giesen's
 factor (equal peaks: the images differ by shape alone); "exact" gives each its own exact
-Blinn-form normalization (`pipeline.optics.integrals`; equal energy at normal view).
+Blinn-form normalization (`pipeline.optics.integrals`; equal energy at normal view). Either way f_Q2 is
+also rendered as an adopter ships it, with its own exact Blinn-form coef (`shipped_*`).
 
 Per scene, exponent and candidate lobe, against the reference:
 - the relative error of luminance in the epicenter zone, where the reference lobe cos^n(N.H) >= L
@@ -110,7 +111,8 @@ def run(config, inputs, memo):
     display = np.zeros(shape + (len(LOBES), res, res, 3), dtype=np.uint8)
     lum = np.zeros(shape + (len(LOBES), res, res), dtype=np.float32)
     flip_maps = np.zeros(shape + (len(LOBES) - 1, res, res), dtype=np.float16)
-    stats, areas = [], []
+    stats, areas, shipped = [], [], []
+    shipped_display = np.zeros(shape + (res, res, 3), dtype=np.uint8)
     for i, scene in enumerate(SCENES):
         for j, n in enumerate(exponents):
             spec = lobes(n)
@@ -127,12 +129,24 @@ def run(config, inputs, memo):
                 area[registry.REFERENCE], area[name] = st.pop("reference_visible_pixels"), st.pop("visible_pixels")
                 stats.append(dict(scene=scene.name, n=n, lobe=name, coef=float(coef), d_bound=d_bound(name, n), **st))
             areas.append(area)
+            # f_Q2 as an adopter ships it: with its own exact Blinn-form coef (the same call as above
+            # where render.normalization is "exact").
+            shape_, p, _, m = spec["f_Q2"]
+            own_coef = float(blinn_fns[m](p, 1.0, 0.0))
+            c = memo("render_candidate", candidate, scene_index=i, resolution=res, n=n, shape=shape_,
+                     p=float(p), coef=own_coef, reference_coef=ref_coef, level=level, power=m)
+            shipped_display[i, j] = c["display"]
+            shipped.append(dict(scene=scene.name, n=n, coef=own_coef, coef_over_reference=own_coef / ref_coef,
+                                flip_highlight=c["stats"]["flip_highlight"],
+                                equal_peak_flip_highlight=next(x["flip_highlight"] for x in stats if x["scene"] == scene.name
+                                                               and x["n"] == n and x["lobe"] == "f_Q2")))
     _base_display.cache_clear()
     _reference_image.cache_clear()
     # The first scene at the largest exponent: f_Q2's visible highlight against the reference's.
     last = next(a for a in areas if a["scene"] == SCENES[0].name and a["n"] == max(exponents))
     return dict(lobes=list(LOBES), scenes=[s.name for s in SCENES], display=display, luminance=lum,
                 flip_maps=flip_maps, statistics=stats, visible_areas=areas,
+                shipped_display=shipped_display, shipped_statistics=shipped,
                 visible_area_ratio_n=float(last["n"]), visible_area_scene=last["scene"],
                 visible_area_ratio_f_Q2=last["f_Q2"] / max(last[registry.REFERENCE], 1),
                 flip_f_Q2_max=max(s["flip_highlight"] for s in stats if s["lobe"] == "f_Q2"),

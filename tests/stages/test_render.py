@@ -95,3 +95,17 @@ def test_flip_statistics_against_flip_on_the_stored_images(paper_run):
     assert s["flip_highlight"] > s["flip_frame"] > 0.0
 
 
+
+
+def test_f_Q2_as_shipped_has_its_exact_blinn_coef_and_differs_from_equal_peak(paper_run, n_all):
+    """The shipped renders use f_Q2's exact Blinn-form coef: its ratio to Giesen's is the exact_normalization
+    stage's coef over Giesen's closed form (n + 2)(n + 4) / (8 pi (2^(-n/2) + n)), and the images differ
+    from the equal-peak ones wherever that ratio is not 1."""
+    s, e = paper_run["render"], paper_run["exact_normalization"]
+    for j, n in enumerate(sorted({x["n"] for x in s["shipped_statistics"]})):
+        giesen = (n + 2) * (n + 4) / (8 * np.pi * (2.0 ** (-n / 2) + n))
+        exact = e["coef_blinn"][int(n) - int(n_all[0])]
+        for row in (x for x in s["shipped_statistics"] if x["n"] == n):
+            assert row["coef_over_reference"] == pytest.approx(exact / giesen, rel=1e-9)
+        f_Q2 = s["lobes"].index("f_Q2")
+        assert not np.array_equal(s["shipped_display"][0, j], s["display"][0, j, f_Q2])
