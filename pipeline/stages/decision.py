@@ -348,6 +348,62 @@ def _registry_lobe(key: str, p: registry.Parameters):
     return make
 
 
+def registry_descriptor(key: str, p: registry.Parameters) -> list:
+    """A registry lobe as plain values: its key and the run parameters it reads (so that a refit that
+    moves Q re-measures f_Q alone)."""
+    lobe = registry.LOBES[key]
+    fields = {}
+    if "Q" in lobe.depends_on:
+        fields["Q"] = float(p.Q)
+    if "line" in lobe.depends_on:
+        fields.update(slope=float(p.slope), intercept=float(p.intercept))
+    if lobe.follows_power:
+        fields["power"] = int(p.power)
+    return ["registry", key, fields]
+
+
+def evaluator(descriptor):
+    """make(n) -> (float64, float16 routes) of a candidate from its descriptor: ["cos_n"], ["beckmann"],
+    ["ggx"], ["registry", key, parameters], ["power", slope, intercept, m] (the family's line at power m)
+    or ["family", name, slopes, intercepts] (a lobe search form with its lines in n)."""
+    kind = descriptor[0]
+    if kind == "cos_n":
+        return cos_power
+    if kind == "beckmann":
+        return beckmann_over_peak
+    if kind == "ggx":
+        return ggx_over_peak
+    if kind == "registry":
+        return _registry_lobe(descriptor[1], registry.Parameters(**descriptor[2]))
+    if kind == "power":
+        _, a, b, m = descriptor
+        return lambda n: linear_power(a * n + b, int(m))
+    _, name, slopes, intercepts = descriptor
+
+    def make(n):
+        P = np.zeros(3)
+        P[:len(slopes)] = np.asarray(slopes) * n + np.asarray(intercepts)
+        return family(name, P)
+    return make
+
+
+def shape_measures(descriptor, target: str, n) -> dict:
+    """A candidate's normalized peak over the reference's (the value farthest from 1 at the exponents n)
+    and its float16 error with its better route: the decision's measures that depend on the candidate's
+    shape alone (memoized by descriptor)."""
+    make = evaluator(descriptor)
+    reference = cos_power if target == "cos_n" else beckmann_over_peak
+    ratios = [phong_integral(reference(x)[0], x) / phong_integral(make(x)[0], x) for x in n]
+    fp16, route = float16_error(make, n, reference)
+    return dict(peak_ratio=float(max(ratios, key=lambda r: abs(math.log(r)))), fp16_error=fp16, fp16_route=route)
+
+
+def coef_measure(expression: str, n) -> dict:
+    """`coef_float16_error` of a normalization given as sympy's srepr (memoized by its text)."""
+    import sympy as sp
+    return dict(error=coef_float16_error(sp.sympify(expression), n))
+
+
 def _cycles(rows, chip: str, lobe: str, what: str, normalization: str = ""):
     row = next((r for r in rows if r["family"] == chip and r["lobe"] == lobe and r["what"] == what
                 and r["normalization"] == normalization), None)
@@ -355,6 +411,7 @@ def _cycles(rows, chip: str, lobe: str, what: str, normalization: str = ""):
 
 
 def run(config, inputs, memo):
+    import sympy as sp
     n_all = np.asarray(n_range(config), dtype=np.float64)
     power = config["lobe.power"]
     budget = dict(max_d=config["decision.max_d"], max_D=config["decision.max_D"],
@@ -372,7 +429,7 @@ def run(config, inputs, memo):
 
     # Candidates: (name, label, target, make(n) -> (float64, float16) pair, d/D per range, cycles).
     cands = [dict(name=registry.REFERENCE, label="cos^n (the reference)", target="cos_n", kind="reference",
-                    make=lambda n: cos_power(n), dD=lambda lo, hi: (0.0, 0.0), lobe_key=registry.REFERENCE,
+                  desc=["cos_n"], dD=lambda lo, hi: (0.0, 0.0), lobe_key=registry.REFERENCE,
                   curves=(np.zeros_like(n_all), np.zeros_like(n_all)))]
     d_curves, D_curves = (np.asarray(inputs[f"lobe_comparison.{c}"]) for c in ("d_curves", "D_curves"))
     for i, lobe in enumerate(inputs["lobe_comparison.lobes"]):
@@ -380,7 +437,7 @@ def run(config, inputs, memo):
         if lobe["lobe"] != key or key == registry.REFERENCE:
             continue
         cands.append(dict(name=lobe["name"], label=lobe["label"], target="cos_n", kind="registry",
-                          make=_registry_lobe(key, p),
+                          desc=registry_descriptor(key, p),
                           dD=_range_max(n_all, d_curves[i], D_curves[i]), lobe_key=key, curves=(d_curves[i], D_curves[i])))
     pf_d, pf_D = (np.asarray(inputs[f"power_front.{c}"]) for c in ("d_curves", "D_curves"))
     for i, member in enumerate(inputs["power_front.members"]):
@@ -389,7 +446,7 @@ def run(config, inputs, memo):
         slope, intercept, m = member["slope"], member["intercept"], member["power"]
         cands.append(dict(name=member["name"], label=f"{member['name']} ({slope:.4g} n + {intercept:.4g})",
                           target="cos_n", kind="power",
-                          make=lambda n, a=slope, b=intercept, m=m: linear_power(a * n + b, m),
+                          desc=["power", float(slope), float(intercept), int(m)],
                           dD=_range_max(n_all, pf_d[i], pf_D[i]), lobe_key=member["name"], curves=(pf_d[i], pf_D[i])))
     search = {(m["family"], tuple(m["n_range"])): m for m in inputs["lobe_search.members"]
               if not m["grammar"] and m["admissible"]}
@@ -402,12 +459,11 @@ def run(config, inputs, memo):
     ndf_d, ndf_D = (np.asarray(inputs[f"ndf.{c}"]) for c in ("d_curves", "D_curves"))
     ndf_names = list(inputs["ndf.lobes"]) + ["GGX"]
     ndf_cands = [dict(name="Beckmann", label="Beckmann (the reference)", target="beckmann", kind="ndf",
-                      make=beckmann_over_peak, dD=lambda lo, hi: (0.0, 0.0), ndf_row="Beckmann")]
+                      desc=["beckmann"], dD=lambda lo, hi: (0.0, 0.0), ndf_row="Beckmann")]
     for i, name in enumerate(ndf_names):
-        make = (ggx_over_peak if name == "GGX" else
-                (lambda n: cos_power(n)) if name == registry.REFERENCE else _registry_lobe(name, p))
+        desc = (["ggx"] if name == "GGX" else ["cos_n"] if name == registry.REFERENCE else registry_descriptor(name, p))
         row = {"f_Q2": registry.family_name(power), "f_2": registry.family_name(2)}.get(name, name)
-        ndf_cands.append(dict(name=name, label=name, target="beckmann", kind="ndf", make=make,
+        ndf_cands.append(dict(name=name, label=name, target="beckmann", kind="ndf", desc=desc,
                               dD=_range_max(n_all, ndf_d[i], ndf_D[i]), ndf_row=row))
 
     # Measures per candidate and range.
@@ -419,23 +475,16 @@ def run(config, inputs, memo):
                 if (lo, hi) not in c["search"]:
                     continue
                 member = c["search"][(lo, hi)]
-                slopes, intercepts = np.asarray(member["parameter_slopes"]), np.asarray(member["parameter_intercepts"])
-
-                def make(n, s=slopes, b=intercepts, name=c["name"]):
-                    P = np.zeros(3)
-                    P[:len(s)] = s * n + b
-                    return family(name, P)
+                desc = ["family", c["name"], [float(v) for v in member["parameter_slopes"]],
+                        [float(v) for v in member["parameter_intercepts"]]]
                 d, D = member["d_line"], member["D_line"]
             else:
-                make, (d, D) = c["make"], c["dD"](lo, hi)
-            reference = cos_power if c["target"] == "cos_n" else beckmann_over_peak
-            ratios = [phong_integral(reference(n)[0], n) / phong_integral(make(n)[0], n) for n in n_here]
-            peak = max(ratios, key=lambda r: abs(math.log(r)))
-            fp16, route = float16_error(make, n_here, reference)
+                desc, (d, D) = c["desc"], c["dD"](lo, hi)
+            shaped = memo("decision_shape", shape_measures, descriptor=desc, target=c["target"],
+                          n=[float(x) for x in n_here])
             measure = dict(name=c["name"], label=c["label"], kind=c["kind"],
                            use="ndf" if c["target"] == "beckmann" else "lobe",
-                           n_range=[lo, hi], d=float(d), D=float(D), peak_ratio=float(peak), fp16_error=fp16,
-                           fp16_route=route, cycles={}, pixel={})
+                           n_range=[lo, hi], d=float(d), D=float(D), **shaped, cycles={}, pixel={})
             for chip in chips:
                 arch = ARCHITECTURES[chip]
                 if c["target"] == "beckmann":
@@ -458,7 +507,8 @@ def run(config, inputs, memo):
                         measure["pixel"].setdefault(arch, []).append(dict(
                             form=form, normalization=key, cycles=px,
                             albedo_max=float(albedo.get((c["name"], form, key), np.nan)),
-                            coef_fp16_error=coef_float16_error(norms[key].expr, n_here)))
+                            coef_fp16_error=memo("decision_coef", coef_measure, expression=sp.srepr(norms[key].expr),
+                                                 n=[float(x) for x in n_here])["error"]))
             measures.append(measure)
 
     table = scenario_table(measures, ranges, chips, budget)
