@@ -492,14 +492,18 @@ def run(config, inputs, memo):
                 elif "search" in c:
                     cycles = next((r["cycles"] for r in inputs["lobe_search.candidates"] if r["architecture"] == arch
                                    and r["family"] == c["name"] and tuple(r["n_range"]) == (lo, hi)), None)
-                elif c["lobe_key"] == "f_Q2" or c["lobe_key"].startswith("f_Q") and c["lobe_key"] != "f_Q":
-                    cycles = _cycles(gpu_rows, chip, registry.family_name(power) if c["lobe_key"] == "f_Q2"
-                                     else c["lobe_key"], "family lobe")
+                elif c["kind"] == "power":
+                    cycles = _cycles(gpu_rows, chip, c["lobe_key"], "family lobe")
+                elif c["lobe_key"] in registry.LOBES and registry.LOBES[c["lobe_key"]].follows_power:
+                    # f_Q and f_Q2 at the run's power m: the family's shader at m, k a uniform (gpu_isa
+                    # compiles the registry's own shaders at m = 2).
+                    cycles = _cycles(gpu_rows, chip, registry.family_name(power), "family lobe")
                 else:
                     cycles = _cycles(gpu_rows, chip, c["lobe_key"], "lobe")
                 if cycles is not None:
                     measure["cycles"][arch] = cycles
-                if c["target"] == "cos_n" and c["lobe_key"] in registry.LOBES and not (c["lobe_key"] == "f_Q2" and power != 2):
+                if (c["target"] == "cos_n" and c["lobe_key"] in registry.LOBES
+                        and not (registry.LOBES[c["lobe_key"]].follows_power and power != 2)):
                     for form, key in registry.LOBES[c["lobe_key"]].energy:
                         px = _cycles(gpu_rows, chip, c["lobe_key"], "lobe and coef, n per pixel", f"{form} {key}")
                         if px is None:

@@ -274,9 +274,10 @@ def placement(cycles: float, d: float, front) -> dict | None:
 
 def registry_cycles(rows, lobe: str, chip: str, power: int):
     """Compiled cycles of a registry lobe alone (n and its parameter per material) from gpu_isa's rows;
-    the run's fitted lobe is the family's row at the run's power."""
+    a lobe that follows the run's power (f_Q, f_Q2) is the family's row at that power (the same shader
+    with k a uniform; the registry's own rows are compiled at m = 2)."""
     what = "lobe"
-    if lobe == "f_Q2":
+    if registry.LOBES[lobe].follows_power:     # f_Q, f_Q2 at the run's power: the family's shader, k a uniform
         lobe, what = registry.family_name(power), "family lobe"
     row = next((r for r in rows if r["lobe"] == lobe and r["what"] == what and r["family"] == chip
                 and r["normalization"] == ""), None)
