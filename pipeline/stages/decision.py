@@ -17,10 +17,10 @@ the NDF GGX and the family. Per candidate and range (`candidates`):
   range: what a material switched to it without retuning gets at the highlight's centre;
 - `fp16_error`: the largest absolute error (peak 1) of its float16 evaluation over the visible
   highlight (where the reference >= 1/255) at the grid's n in the range, the better of two routes
-  (t = dot(N, H) in float16; u = 1 - t from the cross product, the form rewritten in u: `FLOAT16`),
-  against its own float64 value;
+  (t = dot(N, H) in float16; u = 1 - t from the cross product, the form rewritten in u: `family` says
+  how), against its own float64 value;
 - per architecture, `cycles` with n per material (the lobe's shader alone) and, for the registry's
-  lobes, `pixel_cycles` per normalization of each form (lobe and coef compiled together, n per pixel),
+  lobes, `pixel`: per normalization of each form, the cycles of lobe and coef compiled together (n per pixel),
   with that coef's largest albedo (`lobe_comparison`) and its float16 error relative to its float64
   value (inf where it overflows float16).
 
@@ -31,7 +31,8 @@ The winner is the cheapest candidate that qualifies, equal cycles going to the s
 earlier listed; the runner-up is the next by the same order. The reference qualifies in fp32 by
 construction (d = D = 0), so it wins when nothing cheaper qualifies; in fp16 nothing may qualify,
 and the row says so. A candidate whose cost was not compiled for the scenario is not ranked in it.
-Each row's `reason` is written from its numbers.
+Each row's `reason` is written from its numbers. The shape measures (normalized peak, float16 error)
+are memoized by the candidate's parameters, so that a refit re-measures only the candidates it moves.
 """
 
 from __future__ import annotations
