@@ -342,7 +342,8 @@ STAGES: tuple[Stage, ...] = (
         "power": "the run's power m, whose family row is the run's fitted lobe [count]",
         "devices": "the driver's device name per chip family (gfx1100 RDNA3, navi21 RDNA2, vega10 GCN5) [dict]",
         "rows": "per shader and chip family: lobe, what (a registry lobe alone at the paper's power 2, with a "
-                "normalization and n per pixel, or the family at one power), "
+                "normalization and n per pixel, or the family at one power; an NDF per material, or Beckmann and "
+                "GGX with n per pixel), "
                 "instructions by kind (vector ALU, transcendental, scalar, other), ACO's latency and cycles per "
                 "wave, the same net of the wrapper shader, and the listing [list]",
         "pow_transcendental": "transcendental instructions of cos^n = pow(t, n) (fewest over the chips; -1: not "

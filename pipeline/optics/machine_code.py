@@ -84,6 +84,9 @@ NDF_BODIES = {
     "GGX": "float d = t * t * (rate - 1.0) + 1.0;\n    return rate / (3.14159265 * d * d);",
     "f_b": "return rate * pow(t, n);",
 }
+# The distributions whose roughness a shader computes from n per pixel (the rate alpha^2 = 2 / (n + 2));
+# the lobes' NDFs with n per pixel are their "lobe and coef, n per pixel" shaders with the Phong-form coef.
+NDF_PER_PIXEL = {"Beckmann": "2.0 / (n + 2.0)", "GGX": "2.0 / (n + 2.0)"}
 WRAPPER_PER_PIXEL = """#version 450
 layout(location = 0) in float t_in;
 layout(location = 1) in float n_in;
@@ -202,7 +205,8 @@ def shader_sources(p: registry.Parameters, powers, registry_shaders: bool = True
     alone ("lobe", by its key) and with each of its normalizations ("lobe and coef, n per pixel"),
     the family at each power of `powers` alone ("family lobe", by its name f_Q2, f_Q3, ...), the
     normal distributions D of a microfacet BRDF ("NDF": Beckmann, GGX, cos^n and the family, each
-    with its per-material constants), and the two wrappers. Without `registry_shaders`: the
+    with its per-material constants; "NDF, n per pixel": Beckmann and GGX with alpha from n per pixel),
+    and the two wrappers. Without `registry_shaders`: the
     family's shaders at `powers` and the wrappers only."""
     from .normalizations import normalizations
     _, n = registry.symbols()
@@ -225,6 +229,10 @@ def shader_sources(p: registry.Parameters, powers, registry_shaders: bool = True
         out[f"ndf_family{power:02d}"] = (UNIFORM.format(body=ndf), registry.family_name(power), "NDF", "")
     for index, (name, body) in enumerate(NDF_BODIES.items() if registry_shaders else ()):
         out[f"ndf{index:02d}"] = (UNIFORM.format(body=body), name, "NDF", "")
+        if name in NDF_PER_PIXEL:
+            # Beckmann and GGX with n per pixel: alpha^2 = 2 / (n + 2) computed in the shader.
+            out[f"ndf{index:02d}_pixel"] = (PER_PIXEL.format(body=body, parameter=NDF_PER_PIXEL[name], coef="1.0"),
+                                            name, "NDF, n per pixel", "")
     return out
 
 

@@ -478,7 +478,9 @@ def machine_code_section(config, r) -> list[str]:
             cells.append(f"{row['net_vector_alu']} + {row['net_transcendental']} T, {row['net_cycles_per_wave']:g} cyc")
         name = keep(lobe)
         shader = {"lobe": "lobe (m = 2)", "family lobe": "lobe (the family at its power)",
-                  "NDF": "microfacet D, its constants per material"}.get(what, f"with {norm}, n per pixel (m = 2)")
+                  "NDF": "microfacet D, its constants per material",
+                  "NDF, n per pixel": "microfacet D, alpha^2 = 2 / (n + 2) per pixel"}.get(
+                      what, f"with {norm}, n per pixel (m = 2)")
         lines.append(f"| {name} | {shader} | " + " | ".join(cells) + " |")
     pow_row, quad_row = machine_row(r, registry.REFERENCE), machine_row(r, "f_Q2")
     lines += ["", "Cells: vector ALU + transcendental instructions, cycles per wave. The RDNA3 listings, between "

@@ -27,7 +27,7 @@ def _winner(row) -> str:
     """A scenario's winner in a few words, or that nothing qualifies."""
     if not row["winner"]:
         return "nothing qualifies" if row["reason"].startswith(("nothing", "in float16")) else "not decided"
-    route = {"u": ", u = 1 - N.H from the cross product", "t": ", t = N.H"}.get(row["winner_fp16_route"], "")
+    route = {"u": ", u route", "t": ", t route"}.get(row["winner_fp16_route"], "")
     return f"{row['winner']}: {row['winner_cycles']:g} cycles, max d {_pct(row['winner_d'])}{route}"
 
 
@@ -94,9 +94,11 @@ def lines(config, results) -> list[str]:
     out += ["", f"**Where it differs** (n in {_range(widest)}; every scenario's reason is in `decision.table`):", ""]
     for label, kwargs in (("n per pixel, fp32", dict(n_per="pixel")), ("n per material, fp16", dict(precision="fp16")),
                           ("n per pixel, fp16", dict(n_per="pixel", precision="fp16")),
-                          ("NDF, n per material, fp32", dict(uses=("ndf",)))):
+                          ("NDF, n per material, fp32", dict(uses=("ndf",))),
+                          ("NDF, n per pixel, fp32", dict(uses=("ndf",), n_per="pixel"))):
         cells = [f"{a.upper()} {_cell(table, a, widest, **kwargs)}" for a in architectures]
         out.append(f"- {label}: " + "; ".join(cells) + ".")
+    out.append("  (fp16 routes: u = 1 - N.H from the cross product, as `cosquad_u`; t = N.H in float16.)")
     changing = [f for f in d["facts"] if f["count"]]
     still = [f["fact"] for f in d["facts"] if not f["count"]]
     out += ["", "**What changes the answer**, most first (scenarios of the common case it changes):", ""]

@@ -20,7 +20,8 @@ the NDF GGX and the family. Per candidate and range (`candidates`):
   (t = dot(N, H) in float16; u = 1 - t from the cross product, the form rewritten in u: `family` says
   how), against its own float64 value;
 - per architecture, `cycles` with n per material (the lobe's shader alone) and, for the registry's
-  lobes, `pixel`: per normalization of each form, the cycles of lobe and coef compiled together (n per pixel),
+  lobes and the NDFs (`ndf_per_pixel`), `pixel`: per normalization of each form, the cycles of lobe and
+  coef compiled together (n per pixel),
   with that coef's largest albedo (`lobe_comparison`) and its float16 error relative to its float64
   value (inf where it overflows float16).
 
@@ -405,6 +406,23 @@ def coef_measure(expression: str, n) -> dict:
     return dict(error=coef_float16_error(sp.sympify(expression), n))
 
 
+def ndf_per_pixel(rows, chip: str, name: str, power: int):
+    """(its normalization's name, the normalization key whose float16 error it has, cycles) of an NDF with
+    n per pixel, or None where it was not compiled: Beckmann and GGX with alpha^2 = 2 / (n + 2) in the
+    shader ("alpha_per_pixel": their 1 / (pi alpha^2) is cos^n's (n + 2) / (2 pi), whose float16 error
+    stands for it); cos^n and f_Q2 are their Phong-form lobe-and-coef shaders (the
+    NDF's normalization, int D (N.h) dw_h = 1, is the Phong-form coef), f_Q2 at the paper's power only.
+    Each normalization is exact: projected area 1 (`ndf`), so no energy excess."""
+    if name in machine_code.NDF_PER_PIXEL:
+        cycles = _cycles(rows, chip, name, "NDF, n per pixel")
+        return None if cycles is None else ("alpha_per_pixel", registry.PHONG_COS_N, cycles)
+    key = {registry.REFERENCE: registry.PHONG_COS_N, "f_Q2": "exact_phong"}.get(name)
+    if key is None or (name == "f_Q2" and power != 2):
+        return None
+    cycles = _cycles(rows, chip, name, "lobe and coef, n per pixel", f"phong {key}")
+    return None if cycles is None else (key, key, cycles)
+
+
 def _cycles(rows, chip: str, lobe: str, what: str, normalization: str = ""):
     row = next((r for r in rows if r["family"] == chip and r["lobe"] == lobe and r["what"] == what
                 and r["normalization"] == normalization), None)
@@ -490,6 +508,13 @@ def run(config, inputs, memo):
                 arch = ARCHITECTURES[chip]
                 if c["target"] == "beckmann":
                     cycles = _cycles(gpu_rows, chip, c["ndf_row"], "NDF")
+                    pixel = ndf_per_pixel(gpu_rows, chip, c["name"], power)
+                    if pixel is not None:
+                        label, key, px = pixel
+                        measure["pixel"][arch] = [dict(
+                            form="ndf", normalization=label, cycles=px, albedo_max=1.0,
+                            coef_fp16_error=memo("decision_coef", coef_measure, expression=sp.srepr(norms[key].expr),
+                                                 n=[float(x) for x in n_here])["error"])]
                 elif "search" in c:
                     cycles = next((r["cycles"] for r in inputs["lobe_search.candidates"] if r["architecture"] == arch
                                    and r["family"] == c["name"] and tuple(r["n_range"]) == (lo, hi)), None)
