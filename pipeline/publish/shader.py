@@ -12,6 +12,7 @@ from __future__ import annotations
 import importlib.metadata
 from pathlib import Path
 
+import numpy as np
 import sympy as sp
 
 from ..optics import coef_forms, integrals, registry
@@ -29,11 +30,16 @@ def functions(slope: float, intercept: float, coef_scale: float, coef_offset: fl
     def exact_coef(which):
         # In r = 1 / k: no pow, nothing that overflows float16 (optics.coef_forms).
         return coef_forms.exact_coef_of_n(which, power, k)
+    def asymptotic(which):
+        c1, c0 = integrals.asymptote(which, power)
+        return sp.Float(c1) * k + sp.Float(c0)
     exprs = {
         "k": ((n,), k),
         "coef": ((n,), sp.Float(coef_scale) * (sp.Float(coef_offset) + n)),
         "coef_exact": ((n,), exact_coef("phong")),
         "coef_blinn": ((n,), exact_coef("blinn")),
+        "coef_asymptotic": ((n,), asymptotic("phong")),
+        "coef_blinn_asymptotic": ((n,), asymptotic("blinn")),
     }
     def numeric(expr):
         expr = sp.N(expr, 17)
@@ -54,6 +60,10 @@ DOCS = {
                   "r = 1 / k: no pow, and no power of k that overflows half precision",
     "coef_blinn": "exact Blinn-form normalization (t = dot(N, H)), at normal view; written in r = 1 / k: no pow, "
                   "and no power of k that overflows half precision",
+    "coef_asymptotic": "the exact Phong-form coef's two-term large-k form c1 k + c0: multiply-adds only (no division, "
+                       "no transcendental instruction), safe in half precision; {asymptotic_phong}",
+    "coef_blinn_asymptotic": "the exact Blinn-form coef's two-term large-k form c1 k + c0: multiply-adds only (no "
+                             "division, no transcendental instruction), safe in half precision; {asymptotic_blinn}",
     "ndf": "the lobe as a microfacet normal distribution D(h), t = dot(N, H): normalized so that "
            "int D (N.H) dw_h = 1 (the Phong-form exact coef, not the Blinn-form one); use in "
            "f = D G F / (4 N.L N.V)",
@@ -164,14 +174,16 @@ def {p}pdf(c, n):
 
 
 def render_sources(config, slope, intercept, coef_scale, coef_offset, version_tag: str,
-                   coef_note: str) -> dict[str, str]:
+                   coef_note: str, asymptotic_notes: dict | None = None) -> dict[str, str]:
     """The three files: GLSL, HLSL and the Python twin, as text. `coef_note` says, in a few words,
-    how far the run's coef(n) is from the exact one."""
+    how far the run's coef(n) is from the exact one; `asymptotic_notes` ("asymptotic_phong",
+    "asymptotic_blinn"), how far the large-k forms are."""
     power = config["lobe.power"]
     fns = functions(slope, intercept, coef_scale, coef_offset, power)
     c_steps, result = power_lines("b", power, "float ")
     py_steps, _ = power_lines("b", power, "")
-    docs = {name: text.format(power=power) for name, text in DOCS.items()}
+    notes = asymptotic_notes or {"asymptotic_phong": "its error: see the report", "asymptotic_blinn": "its error: see the report"}
+    docs = {name: text.format(power=power, **notes) for name, text in DOCS.items()}
     glsl, hlsl = header("//", config, version_tag, coef_note), header("//", config, version_tag, coef_note)
     py = (['"""' + header("", config, version_tag, coef_note)[0].strip() + '"""', ""]
           + header("#", config, version_tag, coef_note))
@@ -239,9 +251,19 @@ def write(out: Path, config, results, stage_keys) -> list[str]:
     lin, h = results["linear_coefficient"], results["hemispherical"]
     version = importlib.metadata.version("cosquad-pipeline")
     tag = digest(stage_keys["linear_coefficient"], stage_keys["hemispherical"])[:12]
+    e = results["exact_normalization"]
+    span = f"n in [{config['derivation.n_min']:g}, {config['derivation.n_max']:g}]"
+    def note(which):
+        excess = e[f"asymptotic_{which}_max_excess"]
+        above = f"at most {excess:.2%} above" if excess > 0 else "never above"
+        dev = np.abs(np.asarray(e[f"asymptotic_{which}_dev"]))
+        return (f"its albedo at normal incidence is within {e[f'asymptotic_{which}_max_abs_dev']:.2%} of 1 over {span} "
+                f"({above}; farthest at n = {config['derivation.n_min'] + int(np.argmax(dev)):g}, within "
+                f"{100 * dev[-1]:.2g} % at n = {config['derivation.n_max']:g})")
+    notes = {f"asymptotic_{which}": note(which) for which in ("phong", "blinn")}
     files = render_sources(config, lin["slope_used"], lin["intercept_used"], h["coef_scale_used"],
                            h["coef_offset_used"], f"{version} (results {tag})",
-                           coef_note(h, results["exact_normalization"]))
+                           coef_note(h, e), notes)
     if results.get("lobe_search", {}).get("front"):
         files.update(search_sources(config, results["lobe_search"], f"{version} (results {tag})"))
     files["cosquad.brdf"] = brdf_source(config, files["cosquad.glsl"], f"{version} (results {tag})")

@@ -41,6 +41,10 @@ def test_exported_python_twin_matches_the_pipeline(exported, paper_run, n_all):
     for i, n in enumerate(n_all[:: 37]):
         assert twin.cosquad_coef_exact(n) == pytest.approx(e["coef_exact"][:: 37][i], rel=1e-12)
         assert twin.cosquad_coef_blinn(n) == pytest.approx(e["coef_blinn"][:: 37][i], rel=1e-12)
+        # The large-k forms: (3 / (2 pi)) (k + 1/4) and (3 / (8 pi)) (k + 5/4) at m = 2 (closed forms).
+        k = 0.448 * n + 0.099
+        assert twin.cosquad_coef_asymptotic(n) == pytest.approx(3 / (2 * np.pi) * (k + 0.25), rel=1e-12)
+        assert twin.cosquad_coef_blinn_asymptotic(n) == pytest.approx(3 / (8 * np.pi) * (k + 1.25), rel=1e-12)
         # The NDF: the exact Phong-form coef times the lobe (projected area 1, tests/optics/test_ndf.py).
         k = 0.448 * n + 0.099
         assert twin.cosquad_ndf(0.999, n) == pytest.approx(e["coef_exact"][:: 37][i] * float(linear_power_u(0.001, k)),
@@ -119,7 +123,8 @@ def test_the_exported_coefs_have_no_pow_and_hold_in_float16(exported):
     """The exact coefs as exported (in r = 1 / k, optics.coef_forms): no pow in the GLSL, no transcendental
     instruction after spirv-opt, and evaluated in float16 (one rounding per operation) within ten unit
     roundoffs (10 * 2^-11: about ten operations) of float64 at every integer n in [2, 1000], where the same
-    coefs written in k overflow float16 (k^4 > 65504 from n = 36, k^2 from n = 572 on the paper's line)."""
+    coefs written in k overflow float16 (k^4 > 65504 from n = 36, k^2 from n = 572 on the paper's line);
+    their large-k forms (multiply-adds) too, and these compile with no division either."""
     from pipeline.optics import integrals
     from pipeline.stages.decision import coef_float16_error
     fns = shader.functions(0.448, 0.099, 0.214, 0.807)
@@ -130,6 +135,8 @@ def test_the_exported_coefs_have_no_pow_and_hold_in_float16(exported):
         assert coef_float16_error(expr, n) <= 10 * 2.0 ** -11
         in_k = integrals.coef_of_n(integrals.integral(which)).subs({integrals.slope: 0.448, integrals.intercept: 0.099})
         assert coef_float16_error(in_k, n) == np.inf
+        _, large_k = fns[{"phong": "coef_asymptotic", "blinn": "coef_blinn_asymptotic"}[which]]
+        assert coef_float16_error(large_k, n) <= 10 * 2.0 ** -11
     from pipeline.optics import spirv as shader_cost
     try:
         shader_cost.tool("spirv-opt")
@@ -142,6 +149,11 @@ void main() { color = vec4(cosquad_coef_exact(n_in), cosquad_coef_blinn(n_in), 0
 """
     counts = _main_instructions(source)
     assert counts["transcendental"] == 0 and not set(counts["ops"]) & set(shader_cost.TRANSCENDENTAL)
+    # The large-k forms: no division either (on AMD a division is a reciprocal on the transcendental unit).
+    large_k = source.replace("vec4(cosquad_coef_exact(n_in), cosquad_coef_blinn(n_in), 0.0, 0.0)",
+                             "vec4(cosquad_coef_asymptotic(n_in), cosquad_coef_blinn_asymptotic(n_in), 0.0, 0.0)")
+    counts = _main_instructions(large_k)
+    assert counts["transcendental"] == 0 and counts["division"] == 0
 
 
 def brdf_explorer_shader(path: Path) -> str:
