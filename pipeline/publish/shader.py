@@ -334,6 +334,28 @@ def search_function_name(member) -> str:
     return f"{SEARCH_PREFIX}{member['family']}_n{lo:g}_{hi:g}".replace(".", "p")
 
 
+def u_form(family: str, slopes, intercepts):
+    """A lobe-search family written in u = 1 - t: ({constant: (slope, intercept)} lines in n, GLSL body,
+    Python body). A t + B = (A + B) - A u, and (A t + B) t + C = (A u - (2 A + B)) u + (A + B + C): the
+    constants' lines are the lines' sums, so that nothing cancels in the shader."""
+    from ..optics import lobe_families
+    (sa, sb, sc), (ia, ib, ic) = (list(v) + [0.0] * (3 - len(v)) for v in (slopes, intercepts))
+    linear = {"a0": (sa + sb, ia + ib), "a1": (sa, ia)}
+    if family in lobe_families.POWERS:
+        steps, result = registry.power_steps("b", lobe_families.POWERS[family])
+        return (linear, ["float b = max(a0 - a1 * u, 0.0);"] + [f"float {a} = {e};" for a, e in steps] + [f"return {result};"],
+                ["b = max(a0 - a1 * u, 0.0)"] + [f"{a} = {e}" for a, e in steps] + [f"return {result}"])
+    if family == "exp2_linear":
+        return linear, ["return exp2(a0 - a1 * u);"], ["return 2.0 ** (a0 - a1 * u)"]
+    if family == "exp2_quadratic":
+        lines = {"q0": (sa + sb + sc, ia + ib + ic), "q1": (2 * sa + sb, 2 * ia + ib), "q2": (sa, ia)}
+        return lines, ["return exp2((q2 * u - q1) * u + q0);"], ["return 2.0 ** ((q2 * u - q1) * u + q0)"]
+    ratio = "(1.0 - u) / (a0 - a1 * u)"
+    if family == "rational":
+        return linear, [f"return {ratio};"], [f"return {ratio}"]
+    return linear, [f"float r = {ratio};", "return r * r;"], [f"r = {ratio}", "return r * r"]
+
+
 def search_sources(config, search, version_tag: str) -> dict[str, str]:
     """The lobe search's front members as GLSL, HLSL and a Python twin: per member, a function of
     (t, n) whose parameters A, B, C are the lines in n the search fitted (per material: compute them
@@ -371,5 +393,17 @@ def search_sources(config, search, version_tag: str) -> dict[str, str]:
             lines += [f"    {row.strip()}" for row in body_c] + ["}", ""]
         py += [f"def {name}(t, n):", f'    """{doc}"""'] + [f"    {p} = {v}" for p, v in params]
         py += [f"    {row}" for row in body_py] + ["", ""]
+        if m["grammar"]:
+            continue
+        # The same form of u = 1 - t (from cosquad_u: no cancellation near t = 1), its constants folded
+        # into lines of their own, for half precision.
+        lines_u, body_u, body_u_py = u_form(m["family"], m["parameter_slopes"], m["parameter_intercepts"])
+        doc_u = f"the same of u = 1 - t (u from cosquad_u), for half precision: {m['expression']} with t = 1 - u"
+        params_u = [(p, line(a, b)) for p, (a, b) in lines_u.items()]
+        for lines in (glsl, hlsl):
+            lines += [f"// {doc_u}", f"float {name}_u(float u, float n)", "{"]
+            lines += [f"    float {p} = {v};" for p, v in params_u] + [f"    {row}" for row in body_u] + ["}", ""]
+        py += [f"def {name}_u(u, n):", f'    """{doc_u}"""'] + [f"    {p} = {v}" for p, v in params_u]
+        py += [f"    {row}" for row in body_u_py] + ["", ""]
     return {"lobe_search.glsl": "\n".join(glsl), "lobe_search.hlsl": "\n".join(hlsl),
             "lobe_search_twin.py": "\n".join(py).rstrip() + "\n"}

@@ -146,6 +146,22 @@ def test_the_exported_twin_is_each_front_member_with_its_lines(search, exported,
         assert d == pytest.approx(m["d_line"], rel=1e-4), m["family"]
 
 
+def test_the_exported_u_forms_are_the_forms_of_t(search, exported):
+    """Each family's `_u` function (constants folded into lines of their own, for half precision) at
+    u = 1 - t equals its function of t in float64, to 1e-8 relative: the same arithmetic in another
+    order, where the t form's A t + B cancels about log10(n) digits."""
+    from pipeline.publish import shader
+    twin = _twin(exported)
+    members = [m for m in shader.search_members(search) if not m["grammar"]]
+    assert members
+    for m in members:
+        fn, fn_u = (getattr(twin, shader.search_function_name(m) + suffix) for suffix in ("", "_u"))
+        lo, hi = m["n_range"]
+        for n in (lo, np.sqrt(lo * hi), hi):
+            for t in np.linspace(0.5, 1.0, 11):
+                assert fn_u(1.0 - t, n) == pytest.approx(fn(t, n), rel=1e-8, abs=1e-12), (m["family"], n, t)
+
+
 def test_the_exported_glsl_compiles_and_has_no_pow(exported):
     from pipeline.optics import spirv
     from pipeline.publish import shader
