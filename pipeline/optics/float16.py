@@ -27,3 +27,12 @@ def float16_power(base, power: int):
         left, right = (values[v.strip()] for v in expression.split("*"))
         values[name] = (left * right).astype(np.float16)
     return values[result]
+
+
+def routes(N, H):
+    """(t, u) in float16 from float16 unit vectors N, H, as a shader forms them: t = N.H (a dot product:
+    products rounded, then their sum once) and u = 1 - t without cancellation, |N x H|^2 / (1 + N.H)."""
+    t = np.sum(N * H, axis=1, dtype=np.float16)
+    cross = np.cross(N, H).astype(np.float16)
+    u = (np.sum(cross * cross, axis=1, dtype=np.float16) / (np.float16(1) + t)).astype(np.float16)
+    return t, u

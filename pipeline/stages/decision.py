@@ -45,7 +45,7 @@ import numpy as np
 from scipy.integrate import quad
 
 from ..optics import lobe_families, machine_code, registry
-from ..optics.float16 import float16_power, vectors
+from ..optics.float16 import float16_power, routes, vectors
 from ..optics.normalizations import normalizations
 from .common import n_range
 
@@ -206,8 +206,8 @@ def float16_error(make, n_values, reference) -> tuple[float, str]:
         x, t16, u16 = _highlight(_visible_angle(ref64))
         exact = v64(np.cos(x))
         with np.errstate(all="ignore"):
-            routes = v16(t16, u16)
-        for route, values in routes.items():
+            by_route = v16(t16, u16)
+        for route, values in by_route.items():
             error = np.abs(values.astype(np.float64) - exact)
             worst[route] = max(worst[route], float(np.max(np.where(np.isfinite(error), error, np.inf))))
     route = min(worst, key=worst.get)
@@ -220,10 +220,7 @@ def _highlight(angle: float):
     t = N.H and u = |N x H|^2 / (1 + N.H) in float16, as a shader forms them."""
     x = np.linspace(0.0, angle, SAMPLES)
     N, H = (v.astype(np.float16) for v in vectors(x, seed=0))
-    t16 = np.sum(N * H, axis=1, dtype=np.float16)
-    cross = np.cross(N, H).astype(np.float16)
-    u16 = (np.sum(cross * cross, axis=1, dtype=np.float16) / (np.float16(1) + t16)).astype(np.float16)
-    return x, t16, u16
+    return (x,) + routes(N, H)
 
 
 def _visible_angle(v64) -> float:

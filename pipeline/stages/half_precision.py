@@ -17,7 +17,7 @@ means visible bands) and the largest absolute error against the float64 lobe (pe
 
 import numpy as np
 
-from ..optics.float16 import float16_power, vectors
+from ..optics.float16 import float16_power, routes, vectors
 
 SAMPLES = 20000
 VISIBLE = 1.0 / 255.0
@@ -29,9 +29,7 @@ def half_lobes(n: float, k: float, seed: int = 0, power: int = 2) -> list[dict]:
     x = np.linspace(0.0, np.arccos(VISIBLE ** (1.0 / n)), SAMPLES)
     N, H = (v.astype(np.float16) for v in vectors(x, seed))
     one, zero, k16 = np.float16(1), np.float16(0), np.float16(k)
-    t = np.sum(N * H, axis=1, dtype=np.float16)
-    cross = np.cross(N, H).astype(np.float16)
-    u = (np.sum(cross * cross, axis=1, dtype=np.float16) / (one + t)).astype(np.float16)
+    t, u = routes(N, H)
     quad_t = np.maximum(k16 * t + (one - k16), zero)
     quad_u = np.maximum(one - k16 * u, zero)
     # GPUs evaluate pow through exp2(n log2(t)) at higher precision and round the result: so here.

@@ -91,17 +91,23 @@ void main() {
     assert done.returncode == 0, done.stdout + done.stderr
 
 
+def _spirv_opt():
+    """pipeline.optics.spirv, or a skip with its reason where spirv-opt is missing."""
+    from pipeline.optics import spirv as shader_cost
+    try:
+        shader_cost.tool("spirv-opt")
+    except shader_cost.ToolMissing as e:
+        pytest.skip(str(e))
+    return shader_cost
+
+
 def _main_instructions(source):
     from pipeline.optics import spirv as shader_cost
     return shader_cost.count(shader_cost.function_body(shader_cost.optimized_disassembly(source)))
 
 
 def test_exported_lobe_has_no_transcendental_instruction_after_optimization(exported):
-    from pipeline.optics import spirv as shader_cost
-    try:
-        shader_cost.tool("spirv-opt")
-    except shader_cost.ToolMissing as e:
-        pytest.skip(str(e))
+    shader_cost = _spirv_opt()
     source = "#version 450\n" + (exported / "cosquad.glsl").read_text() + """
 layout(location = 0) in float t_in;
 layout(location = 0) out vec4 color;
@@ -137,11 +143,7 @@ def test_the_exported_coefs_have_no_pow_and_hold_in_float16(exported):
         assert coef_float16_error(in_k, n) == np.inf
         _, large_k = fns[{"phong": "coef_asymptotic", "blinn": "coef_blinn_asymptotic"}[which]]
         assert coef_float16_error(large_k, n) <= 10 * 2.0 ** -11
-    from pipeline.optics import spirv as shader_cost
-    try:
-        shader_cost.tool("spirv-opt")
-    except shader_cost.ToolMissing as e:
-        pytest.skip(str(e))
+    shader_cost = _spirv_opt()
     source = "#version 450\n" + (exported / "cosquad.glsl").read_text() + """
 layout(location = 0) in float n_in;
 layout(location = 0) out vec4 color;
@@ -291,11 +293,7 @@ def test_exported_family_lobe_at_other_powers(power, tmp_path):
             assert twin.cosquad_lobe_u(1 - t, n) == pytest.approx(float(linear_power_u(1 - t, k, power)), rel=1e-12,
                                                                    abs=1e-15)
             assert twin.cosquad_pdf(t, n) == pytest.approx(float(lobe_pdf(t, k, power)), rel=1e-12, abs=1e-15)
-    from pipeline.optics import spirv as shader_cost
-    try:
-        shader_cost.tool("spirv-opt")
-    except shader_cost.ToolMissing as e:
-        pytest.skip(str(e))
+    shader_cost = _spirv_opt()
     source = "#version 450\n" + files["cosquad.glsl"] + """
 layout(location = 0) in float t_in;
 layout(location = 0) out vec4 color;
