@@ -77,10 +77,6 @@ def _transcendental16(f, x16):
     return f(x16.astype(np.float32)).astype(np.float16)
 
 
-def _power16(base16, power: int):
-    return float16_power(base16, power)
-
-
 def linear_power(k: float, power: int):
     """max(k (t - 1) + 1, 0)^power: (float64 of t, float16 routes)."""
     def v64(t):
@@ -88,8 +84,8 @@ def linear_power(k: float, power: int):
 
     def v16(t16, u16):
         k16, one = _f16(k), np.float16(1)
-        return {"t": _power16(np.maximum(k16 * t16 + (one - k16), np.float16(0)), power),
-                "u": _power16(np.maximum(one - k16 * u16, np.float16(0)), power)}
+        return {"t": float16_power(np.maximum(k16 * t16 + (one - k16), np.float16(0)), power),
+                "u": float16_power(np.maximum(one - k16 * u16, np.float16(0)), power)}
     return v64, v16
 
 
@@ -143,7 +139,7 @@ def family(name: str, P):
         one, zero = np.float16(1), np.float16(0)
         if name in lobe_families.POWERS:
             m = lobe_families.POWERS[name]
-            return {"t": _power16(np.maximum(a * t16 + b, zero), m), "u": _power16(np.maximum(a0 - a1 * u16, zero), m)}
+            return {"t": float16_power(np.maximum(a * t16 + b, zero), m), "u": float16_power(np.maximum(a0 - a1 * u16, zero), m)}
         if name == "exp2_linear":
             return {"t": _transcendental16(np.exp2, (a * t16 + b).astype(np.float16)),
                     "u": _transcendental16(np.exp2, (a0 - a1 * u16).astype(np.float16))}
