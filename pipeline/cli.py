@@ -21,6 +21,7 @@ from pathlib import Path
 from .engine import checks as checks_mod, faults, graph, paths
 from .engine.config import ConfigError, key_table, load_config
 from .publish.compare import CompareError
+from .symbolic import grammar
 from .symbolic.regress import DEFAULT_OPERATIONS, RegressError
 
 
@@ -127,7 +128,7 @@ def _regress(args) -> int:
 
 def _costs(args) -> int:
     from .optics import machine_code
-    from .symbolic import gpu_costs, grammar
+    from .symbolic import gpu_costs
 
     out = Path(args.out) if args.out else paths.OUTPUTS / "costs"
     if not 20 <= args.forms <= 2000:
@@ -139,10 +140,10 @@ def _costs(args) -> int:
     except (machine_code.CompilerMissing, machine_code.spirv.ToolMissing) as e:
         print(f"error: the GPU compiler cannot run here: {e}", file=sys.stderr)
         return faults.EXIT_ENVIRONMENT
-    print("cycles per wave " + " ".join(f"{op:>7}" for op in grammar.OPERATIONS) + "   held-out error (mean, max)")
+    print("cycles per wave " + " ".join(f"{op:>7}" for op in gpu_costs.OPERATIONS) + "   held-out error (mean, max)")
     for architecture, table in costs["tables"].items():
         held = costs["held_out"][architecture]
-        print(f"{architecture:<15} " + " ".join(f"{table[op]:>7g}" for op in grammar.OPERATIONS)
+        print(f"{architecture:<15} " + " ".join(f"{table[op]:>7g}" for op in gpu_costs.OPERATIONS)
               + f"   {held['mean_abs_error']:.2f}, {held['max_abs_error']:.1f} of {held['mean_cycles']:.1f} on average")
     written = gpu_costs.write_tables(costs["tables"], out)
     print("wrote " + ", ".join(str(p) for p in written) + " (pipeline regress --cost FILE)")
@@ -245,9 +246,9 @@ def _main(argv: list[str] | None) -> int:
     reg.add_argument("--y", required=True, metavar="COLUMN", help="column to fit")
     reg.add_argument("--max-complexity", type=int, default=12, metavar="N",
                      help="largest complexity searched (constants, variables, +, -, *, square, cube count 1; /, exp, "
-                          "log, sqrt, pow count 2); default 12")
+                          "log, sqrt, pow, sin, cos, abs, inv count 2); default 12")
     reg.add_argument("--ops", default=",".join(DEFAULT_OPERATIONS), metavar="OP[,OP...]",
-                     help=f'operations from {", ".join(DEFAULT_OPERATIONS)}; default all of them')
+                     help=f'operations from {", ".join(grammar.OPERATIONS)}; default {",".join(DEFAULT_OPERATIONS)}')
     reg.add_argument("--loss", default="rms", choices=["rms", "relative", "max", "max-relative"],
                      help="what the front ranks by: RMS error (default), RMS of the relative error, largest absolute "
                           "or relative error (minimax)")

@@ -149,7 +149,7 @@ def grammar_predicted(text: str, table: dict) -> float:
     """A grammar form's cycles by the cost table, with the multiply-add that makes w = n (1 - t)."""
     from ..symbolic import gpu_costs, grammar
     counts = gpu_costs.operation_counts(grammar.parse(text))
-    return round(float(np.dot(counts, [table[op] for op in grammar.OPERATIONS]) + table["*"] + table["-"]), 2)
+    return round(float(np.dot(counts, [table[op] for op in gpu_costs.OPERATIONS]) + table["*"] + table["-"]), 2)
 
 
 @functools.partial(jax.jit, static_argnames=("target", "cells", "settings"))
@@ -248,8 +248,8 @@ def predicted_cycles(name: str, table: dict) -> float:
     if name not in lobe_families.FAMILIES:
         return grammar_predicted(name, table)
     family = lobe_families.FAMILIES[name]
-    counts = dict(zip(grammar.OPERATIONS, gpu_costs.operation_counts(grammar.parse(family.grammar))))
-    cycles = sum(counts[op] * table[op] for op in grammar.OPERATIONS)
+    counts = dict(zip(gpu_costs.OPERATIONS, gpu_costs.operation_counts(grammar.parse(family.grammar))))
+    cycles = sum(counts[op] * table[op] for op in gpu_costs.OPERATIONS)
     return round(float(cycles + family.clamps * table["+"] - counts["exp"] * table["*"]), 2)
 
 

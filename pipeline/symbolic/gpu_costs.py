@@ -6,9 +6,11 @@ interpolated input; its constants written as numbers, as a shader specialized to
 them), ACO's throughput estimate in cycles per wave net of the shader returning t
 (`optics.machine_code.compile_shaders`). The table gives each operation a cost such that a form's
 cost is about the sum of its operations' costs: fitted by non-negative least squares to the
-compiled cycles of `CALIBRATION` forms drawn from every form of the grammar up to complexity 7
-(random constants, a fixed seed), a quarter of them held out, on which the prediction's error is
-measured and returned. Constants and the variable cost 0.
+compiled cycles of `CALIBRATION` forms drawn from every form of the grammar's ten operations
+(`OPERATIONS`: what a lobe is made of) up to complexity 7 (random constants, a fixed seed), a
+quarter of them held out, on which the prediction's error is measured and returned. Constants and
+the variable cost 0. sin, cos, abs and inv are not in the tables: a search with them ranked by
+cycles takes the user's table (`regress --cost`), and `regress --gpu` compiles its members anyway.
 
 A sum of per-operation costs cannot see what the compiler does with a whole form (a multiply and
 an add fused into one fma, independent operations issued while a transcendental is in flight), so
@@ -25,6 +27,7 @@ from ..optics.machine_code import FAMILIES, UNIFORM, compile_shaders
 from . import grammar
 
 CALIBRATION = 400           # forms compiled to fit the tables (a quarter held out)
+OPERATIONS = grammar.TEN    # the operations the tables cost
 CALIBRATION_COMPLEXITY = 7
 SEED = 0
 
@@ -54,8 +57,8 @@ def expression_cycles(expressions: dict[str, str], families=tuple(FAMILIES),
 
 
 def operation_counts(e) -> list[int]:
-    """How many times e uses each operation of `grammar.OPERATIONS`, in that order."""
-    counts = dict.fromkeys(grammar.OPERATIONS, 0)
+    """How many times e uses each operation of `OPERATIONS`, in that order (KeyError for another)."""
+    counts = dict.fromkeys(OPERATIONS, 0)
 
     def walk(node):
         if len(node) > 1:
@@ -76,7 +79,7 @@ def operation_costs(count: int = CALIBRATION, families=tuple(FAMILIES), uniforms
     where RADV cannot run."""
     from scipy.optimize import nnls
 
-    forms = grammar.enumerate_forms(CALIBRATION_COMPLEXITY, grammar.OPERATIONS)
+    forms = grammar.enumerate_forms(CALIBRATION_COMPLEXITY, OPERATIONS)
     rng = np.random.default_rng(SEED)
     chosen = [forms[i] for i in rng.choice(len(forms), min(count, len(forms)), replace=False)]
     glsl = {f"form{i:03d}": grammar.glsl(e, rng.uniform(0.5, 1.5, grammar.constants(e)), uniforms="c" if uniforms else "")
@@ -91,7 +94,7 @@ def operation_costs(count: int = CALIBRATION, families=tuple(FAMILIES), uniforms
         weights, _ = nnls(A[fit], y[fit])
         flat = float(np.sum(A[fit].sum(axis=1) * y[fit]) / np.sum(A[fit].sum(axis=1) ** 2))
         error = A[held] @ weights - y[held]
-        tables[architecture] = {op: round(float(w), 2) for op, w in zip(grammar.OPERATIONS, weights)}
+        tables[architecture] = {op: round(float(w), 2) for op, w in zip(OPERATIONS, weights)}
         held_out[architecture] = dict(forms=int(y[held].size), mean_cycles=float(np.mean(y[held])),
                                       mean_abs_error=float(np.mean(np.abs(error))),
                                       max_abs_error=float(np.max(np.abs(error))),

@@ -1,15 +1,16 @@
 """The expressions of the symbolic regression: built from fitted constants `c`, the variables (`x`,
 and `x1`, `x2` where there are several), the operations +, -, *, /, pow (a ^ b) and the functions
-exp, log, sqrt, square, cube; enumerated up to a complexity, parsed, printed, evaluated. No JAX
-here (`pipeline.symbolic.search` fits them), so that bad input is answered at once.
+exp, log, sqrt, square, cube, sin, cos, abs and inv (1/a); enumerated up to a complexity, parsed,
+printed, evaluated. No JAX here (`pipeline.symbolic.search` fits them), so that bad input is
+answered at once.
 
 Complexity is TuringBot's for + - * /, as the paper's table implies it: every constant, the
 variable, +, - and * count 1 and / counts 2 (c x = 3, c (c + x) = 5, c x + c + c/x = 10,
-c (c + c/(x - c) + x) = 12). A function counts as a division does, 2 (exp, log, sqrt, and pow:
-one call each), and square and cube count 1, as the product they stand for (so square(x) = 2
-against x x = 3). `COST` holds it; a user's table (`read_cost_table`) ranks the forms without
-changing which are enumerated: the enumeration is by the default count (structure), the front
-by the table (cost).
+c (c + c/(x - c) + x) = 12). A function counts as a division does, 2 (exp, log, sqrt, sin, cos,
+abs, and pow: one call each; inv, 1/a, is the division it writes), and square and cube count 1,
+as the product they stand for (so square(x) = 2 against x x = 3). `COST` holds it; a user's
+table (`read_cost_table`) ranks the forms without changing which are enumerated: the enumeration
+is by the default count (structure), the front by the table (cost).
 
 Expressions are nested tuples: a variable ("x",), ("x1",), ..., a constant ("c",), a function
 (name, a) or an operation (op, left, right), "pow" for a ^ b. Enumeration keeps one representative
@@ -34,7 +35,18 @@ matches, wherever the removed one is defined, at equal or lower complexity):
   cube(square a) = square(cube a); (exp a) ^ b = exp(a b);
 - two like functions joined where one does: exp(a) exp(b) = exp(a + b), exp(a)/exp(b) =
   exp(a - b), and so for sqrt, square and cube (sqrt(a) sqrt(b) = sqrt(a b), square(a)/square(b)
-  = square(a/b)); log(a) + log(b) = log(a b), log(a) - log(b) = log(a/b).
+  = square(a/b)); log(a) + log(b) = log(a b), log(a) - log(b) = log(a/b);
+- abs of what is never negative is that (abs of abs, exp, sqrt, square or a power a ^ b, which
+  is real for a > 0 alone); abs(c a) = c abs(a); square(abs a) = square(a), cube(abs a) =
+  abs(cube a), cos(abs a) = cos(a), and sqrt(square a) = abs(a) (cheaper); two abs factors
+  join (abs(a) abs(b) = abs(a b));
+- inv undone or moved: inv(inv a) = a, inv(c a) = c inv(a), inv(a ^ c) = a ^ c, inv(exp a) =
+  exp(c a), inv(a / b) = b / a, log(inv a) = c log(a); sqrt, square, cube and abs of inv a are
+  inv of sqrt, square, cube, abs of a; where / is given, inv is never a factor of a product
+  (b inv(a) = b / a) nor, where * is given too, an operand of a quotient (inv(a) / b = inv(a b),
+  a / inv(b) = a b), each at lower cost; two inv factors join where * is given (inv(a) inv(b)
+  = inv(a b));
+- cos of a sum with a constant term is a sine where sin is given (cos(a + c) = sin(a + c')).
 Domain guards are the fit's: a form whose value or gradient is not finite at a data point (log or
 sqrt of a value that reaches zero or below, a ^ b of a negative base, exp overflowing) is invalid
 there and never enters the front.
@@ -48,20 +60,25 @@ from functools import lru_cache
 import numpy as np
 
 BINARY = ("+", "-", "*", "/", "pow")
-UNARY = ("exp", "log", "sqrt", "square", "cube")
+UNARY = ("exp", "log", "sqrt", "square", "cube", "sin", "cos", "abs", "inv")
 # Every operation the grammar knows, in the order the enumeration takes them.
-OPERATIONS = ("+", "-", "*", "/", "exp", "log", "sqrt", "square", "cube", "pow")
+OPERATIONS = ("+", "-", "*", "/", "exp", "log", "sqrt", "square", "cube", "pow", "sin", "cos", "abs", "inv")
+# The ten a user of pyoperon or TuringBot starts from: `pipeline regress`'s default `--ops`.
+TEN = OPERATIONS[:10]
 ARITHMETIC = ("+", "-", "*", "/")
 # TuringBot's complexity for + - * / (the paper's table implies it), a function's as a division's,
 # square and cube as a product's (module docstring); every leaf counts 1.
-COST = {"+": 1, "-": 1, "*": 1, "/": 2, "pow": 2, "exp": 2, "log": 2, "sqrt": 2, "square": 1, "cube": 1}
+COST = {"+": 1, "-": 1, "*": 1, "/": 2, "pow": 2, "exp": 2, "log": 2, "sqrt": 2, "square": 1, "cube": 1,
+        "sin": 2, "cos": 2, "abs": 2, "inv": 2}
 LEAF_COST = 1
 X, C = ("x",), ("c",)
 VARIABLES_MAX = 3
 # Opcodes of the register programs the fitter runs.
-NOP, VAR, CONST, ADD, SUB, MUL, DIV, POW, EXP, LOG, SQRT, SQUARE, CUBE = range(13)
+NOP, VAR, CONST, ADD, SUB, MUL, DIV, POW, EXP, LOG, SQRT, SQUARE, CUBE, SIN, COS, ABS, INV = range(17)
 OPCODE = {"x": VAR, "c": CONST, "+": ADD, "-": SUB, "*": MUL, "/": DIV, "pow": POW, "exp": EXP, "log": LOG,
-          "sqrt": SQRT, "square": SQUARE, "cube": CUBE}
+          "sqrt": SQRT, "square": SQUARE, "cube": CUBE, "sin": SIN, "cos": COS, "abs": ABS, "inv": INV}
+# Never negative wherever defined (abs of them is themselves).
+NONNEGATIVE = ("exp", "sqrt", "square", "abs", "pow")
 # Names the parser also reads: pyoperon's and sympy's spellings.
 ALIASES = {"add": "+", "sub": "-", "mul": "*", "div": "/", "^": "pow", "**": "pow", "sq": "square"}
 
@@ -219,6 +236,8 @@ def _canonical(op, a, b, ops=frozenset(OPERATIONS)) -> bool:
     elif op == "*":
         if b[0] == "*" or a[0] == "/" or b[0] == "/":
             return False
+        if "/" in ops and (a[0] == "inv" or b[0] == "inv"):
+            return False        # b inv(a) = b / a
         factors = _chain((op, a, b), ("*",))
         if sum(f == C for f in factors) > 1 or [_key(f) for f in factors] != sorted(_key(f) for f in factors):
             return False
@@ -227,6 +246,8 @@ def _canonical(op, a, b, ops=frozenset(OPERATIONS)) -> bool:
     elif op == "/":
         if a == b or b == C or a[0] == "/" or b[0] == "/":
             return False
+        if "*" in ops and (a[0] == "inv" or b[0] == "inv"):
+            return False        # inv(a) / b = inv(a b), a / inv(b) = a b
         if _has_constant_factor(b):
             return False
         numerator = {_key(f) for f in _chain(a, ("*",)) if f != C}
@@ -243,9 +264,10 @@ def _canonical(op, a, b, ops=frozenset(OPERATIONS)) -> bool:
 
 
 def _one_of_each_function(factors, ops) -> bool:
-    """At most one factor of each of exp, sqrt, square and cube among a product's (or a quotient's
-    numerator and denominator's) factors: two join into one (exp(a) exp(b) = exp(a + b))."""
-    for name, needs in (("exp", {"+", "-"}), ("sqrt", {"*", "/"}), ("square", {"*", "/"}), ("cube", {"*", "/"})):
+    """At most one factor of each of exp, sqrt, square, cube, abs and inv among a product's (or a
+    quotient's numerator and denominator's) factors: two join into one (exp(a) exp(b) = exp(a + b))."""
+    for name, needs in (("exp", {"+", "-"}), ("sqrt", {"*", "/"}), ("square", {"*", "/"}), ("cube", {"*", "/"}),
+                        ("abs", {"*", "/"}), ("inv", {"*"})):
         if sum(f[0] == name for f in factors) > 1 and needs <= ops:
             return False
     return True
@@ -263,16 +285,35 @@ def _canonical_unary(name, a, ops=frozenset(OPERATIONS)) -> bool:
     elif name == "log":
         if a[0] == "exp":
             return False
-        if "*" in ops and (a[0] == "sqrt" or a[0] == "pow"):
-            return False        # log(sqrt a) = c log(a), log(a ^ b) = b log(a)
+        if "*" in ops and a[0] in ("sqrt", "pow", "inv"):
+            return False        # log(sqrt a) = c log(a), log(a ^ b) = b log(a), log(inv a) = c log(a)
     elif name == "sqrt":
         if _power_of_constant(a):
             return False
+        if a[0] == "square" and "abs" in ops:
+            return False        # sqrt(square a) = abs(a)
     elif name in ("square", "cube"):
         if (name == "square" and a[0] == "sqrt") or _power_of_constant(a) or _has_constant_factor(a):
             return False        # square(sqrt a) = a; (a ^ c)^2 = a ^ c; square(c a) = c square(a)
         if name == "cube" and a[0] == "square" and "square" in ops:
             return False        # cube(square a) = square(cube a)
+        if a[0] == "abs":
+            return False        # square(abs a) = square(a), cube(abs a) = abs(cube a)
+    elif name == "abs":
+        if a[0] in NONNEGATIVE or _has_constant_factor(a):
+            return False        # abs(exp a) = exp(a), ...; abs(c a) = c abs(a)
+    elif name == "inv":
+        if a[0] == "inv" or _has_constant_factor(a) or _power_of_constant(a) or a[0] == "/":
+            return False        # inv(inv a) = a; inv(c a) = c inv(a); inv(a ^ c) = a ^ c; inv(a / b) = b / a
+        if a[0] == "exp" and "*" in ops:
+            return False        # inv(exp a) = exp(c a)
+    elif name == "cos":
+        if a[0] == "abs":
+            return False        # cos(abs a) = cos(a)
+        if "sin" in ops and a[0] in ("+", "-") and C in _added(a) and len(_added(a)) > 1:
+            return False        # cos(a + c) = sin(a + c')
+    if name in ("sqrt", "square", "cube", "abs") and a[0] == "inv":
+        return False            # sqrt(inv a) = inv(sqrt a), and so for square, cube and abs
     return True
 
 
@@ -409,7 +450,7 @@ def parse(text: str, variable="x", values=None):
     """An expression tree from infix text in the variable (a name, or one name per variable), c (or
     any number, read as a fitted constant; a number after an opening parenthesis, a comma or an
     operator may carry a minus sign), + - * / ^ (or **), the functions exp, log, sqrt, square,
-    cube, pow(a, b), and parentheses. `values`, a list, receives each constant's number in order
+    cube, sin, cos, abs, inv, pow(a, b), and parentheses. `values`, a list, receives each constant's number in order
     of appearance (nan for c)."""
     names = _names(variable)
     values = [] if values is None else values
@@ -492,12 +533,12 @@ def parse(text: str, variable="x", values=None):
     return e
 
 
-_NUMPY = {"exp": np.exp, "log": np.log, "sqrt": np.sqrt}
+_NUMPY = {"exp": np.exp, "log": np.log, "sqrt": np.sqrt, "sin": np.sin, "cos": np.cos, "abs": np.abs}
 
 
 def apply(name, args, functions):
     """Operation `name` on its operands `args` (numbers, numpy or JAX arrays, sympy expressions);
-    `functions` gives exp, log and sqrt for the kind of operand."""
+    `functions` gives exp, log, sqrt, sin, cos and abs for the kind of operand."""
     if name == "+":
         return args[0] + args[1]
     if name == "-":
@@ -512,6 +553,8 @@ def apply(name, args, functions):
         return args[0] ** 2
     if name == "cube":
         return args[0] ** 3
+    if name == "inv":
+        return 1 / args[0]
     return functions[name](args[0])
 
 
@@ -538,7 +581,7 @@ def fold_constants(e, values):
 def substitute(e, constants, variables, functions=None):
     """e with its constants (in order of appearance) and its variables (a list, one per variable)
     put in: numbers and numpy arrays give its values (numpy's functions), sympy Floats and Symbols
-    its sympy expression (`functions`: sympy's exp, log and sqrt)."""
+    its sympy expression (`functions`: sympy's exp, log, sqrt, sin, cos and Abs)."""
     values = iter(constants)
     functions = _NUMPY if functions is None else functions
 
@@ -556,7 +599,7 @@ def glsl(e, constants, variable="t", uniforms: str = "") -> str:
     """e as a GLSL expression in the float `variable`, its constants written as numbers (as a shader
     specialized to one material has them), or, with `uniforms` (an array's name), read from that
     array in order (`c[0]`, `c[1]`, ...: per-material values the compiler cannot fold): pow as
-    pow(a, b), square and cube as products."""
+    pow(a, b), square and cube as products, inv a as 1.0 / a."""
     values = iter(constants)
     index = iter(range(10**6))
 
@@ -572,6 +615,8 @@ def glsl(e, constants, variable="t", uniforms: str = "") -> str:
             a = text(node[1])
             if node[0] in ("square", "cube"):
                 return f"({a} * {a}" + (f" * {a})" if node[0] == "cube" else ")")
+            if node[0] == "inv":
+                return f"(1.0 / {a})"
             return f"{node[0]}({a})"
         a, b = text(node[1]), text(node[2])
         return f"pow({a}, {b})" if node[0] == "pow" else f"({a} {node[0]} {b})"
@@ -585,7 +630,7 @@ def to_sympy(e, constants, symbol):
     import sympy as sp
 
     return substitute(e, [sp.Float(float(v), 15) for v in constants], _names(symbol),
-                      {"exp": sp.exp, "log": sp.log, "sqrt": sp.sqrt})
+                      {"exp": sp.exp, "log": sp.log, "sqrt": sp.sqrt, "sin": sp.sin, "cos": sp.cos, "abs": sp.Abs})
 
 
 def canonical(expression, symbol) -> str:

@@ -21,10 +21,11 @@ GENERATIONS_TIMED = 100_000     # generations when a time budget is what stops i
 POPULATION = 1000
 SECONDS = 60            # pyoperon stops here if its generations are not done (many points)
 OPTIMIZER_ITERATIONS = 10
-# pyoperon's symbol of each operation; it has no cube (pow reaches it where pow is given) and
-# writes square(a) as a ^ 2, read back as square (and a ^ 3 as cube).
+# pyoperon's symbol of each operation; it has no cube (pow reaches it where pow is given) nor inv
+# (div reaches it where / is given), and writes square(a) as a ^ 2, read back as square (and a ^ 3
+# as cube).
 SYMBOLS = {"+": "add", "-": "sub", "*": "mul", "/": "div", "exp": "exp", "log": "log", "sqrt": "sqrt",
-           "square": "square", "pow": "pow"}
+           "square": "square", "pow": "pow", "sin": "sin", "cos": "cos", "abs": "abs"}
 
 
 def _integer_powers(tree, values, ops):

@@ -14,7 +14,9 @@ complexity x ln(the grammar's symbols: the operations, the variable and the cons
 least description length is marked selected (front.csv's `selected` column, the figure).
 
 Operations: + - * / and exp, log, sqrt, square, cube, pow by default (`DEFAULT_OPERATIONS`), as
-TuringBot's and PySR's users find them: a law of physics or a shader is seldom rational. The
+TuringBot's and PySR's users find them: a law of physics or a shader is seldom rational; sin, cos,
+abs and inv (1/a) where `--ops` names them (each more operation widens every complexity's forms:
+with all fourteen, 35,114 one-variable forms up to complexity 8 against 18,610 with the ten). The
 losses (`--loss`): rms (default), relative (the RMS of the relative error), max and max-relative
 (minimax); the front, the selection and the printed table rank by it.
 """
@@ -33,7 +35,7 @@ from . import grammar
 
 MAX_COMPLEXITY = 16
 ENGINES = ("auto", "exhaustive", "operon", "both")
-DEFAULT_OPERATIONS = grammar.OPERATIONS
+DEFAULT_OPERATIONS = grammar.TEN
 # The time `--engine auto|both` plans for, by the largest complexity asked (at most 12, more), and
 # the exhaustive search's share of it (the complexity it completes in that time); pyoperon has
 # the rest.

@@ -51,7 +51,7 @@ ARITHMETIC_OPCODES = (VAR, CONST, ADD, SUB, MUL, DIV)
 
 
 NAME_OF = {code: name for name, code in OPCODE.items()}
-JNP_FUNCTIONS = {"exp": jnp.exp, "log": jnp.log, "sqrt": jnp.sqrt}
+JNP_FUNCTIONS = {"exp": jnp.exp, "log": jnp.log, "sqrt": jnp.sqrt, "sin": jnp.sin, "cos": jnp.cos, "abs": jnp.abs}
 
 
 def _operation(code, a, b):
@@ -264,7 +264,7 @@ def _best_per_form(form_of_row, s, forms: int):
 
 
 LOSSES = ("rms", "relative", "max", "max-relative")
-CURVED = {"exp", "log", "sqrt", "pow"}
+CURVED = {"exp", "log", "sqrt", "pow", "sin", "cos"}
 FUNCTION_STEPS = 2      # forms with these are screened with FUNCTION_STEPS x the steps
 LAWSON_ROUNDS = 8       # reweightings of a minimax refit (Lawson's algorithm), its start ...
 SLP_STEPS = 40          # ... and the sequential linear programming steps that finish it
@@ -322,7 +322,7 @@ def search(x, y, max_complexity: int, ops="+-*/", starts: int = 2, iterations: i
     width = max(count.max(), MIN_WIDTH)
     linear = linear_masks(forms, width)
     nonlinear_count = count - linear.sum(axis=1).astype(int)
-    # forms with a nonlinear constant inside exp, log, sqrt or pow travel farther from the starts
+    # forms with a nonlinear constant inside exp, log, sqrt, pow, sin or cos travel farther from the starts
     curved = np.array([bool(operations_of(e) & CURVED) for e in forms]) & (nonlinear_count > 0)
     start = start_constants(8 * starts + polish_starts, width, x, seed)
     # Screening on a subsample that spans x where the points are many (then re-evaluated on all).

@@ -54,8 +54,8 @@ def test_the_costs_command_writes_tables_regress_reads(costs, tmp_path):
     assert run.returncode == 0, run.stderr
     assert sorted(p.name for p in out.iterdir()) == ["cost_gcn5.toml", "cost_rdna2.toml", "cost_rdna3.toml"]
     for path in out.iterdir():
-        table = grammar.read_cost_table(path, grammar.OPERATIONS)
-        assert all(np.isfinite(table[op]) and table[op] >= 0 for op in grammar.OPERATIONS)
+        table = grammar.read_cost_table(path, gpu_costs.OPERATIONS)
+        assert all(np.isfinite(table[op]) and table[op] >= 0 for op in gpu_costs.OPERATIONS)
     bad = subprocess.run([sys.executable, "-m", "pipeline", "costs", "--forms", "5"], capture_output=True, text=True,
                          env=cli_env(tmp_path))
     assert bad.returncode == 2 and "--forms 5: give an integer in [20, 2000]" in bad.stderr
