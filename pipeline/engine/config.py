@@ -229,6 +229,9 @@ SCHEMA: tuple[Key, ...] = (
     Key("lobe_search.grammar_operations", "+,-,*,/,exp,square,cube,sqrt",
         "a comma list of distinct operations from +, -, *, /, exp, log, sqrt, square, cube, pow",
         lambda v: isinstance(v, str) and _operation_list(v), "operations of the grammar's forms in the lobe search"),
+    Key("lobe_search.formula_complexity", 0, "an integer in [0, 9] (0: lines alone)", _int_in(0, 9),
+        "largest complexity of the symbolic regression's correction to a parameter's line in n, where a line is not "
+        "enough (its d more than 10 % above the per-n optimum's)"),
     Key("lobe_search.grammar_keep", 4, "an integer in [1, 16]", _int_in(1, 16),
         "grammar forms kept after screening (those no cheaper form beats) and fitted per n like the families"),
     Key("lobe_search.points_per_range", 6, "an integer in [2, 200]", _int_in(2, 200),

@@ -801,6 +801,14 @@ def lobe_search_section(config, r, figures) -> list[str]:
                      + f" | {pct_small(m['d'])} | {m['D']:.4g} | "
                      + "; ".join(f"{k} = {v}" for k, v in m["parameters"].items())
                      + f" | {pct_small(m['d_line'])} | {m['D_line']:.4g} |")
+    corrected = [m for m in s["members"] if m["n_range"] == widest and m.get("formula_complexity", 0) > 0]
+    if corrected:
+        lines += ["", f"Where a line is not enough (its d more than {s['line_enough']:g}x the per-n optimum's), each parameter as "
+                  "its line plus the symbolic regression's correction of its residual (`lobe_search.formula_complexity`; "
+                  "the complexity level that lowers d most, measured at every integer n):", "",
+                  "| form | parameters | max d | max D |", "|---|---|---|---|"]
+        lines += [f"| {m['family']} | " + "; ".join(f"{k} = {v}" for k, v in m["formulas"].items())
+                  + f" | {pct_small(m['d_formula'])} | {m['D_formula']:.4g} |" for m in corrected]
     if s["grammar_searched"]:
         on = sorted({c["family"] for c in s["front"] if c["grammar"]})
         negative = sorted({m["family"] for m in s["members"] if not m["admissible"]})

@@ -10,7 +10,15 @@ the run's epicenter zone; its d and D at those parameters are then measured exac
 fit is repeated halfway between neighbouring points (geometric midpoints), and the largest error
 found there beyond the grid's maximum is reported (`grid_check`). Each family's shader parameters
 are also fitted by a line in n per range, as the paper does for k, and measured at every integer n
-of the range: what a per-material line costs in accuracy.
+of the range: what a per-material line costs in accuracy. Where a line is not enough (its d more
+than `LINE_ENOUGH` times the per-n optimum's) and `lobe_search.formula_complexity` > 0 (a refit: 0
+by default, for the run's time), each parameter's residual from its line, at the grid's and the
+midpoints' optima, is searched by the symbolic regression (`symbolic.search`, `FORMULA_OPERATIONS`,
+up to that complexity): the parameter is its line plus a correction from that front, a function of
+n computed once per material. The fronts fit the parameters, not d (the parameters err together),
+so every complexity level is measured (each parameter's best member at or below it) at every
+integer n of the range and the level of least d is kept, the line alone (level 0) among them: a
+correction is kept only where it lowers d.
 
 Beside the families, the grammar's forms in w = n (1 - t) (`lobe_search.grammar_complexity`; 0 by
 default, for the run's time: a refit) are screened and the best kept and fitted alike; a form that
@@ -50,6 +58,8 @@ assert MATERIAL in machine_code.UNIFORM, "the lobe shader's uniform block, which
 SHADER = machine_code.UNIFORM.replace(MATERIAL, "float A; float B; float C;")
 GRAMMAR_SHADER = machine_code.UNIFORM.replace(MATERIAL, "float n; float c[8];")
 BLOCK = 512        # exponents per exact measurement call (one compiled program)
+LINE_ENOUGH = 1.1  # a line is enough where its d is at most this times the per-n optimum's
+FORMULA_OPERATIONS = "+,-,*,/,log,sqrt"     # of a parameter's correction in n (per material: any is free)
 
 
 def n_grid(ranges, points: int) -> np.ndarray:
@@ -207,6 +217,44 @@ def formula(names, slopes, intercepts) -> dict[str, str]:
     return {p: f"{a:.6g} n {'-' if b < 0 else '+'} {abs(b):.6g}" for p, a, b in zip(names, slopes, intercepts)}
 
 
+def residual_fronts(n, P, slopes, intercepts, complexity: int) -> dict:
+    """{"fronts": per parameter, the symbolic regression's front (`FORMULA_OPERATIONS`, up to
+    `complexity`) on its residual from its line, P[:, j] - (slope n + intercept), at the exponents
+    n: members {"complexity", "form" (text in n), "constants"}, by complexity}."""
+    from ..symbolic import grammar, search
+    n = np.asarray(n, dtype=np.float64)
+    fronts = []
+    for j in range(len(slopes)):
+        found = search.search(n, np.asarray(P)[:, j] - (slopes[j] * n + intercepts[j]), complexity, FORMULA_OPERATIONS)
+        fronts.append([dict(complexity=int(found["complexity"][i]), form=grammar.show(found["forms"][i], "n"),
+                            constants=[float(c) for c in found["constants"][i][:found["constant_count"][i]]])
+                       for i in found["front"]])
+    return dict(fronts=fronts)
+
+
+def corrections_at(fronts, level: int) -> list[dict | None]:
+    """Each parameter's correction at a complexity level: its front's member of largest complexity at
+    or below it (the best there), None where there is none (the line alone)."""
+    return [max((m for m in front if m["complexity"] <= level), key=lambda m: m["complexity"], default=None)
+            for front in fronts]
+
+
+def on_formulas(corrections, slopes, intercepts, n) -> np.ndarray:
+    """The parameters at the exponents n: each its line plus its correction (`corrections_at`)."""
+    from ..symbolic import grammar
+    n = np.asarray(n, dtype=np.float64)
+    return np.stack([a * n + b + (grammar.evaluate_numpy(grammar.parse(m["form"], "n"), m["constants"], n) if m else 0.0)
+                     for a, b, m in zip(slopes, intercepts, corrections)], axis=1)
+
+
+def formula_text(names, slopes, intercepts, corrections) -> dict[str, str]:
+    """Each parameter as text: its line, then its correction (if any) with the constants written in."""
+    from ..symbolic import grammar
+    lines = formula(names, slopes, intercepts)
+    return {p: lines[p] + (f" + ({grammar.show(grammar.parse(m['form'], 'n'), 'n', m['constants'])})" if m else "")
+            for p, m in zip(names, corrections)}
+
+
 def compiled_cycles(families, grammar=()) -> dict:
     """{architecture: {family or grammar form: cycles per wave net of the shader returning t}} of each
     family's shader and each grammar form's (its text in w = n (1 - t)), compiled by RADV (parameters
@@ -324,8 +372,17 @@ def run(config, inputs, memo):
                                                     "w = n (1 - t)")
 
     # Per range: the form's worst n on the grid, the grid check, and the line in n of its parameters
-    # measured at every integer n of the range.
+    # measured at every integer n of the range (and, where a line is not enough, the line corrected).
     members = []
+    formula_complexity = config["lobe_search.formula_complexity"]
+
+    def measured(name, f, P_count, exponents):
+        if "grammar" in f:
+            return dense_errors(f["grammar"], exponents, P_count, level, target)
+        P = np.zeros((exponents.size, 3))
+        P[:, :P_count.shape[1]] = P_count
+        return exact_errors(name, exponents, P, level, cells, settings, target)
+
     for lo, hi in ranges:
         inside = (n >= lo) & (n <= hi)
         mids = midpoints(n)
@@ -337,14 +394,25 @@ def run(config, inputs, memo):
             mid_error = float(f["mid_zone_error"][mid_inside].max()) if mid_inside.any() else grid_error
             count = len(f["parameter_names"])
             slopes, intercepts = parameter_lines(n[inside], f["params"][inside], count)
-            on_line = slopes * integers[:, None] + intercepts
-            if "grammar" in f:
-                line = dense_errors(f["grammar"], integers, on_line, level, target)
-            else:
-                P_line = np.zeros((integers.size, 3))
-                P_line[:, :count] = on_line
-                line = exact_errors(name, integers, P_line, level, cells, settings, target)
+            line = measured(name, f, slopes * integers[:, None] + intercepts, integers)
             j = int(np.argmax(line["d"]))
+            corrected = dict(formulas=formula(f["parameter_names"], slopes, intercepts), d_formula=float(line["d"][j]),
+                             D_formula=float(line["D"].max()), formula_complexity=0, formula_searched=False,
+                             parameter_corrections=[None] * count)
+            if formula_complexity > 0 and line["d"][j] > LINE_ENOUGH * f["d"][i]:
+                key = "grid_P" if "grid_P" in f else "grid_q"
+                both_n = np.concatenate([n[inside], mids[mid_inside]])
+                both_P = np.concatenate([f[key][inside], f["mid" + key[4:]][mid_inside]])[:, :count]
+                fronts = memo("lobe_parameter_fronts", residual_fronts, n=both_n, P=both_P, slopes=slopes,
+                              intercepts=intercepts, complexity=formula_complexity)["fronts"]
+                corrected["formula_searched"] = True
+                for k in sorted({m["complexity"] for front in fronts for m in front}):
+                    chosen = corrections_at(fronts, k)
+                    errors = measured(name, f, on_formulas(chosen, slopes, intercepts, integers), integers)
+                    if errors["d"].max() < corrected["d_formula"]:
+                        corrected.update(formulas=formula_text(f["parameter_names"], slopes, intercepts, chosen),
+                                         d_formula=float(errors["d"].max()), D_formula=float(errors["D"].max()),
+                                         formula_complexity=k, parameter_corrections=chosen)
             members.append(dict(
                 family=name, expression=f["expression"], grammar=f.get("grammar", ""), n_range=[lo, hi],
                 admissible=f.get("admissible", True),
@@ -353,7 +421,8 @@ def run(config, inputs, memo):
                 grid_check=max(mid_error / grid_error - 1.0, 0.0) if grid_error > 0 else 0.0,
                 parameters=formula(f["parameter_names"], slopes, intercepts),
                 parameter_slopes=[float(a) for a in slopes], parameter_intercepts=[float(b) for b in intercepts],
-                d_line=float(line["d"][j]), d_line_n_at_max=float(integers[j]), D_line=float(line["D"].max())))
+                d_line=float(line["d"][j]), d_line_n_at_max=float(integers[j]), D_line=float(line["D"].max()),
+                **corrected))
 
     compiled = memo("lobe_family_cycles", compiled_cycles, families=sorted(names), grammar=list(reach["kept"]))
     lobes = inputs["lobe_comparison.lobes"]
@@ -398,5 +467,5 @@ def run(config, inputs, memo):
                     d=f["d"].tolist(), D=f["D"].tolist(), zone_error=f["grid_zone_error"].tolist())
                for name, f in forms.items()],
         members=members, candidates=candidates, front=front, placements=placements,
-        grid_check_max=max(m["grid_check"] for m in members),
+        grid_check_max=max(m["grid_check"] for m in members), line_enough=LINE_ENOUGH,
         cost_tables=tables["tables"], cost_tables_held_out=tables["held_out"])
