@@ -80,6 +80,13 @@ def _scaled_slope(w, args, power: int = 2):
     return (1.0 - u) ** (n - 1.0) - (power * k / n) * jnp.maximum(1.0 - k * u, 0.0) ** (power - 1)
 
 
+def _slope_of_args(w, args):
+    """`_scaled_slope` with the power among the args: one function for every power, so that
+    `roots.bracketed_root` reuses its compiled root find (the power traced or a Python int)."""
+    n, k, power = args
+    return _scaled_slope(w, (n, k), power)
+
+
 def slope_split_u(n, k, power: int = 2):
     """u_c, the one stationary point of the log-ratio of the two terms of d(f - f_b)/du, clipped
     to the lobe's support [0, min(1/k, 1)]: each side holds at most one root of the slope. At
@@ -93,10 +100,8 @@ def absolute_parts(n, k, settings: SolverSettings, power: int = 2):
     """(over, under, u_over, u_under, ok) of the absolute error over u in [0, 1]; scalar n, k."""
     c = jnp.minimum(1.0 / k, 1.0)
     u_m = slope_split_u(n, k, power)
-    def slope(w, args):
-        return _scaled_slope(w, args, power)
-    w1, _, ok1 = bracketed_root(slope, jnp.zeros_like(n), n * u_m, (n, k), settings)
-    w2, _, ok2 = bracketed_root(slope, n * u_m, n * c, (n, k), settings)
+    w1, _, ok1 = bracketed_root(_slope_of_args, jnp.zeros_like(n), n * u_m, (n, k, power), settings)
+    w2, _, ok2 = bracketed_root(_slope_of_args, n * u_m, n * c, (n, k, power), settings)
     u = jnp.stack([w1 / n, w2 / n, c, jnp.ones_like(c)])
     h = absolute_error_u(u, n, k, power)
     over = jnp.maximum(jnp.max(h, axis=0), 0.0)

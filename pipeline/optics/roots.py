@@ -7,6 +7,7 @@ stages raise `SolverError` naming the inputs where any flag is false.
 from __future__ import annotations
 
 import dataclasses
+import functools
 
 import jax.numpy as jnp
 import optimistix as optx
@@ -29,6 +30,20 @@ class SolverSettings:
         return cls(section["solver.rtol"], section["solver.atol"], section["solver.max_steps"])
 
 
+@functools.lru_cache(maxsize=64)
+def _oriented(fn):
+    """The residual bisection sees for `fn`: one function object per `fn`, so that a call outside
+    jit with the same `fn` and shapes reuses optimistix's traced and compiled root find (a new
+    closure per call would trace and compile it again, about half a second each)."""
+    def oriented(y, a):
+        inner_args, lo, s, root_exists, half_atol = a
+        # Bisection's guarantee is the bracket's width; it uses only the sign of the residual. The
+        # residual passed on is sign * atol/2, so that optimistix's |f| < atol test always holds
+        # and the width (atol + rtol |y|) alone decides convergence, whatever the residual's scale.
+        return jnp.where(root_exists, half_atol * jnp.sign(s * fn(y, inner_args)), y - lo)
+    return oriented
+
+
 def bracketed_root(fn, lower, upper, args, settings: SolverSettings):
     """Root of `fn(y, args)` in [lower, upper], by bisection.
 
@@ -41,16 +56,8 @@ def bracketed_root(fn, lower, upper, args, settings: SolverSettings):
     has_root = (f_lo <= 0.0) != (f_hi <= 0.0)
     # Orient the function so that it is negative at `lower`; with no root, solve y - lower = 0.
     sign = jnp.where(f_hi > 0.0, 1.0, -1.0)
-
-    def oriented(y, a):
-        inner_args, lo, s, root_exists, half_atol = a
-        # Bisection's guarantee is the bracket's width; it uses only the sign of the residual. The
-        # residual passed on is sign * atol/2, so that optimistix's |f| < atol test always holds
-        # and the width (atol + rtol |y|) alone decides convergence, whatever the residual's scale.
-        return jnp.where(root_exists, half_atol * jnp.sign(s * fn(y, inner_args)), y - lo)
-
     solver = optx.Bisection(rtol=settings.rtol, atol=settings.atol, flip=False)
-    sol = optx.root_find(oriented, solver, 0.5 * (lower + upper), args=(args, lower, sign, has_root, 0.5 * settings.atol),
+    sol = optx.root_find(_oriented(fn), solver, 0.5 * (lower + upper), args=(args, lower, sign, has_root, 0.5 * settings.atol),
                          options=dict(lower=lower, upper=upper), max_steps=settings.max_steps,
                          throw=False)
     ok = sol.result == optx.RESULTS.successful

@@ -38,6 +38,7 @@ import jax.numpy as jnp  # noqa: E402
 # and the constant counts forms are padded to.
 POLISH_ROWS = 256
 BLOCK_ROWS = 1024
+SMALL_BLOCK_ROWS = 32   # a fit of at most this many rows runs in a block of this size (a few forms refitted)
 SMALL_CONSTANTS = 2     # forms with at most this many constants are screened in narrower blocks
 MIN_STEPS = 12      # programs are at least this long ...
 MIN_WIDTH = 5       # ... and fits have at least this many constants: searches up to 12 share shapes
@@ -182,6 +183,28 @@ def _pad(a, rows, value=0):
     return np.pad(a, [(0, rows - a.shape[0])] + [(0, 0)] * (a.ndim - 1), constant_values=value)
 
 
+def padded_points(points: int) -> int:
+    """The number of points the compiled programs see: `points` rounded up to the next of 8, 12, 16,
+    24, 32, 48, ... (a power of two or 1.5 times one), so that searches on different numbers of
+    points share traced and compiled programs (tracing one costs about a second, the search itself
+    often less), at most 1.5x the work."""
+    size = 8
+    while size < points:
+        size = size * 3 // 2 if size & (size - 1) == 0 else size * 4 // 3
+    return size
+
+
+def _pad_points(x, y, w):
+    """x, y and w with their points (last axis) padded to `padded_points`: copies of the first
+    point at weight 0, so that each adds an exact zero to every residual, Jacobian and sum of
+    squares (and is finite wherever the first point is)."""
+    extra = padded_points(y.shape[-1]) - y.shape[-1]
+    if extra == 0:
+        return x, y, w
+    copies = lambda a: np.concatenate([a, np.repeat(a[..., :1], extra, axis=-1)], axis=-1)
+    return copies(x), copies(y), np.concatenate([w, np.zeros(w.shape[:-1] + (extra,))], axis=-1)
+
+
 def _fit(block, linear, starts, x, y, rows, iterations, tail, w=None, codes=ARITHMETIC_OPCODES):
     # the screening (no tail) tracks the linear solve's residual; refits evaluate it afresh
     """`fit_block` over fixed-size blocks of (programs, linear masks, starts); unpadded numpy
@@ -189,10 +212,13 @@ def _fit(block, linear, starts, x, y, rows, iterations, tail, w=None, codes=ARIT
     per row."""
     w = np.ones(y.shape[-1]) if w is None else w
     w = np.broadcast_to(w, y.shape)
+    if block.shape[0] <= SMALL_BLOCK_ROWS:
+        rows = min(rows, SMALL_BLOCK_ROWS)
     out = []
     for part, count in _blocks(block.shape[0], rows):
         data = (x, y, w) if y.ndim == 1 else (_pad(x[part], rows, 1.0), _pad(y[part], rows), _pad(w[part], rows, 1.0))
-        result = fit_block(_pad(block[part], rows), _pad(linear[part], rows), _pad(starts[part], rows, 1.0), *data,
+        result = fit_block(_pad(block[part], rows), _pad(linear[part], rows), _pad(starts[part], rows, 1.0),
+                           *_pad_points(*data),
                            iterations, tail, tail > 0, codes=codes)
         out.append([np.asarray(r)[:count] for r in result])
     return [np.concatenate(parts) for parts in zip(*out)]
@@ -244,8 +270,9 @@ def _sse_block(block, c, x, y, w, codes=ARITHMETIC_OPCODES):
 
 def sums_of_squares(program, constants_, x, y, w=None, codes=ARITHMETIC_OPCODES) -> np.ndarray:
     """The (weighted) sum of squares of each program with its constants on every point, in blocks."""
-    rows = _rows_for(BLOCK_ROWS, x.shape[-1], program.shape[-1])
     w = np.ones(y.shape[-1]) if w is None else w
+    x, y, w = _pad_points(x, y, np.asarray(w, dtype=np.float64))
+    rows = _rows_for(BLOCK_ROWS, x.shape[-1], program.shape[-1])
     out = []
     for part, count in _blocks(program.shape[0], rows):
         out.append(np.asarray(_sse_block(_pad(program[part], rows), _pad(constants_[part], rows, 1.0), x, y, w,
@@ -425,12 +452,14 @@ def _residual_block(block, c, x, y, w, codes=ARITHMETIC_OPCODES):
 
 def weighted_residuals(program, constants_, x, y, w, codes=ARITHMETIC_OPCODES) -> np.ndarray:
     """(value - y) w of each program with its constants at every point, (programs, points)."""
+    points = y.size
+    x, y, w = _pad_points(x, y, np.broadcast_to(np.asarray(w, dtype=np.float64), y.shape))
     rows = _rows_for(BLOCK_ROWS, x.shape[-1], program.shape[-1])
     out = []
     for part, count in _blocks(program.shape[0], rows):
         out.append(np.asarray(_residual_block(_pad(program[part], rows), _pad(constants_[part], rows, 1.0), x, y, w,
-                                              codes=codes))[:count])
-    return np.concatenate(out) if out else np.zeros((0, y.size))
+                                              codes=codes))[:count, :points])
+    return np.concatenate(out) if out else np.zeros((0, points))
 
 
 def largest_errors(program, constants_, x, y, w, codes=ARITHMETIC_OPCODES) -> np.ndarray:
@@ -474,7 +503,8 @@ def minimax(program, linear, c0, x, y, w, codes, iterations: int = 100):
     radius = 0.1 * (np.abs(best_c) + 1e-3)
     active = np.isfinite(best)
     done = np.zeros(rows, bool)
-    rows_per_block = _rows_for(BLOCK_ROWS, points, program.shape[-1])
+    x_p, y_p, w_p = _pad_points(x, y, np.broadcast_to(np.asarray(w, dtype=np.float64), y.shape))
+    rows_per_block = _rows_for(BLOCK_ROWS, y_p.size, program.shape[-1])
     for _ in range(SLP_STEPS):
         index = np.flatnonzero(active & ~done)
         if index.size == 0:
@@ -482,9 +512,9 @@ def minimax(program, linear, c0, x, y, w, codes, iterations: int = 100):
         r, J = [], []
         for part, count in _blocks(index.size, rows_per_block):
             rr, jj, _ = _jacobian_block(_pad(program[index[part]], rows_per_block), _pad(best_c[index[part]], rows_per_block, 1.0),
-                                        x, y, w, codes=codes)
-            r.append(np.asarray(rr)[:count])
-            J.append(np.asarray(jj)[:count])
+                                        x_p, y_p, w_p, codes=codes)
+            r.append(np.asarray(rr)[:count, :points])
+            J.append(np.asarray(jj)[:count, :points])
         r, J = np.concatenate(r), np.concatenate(J)
         trials = np.array(best_c[index])
         for k, i in enumerate(index):
