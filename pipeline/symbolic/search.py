@@ -38,7 +38,6 @@ import jax.numpy as jnp  # noqa: E402
 # and the constant counts forms are padded to.
 POLISH_ROWS = 256
 BLOCK_ROWS = 1024
-SMALL_BLOCK_ROWS = 32   # a fit of at most this many rows runs in a block of this size (a few forms refitted)
 SMALL_CONSTANTS = 2     # forms with at most this many constants are screened in narrower blocks
 MIN_STEPS = 12      # programs are at least this long ...
 MIN_WIDTH = 5       # ... and fits have at least this many constants: searches up to 12 share shapes
@@ -212,8 +211,6 @@ def _fit(block, linear, starts, x, y, rows, iterations, tail, w=None, codes=ARIT
     per row."""
     w = np.ones(y.shape[-1]) if w is None else w
     w = np.broadcast_to(w, y.shape)
-    if block.shape[0] <= SMALL_BLOCK_ROWS:
-        rows = min(rows, SMALL_BLOCK_ROWS)
     out = []
     for part, count in _blocks(block.shape[0], rows):
         data = (x, y, w) if y.ndim == 1 else (_pad(x[part], rows, 1.0), _pad(y[part], rows), _pad(w[part], rows, 1.0))
@@ -550,7 +547,7 @@ def pareto_front(size, rms, floor: float = 0.0, margin: float = 1e-6) -> list[in
 
 
 def fit_forms(forms, x, y, starts: int = 8, seed: int = 0, steps: int = MIN_STEPS, width: int = MIN_WIDTH,
-              iterations: int = 200, initial=None, loss: str = "rms", codes=None):
+              iterations: int = 200, initial=None, loss: str = "rms", codes=None, block_rows: int = POLISH_ROWS):
     """(constants, rms, converged) of each given form, by the same fit as the front's refits (programs
     of `steps` steps and `width` constants, so that the search's compiled fit serves), from
     `starts` starts. y is one sample's points, x its variable's points or (variables, points); with
@@ -559,12 +556,15 @@ def fit_forms(forms, x, y, starts: int = 8, seed: int = 0, steps: int = MIN_STEP
     (one array of constants per form) replaces each form's first start. With `loss` other than
     "rms" (one sample only), the second value is that loss (`search`), the fit the same as there.
     `codes`: the opcodes to compile the fit for (default the forms' own; a superset lets calls on
-    different forms share one compiled program)."""
+    different forms share one compiled program). `block_rows`: the rows of its compiled blocks (by
+    default the search's, whose compiled fit then serves; many calls of a few fits each run faster
+    in a smaller block of their own)."""
     x, y = np.asarray(x, dtype=np.float64), np.asarray(y, dtype=np.float64)
     if loss != "rms":
         return _fit_forms_for_loss(forms, x, y, starts, seed, iterations, initial, loss)
     if y.ndim == 1:
-        return fit_forms(forms, x[None], y[None], starts, seed, steps, width, iterations, initial, codes=codes)[0]
+        return fit_forms(forms, x[None], y[None], starts, seed, steps, width, iterations, initial, codes=codes,
+                         block_rows=block_rows)[0]
     x = x[:, None] if x.ndim == 2 else x
     steps = max([steps, MIN_STEPS] + [complexity(e) for e in forms])
     width = max([width, MIN_WIDTH] + [constants(e) for e in forms])
@@ -578,7 +578,7 @@ def fit_forms(forms, x, y, starts: int = 8, seed: int = 0, steps: int = MIN_STEP
             first[i, :len(values)] = values
         c0.reshape(samples, len(forms), starts, width)[:, :, 0] = first
     rows_x, rows_y = np.repeat(x, per_sample, axis=0), np.repeat(y, per_sample, axis=0)
-    c, s, ok = _fit(block, linear, c0, rows_x, rows_y, _rows_for(POLISH_ROWS, y.shape[1], 4 * steps), iterations, 20,
+    c, s, ok = _fit(block, linear, c0, rows_x, rows_y, _rows_for(block_rows, y.shape[1], 4 * steps), iterations, 20,
                     codes=opcodes(forms) if codes is None else tuple(codes))
     s = np.where(np.isfinite(s), s, np.inf).reshape(samples, len(forms), starts)
     c, ok = c.reshape(samples, len(forms), starts, width), ok.reshape(samples, len(forms), starts)
