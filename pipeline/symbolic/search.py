@@ -12,7 +12,9 @@ by linear least squares in every step and only the others iterated, by Levenberg
 form is screened by a few steps from deterministic starts (the same for every form), again from
 more starts where they disagree, and the best of each complexity refitted until the RMS no longer
 improves. Every register program of a block runs at once (vmapped), on fixed block shapes, so that
-a search compiles three XLA programs whatever its size.
+a search compiles three XLA programs whatever its size; the points are padded to the next of a few
+sizes (`padded_points`, by copies of the first point at weight 0, which add exact zeros), so that
+searches on different numbers of points share them too.
 
 Any number of points, in bounded memory: beyond `SCREEN_POINTS` points the screening runs on a
 subsample that spans x (evenly spaced in the order of each variable), every form's screened

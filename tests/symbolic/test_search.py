@@ -212,3 +212,25 @@ def test_the_screening_subsample_spans_x():
     assert sub.size == 256 and x[sub].min() == x.min() and x[sub].max() == x.max()
     gaps = np.diff(np.sort(x[sub]))
     assert gaps.max() < 0.2
+
+
+def test_padded_points_add_nothing_to_what_is_measured():
+    """The compiled programs see the points padded to a few sizes (copies of the first point at
+    weight 0): at most 1.5x the points, never fewer, and the sums of squares and residuals of 37
+    points (padded to 48) are numpy's on the 37 alone (1e-12 relative: sums of 37 terms in another
+    order), even where the first point's residual is large."""
+    sizes = [symbolic.padded_points(p) for p in range(1, 3000)]
+    assert all(p <= s <= max(8, 1.5 * p) for p, s in zip(range(1, 3000), sizes))
+    assert len(set(sizes)) == 18      # 8, 12, 16, 24, ..., 2048, 3072
+    x = np.linspace(0.5, 3.0, 37)
+    y = np.exp(x) + np.where(np.arange(37) == 0, 100.0, 0.0)     # the first point far off
+    forms = [symbolic.parse(t) for t in ("c * x + c", "c / (x + c)", "x * x")]
+    c = np.array([[1.3, -0.4, 0, 0, 0], [2.0, 0.7, 0, 0, 0], [1, 1, 1, 1, 1]], dtype=float)
+    program = symbolic.programs(forms, symbolic.MIN_STEPS)
+    values = np.stack([1.3 * x - 0.4, 2.0 / (x + 0.7), x * x])
+    w = np.linspace(1.0, 2.0, 37)
+    np.testing.assert_allclose(symbolic.sums_of_squares(program, c, x[None], y, w),
+                               np.sum(((values - y) * w) ** 2, axis=1), rtol=1e-12)
+    residuals = symbolic.weighted_residuals(program, c, x[None], y, w)
+    assert residuals.shape == (3, 37)
+    np.testing.assert_allclose(residuals, (values - y) * w, rtol=1e-12, atol=1e-12)
