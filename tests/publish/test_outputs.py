@@ -187,3 +187,30 @@ def test_the_summary_is_one_screen_at_the_top_of_the_report(paper_outputs):
             assert fact["count"] == 0 or f"{fact['count']} of {fact['of']}" in summary
     for word in ("ship", "verdict"):
         assert word not in summary.lower()
+
+
+def test_every_text_of_a_figure_names_the_run_s_power(monkeypatch):
+    """At lobe.power = 4 every text a reader sees (titles, axis labels, legend, annotations, the
+    figure's own title, a colorbar's label) names f_Q4 instead of f_Q2, except names kept by
+    `report_beyond.keep`; the tick labels, written by the axes' formatters when drawn, stay numbers."""
+    import matplotlib.pyplot as plt
+    from pipeline.publish import plots
+    from pipeline.publish.report_beyond import keep
+    monkeypatch.setattr(plots, "POWER", 4)
+    fig, (ax, bx) = plt.subplots(1, 2)
+    ax.plot([0, 1], [0, 1], label="f_Q2 (this run)")
+    ax.plot([0, 1], [1, 0], label=keep("f_Q2") + " at m = 2")
+    ax.legend()
+    ax.set(title="max d of f_Q2", xlabel="n of f_Q2", ylabel="f_Q2 / cos^n")
+    ax.annotate("f_Q2 here", (0.5, 0.5))
+    image = bx.imshow(np.eye(3))
+    fig.colorbar(image, ax=bx).set_label("error of f_Q2")
+    fig.suptitle("f_Q2 against cos^n; accuracy.d_f_Q2 as a field path")
+    plots._names_at_power(fig)
+    fig.canvas.draw()
+    texts = [t.get_text() for t in fig.findobj(lambda a: hasattr(a, "get_text")) if t.get_text()]
+    plt.close(fig)
+    assert {"f_Q4 (this run)", "f_Q2 at m = 2", "max d of f_Q4", "n of f_Q4", "f_Q4 / cos^n", "f_Q4 here",
+            "error of f_Q4", "f_Q4 against cos^n; accuracy.d_f_Q2 as a field path"} <= set(texts)
+    assert not [t for t in texts if "f_Q2" in t and "m = 2" not in t and "d_f_Q2" not in t]
+    assert any(re.fullmatch(r"[\d.−-]+", t) for t in texts)        # tick labels, drawn
