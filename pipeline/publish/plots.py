@@ -11,7 +11,6 @@ import matplotlib
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
-import matplotlib.axis  # noqa: E402
 import matplotlib.text  # noqa: E402
 import matplotlib.ticker  # noqa: E402
 import numpy as np  # noqa: E402
@@ -847,7 +846,7 @@ def lobe_front(out, config, r):
     fig.suptitle("Cheap forms fitted per n (circles; filled: the front, joined; grey x: grammar forms below 0 "
                  "somewhere, not lobes) and the registry's lobes (squares; the paper's f_Q2 starred)", fontsize=10)
     fig.tight_layout(rect=(0, 0, 1, 0.97))
-    fig.draw_without_rendering()    # fixes the layout, the axes' limits and transforms: then the labels
+    fig.canvas.draw()       # fixes the layout, the axes' limits and transforms: then the labels
     for ax, labels in stacks:
         _stacked_labels(fig, ax, labels)
     return _save(fig, out, "lobe_front.png", tight=False)
