@@ -1,5 +1,7 @@
 """Independent reference computations (plain numpy / scipy), never the pipeline's own functions."""
 
+import math
+
 import numpy as np
 from scipy import integrate
 
@@ -26,14 +28,20 @@ def k_Q_np(n, Q):
 
 def scipy_albedo(form, k, theta_i, coef=1.0, tolerance=1e-12):
     """a(theta_i) of coef (k (t - 1) + 1)^2 by scipy's adaptive 2-D quadrature over the hemisphere, to
-    `tolerance` (absolute and relative)."""
-    L = np.array([np.sin(theta_i), 0.0, np.cos(theta_i)])
-    R = np.array([-L[0], 0.0, L[2]])
+    `tolerance` (absolute and relative). The integrand is scalar math (about 15x faster than numpy
+    vectors of three), with L in the x-z plane: R = (-L_x, 0, L_z), H = (L + V) / |L + V|."""
+    lx, lz = math.sin(theta_i), math.cos(theta_i)
 
     def f(phi, theta):
-        V = np.array([np.sin(theta) * np.cos(phi), np.sin(theta) * np.sin(phi), np.cos(theta)])
-        t = R @ V if form == "phong" else (L + V)[2] / np.linalg.norm(L + V)
-        return coef * float(quadratic_np(1.0 - t, k)) * np.cos(theta) * np.sin(theta)
+        sin_t, cos_t = math.sin(theta), math.cos(theta)
+        vx, vy = sin_t * math.cos(phi), sin_t * math.sin(phi)
+        if form == "phong":
+            t = -lx * vx + lz * cos_t
+        else:
+            hx, hz = lx + vx, lz + cos_t
+            t = hz / math.sqrt(hx * hx + vy * vy + hz * hz)
+        base = 1.0 - k * (1.0 - t)
+        return coef * (base * base if base > 0 else 0.0) * cos_t * sin_t
     return integrate.dblquad(f, 0, np.pi / 2, 0, 2 * np.pi, epsabs=tolerance, epsrel=tolerance)[0]
 
 
