@@ -21,6 +21,8 @@ import sys
 import tempfile
 from pathlib import Path
 
+from . import glslang
+
 TRANSCENDENTAL = ("Pow", "Exp", "Exp2", "Log", "Log2", "Sqrt", "InverseSqrt")
 ARITHMETIC_OPS = ("OpFAdd", "OpFSub", "OpFMul", "OpFNegate")
 ARITHMETIC_EXT = ("FMax", "FMin", "FClamp", "NMax", "NMin", "NClamp", "Fma")
@@ -87,8 +89,15 @@ def optimized_disassembly(source: str, stage: str = "frag") -> str:
     with tempfile.TemporaryDirectory() as tmp:
         src, spv, opt = Path(tmp) / f"shader.{stage}", Path(tmp) / "shader.spv", Path(tmp) / "opt.spv"
         src.write_text(source)
-        for args in ([tool("glslangValidator"), "-V", str(src), "-o", str(spv)],
-                     [tool("spirv-opt"), "-O", str(spv), "-o", str(opt)]):
+        commands = [[tool("glslangValidator"), "-V", str(src), "-o", str(spv)],
+                    [tool("spirv-opt"), "-O", str(spv), "-o", str(opt)]]
+        if glslang.available():         # glslangValidator's bytes, in this process
+            try:
+                spv.write_bytes(glslang.spirv(source, stage))
+            except glslang.GlslError as e:
+                raise RuntimeError(f"glslang failed on the lobe shader:\n{e}") from None
+            commands = commands[1:]
+        for args in commands:
             done = run_tool(args)
             if done.returncode != 0:
                 raise RuntimeError(f"{Path(args[0]).name} failed on the lobe shader:\n{done.stdout}{done.stderr}")
