@@ -62,6 +62,6 @@ def test_without_the_libraries_glslangvalidator_compiles(tmp_path, monkeypatch):
     source = spirv.FRAGMENT.format(body="return t * t;")
     monkeypatch.setattr(glslang, "available", lambda: False)
     out = machine_code.spirv_binary(source, tmp_path, "square.frag.spv")
-    assert (tmp_path / "square.frag").is_file()         # the source written for the validator
+    assert (tmp_path / "square.frag.spv.frag").is_file()     # the source written for the validator
     monkeypatch.undo()
     assert out.read_bytes() == glslang.spirv(source, "frag")
