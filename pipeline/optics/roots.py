@@ -12,6 +12,8 @@ import functools
 import jax.numpy as jnp
 import optimistix as optx
 
+from .numerics import jax
+
 
 class SolverError(RuntimeError):
     """A root find or fit that did not converge; the message names the inputs."""
@@ -44,6 +46,12 @@ def _oriented(fn):
     return oriented
 
 
+def _arrays(tree):
+    """`tree` with its Python floats as arrays: optimistix's root find treats a Python number as a
+    static value and compiles again for each (an eager call per n would compile once per n)."""
+    return jax.tree_util.tree_map(lambda a: jnp.asarray(a, dtype=jnp.float64) if isinstance(a, float) else a, tree)
+
+
 def bracketed_root(fn, lower, upper, args, settings: SolverSettings):
     """Root of `fn(y, args)` in [lower, upper], by bisection.
 
@@ -51,6 +59,7 @@ def bracketed_root(fn, lower, upper, args, settings: SolverSettings):
     to find: `has_root` is False and `root` is `lower` (callers evaluate the endpoints anyway).
     `ok` is False only where the solver failed on a bracket that did contain a root.
     """
+    lower, upper, args = _arrays((lower, upper, args))
     f_lo = fn(lower, args)
     f_hi = fn(upper, args)
     has_root = (f_lo <= 0.0) != (f_hi <= 0.0)
