@@ -31,7 +31,7 @@ from pathlib import Path
 
 import sympy as sp
 
-from . import glslang, registry, spirv
+from . import registry, spirv
 
 FAMILIES = {"gfx1100": "RDNA3", "navi21": "RDNA2", "vega10": "GCN5"}
 ICD_FOLDERS = ("/usr/share/vulkan/icd.d", "/etc/vulkan/icd.d")
@@ -128,20 +128,8 @@ def glsl_expression(expr) -> str:
 
 
 def spirv_binary(source: str, folder: Path, name: str, stage: str = "frag") -> Path:
-    """GLSL `source` compiled to SPIR-V as `glslangValidator -V` does, as folder/name: in this process
-    where glslang's libraries load (`optics.glslang`), else by glslangValidator."""
-    src, out = folder / f"{name}.{stage}", folder / name
-    if glslang.available():
-        try:
-            out.write_bytes(glslang.spirv(source, stage))
-        except glslang.GlslError as e:
-            raise RuntimeError(f"glslang failed on shader {name}:\n{e}\n{source}") from None
-        return out
-    src.write_text(source)
-    done = spirv.run_tool([spirv.tool("glslangValidator"), "-V", "-S", stage, str(src), "-o", str(out)])
-    if done.returncode != 0:
-        raise RuntimeError(f"glslangValidator failed on shader {name}:\n{done.stdout}{done.stderr}\n{source}")
-    return out
+    """GLSL `source` compiled to SPIR-V (`spirv.compile_glsl`), as folder/name."""
+    return spirv.compile_glsl(source, stage, folder / name, f"shader {name}")
 
 
 def compile_family(family: str, folder: Path, icd: str) -> str:

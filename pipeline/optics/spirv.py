@@ -71,23 +71,32 @@ def run_tool(args: list[str], **kwargs) -> subprocess.CompletedProcess:
     return subprocess.run(args, capture_output=True, text=True, env=tool_env(), **kwargs)
 
 
+def compile_glsl(source: str, stage: str, out: Path, what: str) -> Path:
+    """GLSL `source` compiled to SPIR-V as `glslangValidator -V -S stage` does, written to `out`: in
+    this process where glslang's libraries load (`optics.glslang`), else by glslangValidator (the
+    source written beside `out`). Raises RuntimeError naming `what` with the compiler's log."""
+    if glslang.available():
+        try:
+            out.write_bytes(glslang.spirv(source, stage))
+        except glslang.GlslError as e:
+            raise RuntimeError(f"glslang failed on {what}:\n{e}\n{source}") from None
+        return out
+    src = out.with_name(f"{out.name}.{stage}")
+    src.write_text(source)
+    done = run_tool([tool("glslangValidator"), "-V", "-S", stage, str(src), "-o", str(out)])
+    if done.returncode != 0:
+        raise RuntimeError(f"glslangValidator failed on {what}:\n{done.stdout}{done.stderr}\n{source}")
+    return out
+
+
 def optimized_disassembly(source: str, stage: str = "frag") -> str:
     """The SPIR-V disassembly of GLSL `source` after `spirv-opt -O`."""
     with tempfile.TemporaryDirectory() as tmp:
-        src, spv, opt = Path(tmp) / f"shader.{stage}", Path(tmp) / "shader.spv", Path(tmp) / "opt.spv"
-        src.write_text(source)
-        commands = [[tool("glslangValidator"), "-V", str(src), "-o", str(spv)],
-                    [tool("spirv-opt"), "-O", str(spv), "-o", str(opt)]]
-        if glslang.available():         # glslangValidator's bytes, in this process
-            try:
-                spv.write_bytes(glslang.spirv(source, stage))
-            except glslang.GlslError as e:
-                raise RuntimeError(f"glslang failed on the lobe shader:\n{e}") from None
-            commands = commands[1:]
-        for args in commands:
-            done = run_tool(args)
-            if done.returncode != 0:
-                raise RuntimeError(f"{Path(args[0]).name} failed on the lobe shader:\n{done.stdout}{done.stderr}")
+        spv, opt = Path(tmp) / "shader.spv", Path(tmp) / "opt.spv"
+        compile_glsl(source, stage, spv, "the lobe shader")
+        done = run_tool([tool("spirv-opt"), "-O", str(spv), "-o", str(opt)])
+        if done.returncode != 0:
+            raise RuntimeError(f"spirv-opt failed on the lobe shader:\n{done.stdout}{done.stderr}")
         done = run_tool([tool("spirv-dis"), str(opt)], check=True)
         return done.stdout
 
