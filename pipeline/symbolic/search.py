@@ -12,9 +12,10 @@ by linear least squares in every step and only the others iterated, by Levenberg
 form is screened by a few steps from deterministic starts (the same for every form), again from
 more starts where they disagree, and the best of each complexity refitted until the RMS no longer
 improves. Every register program of a block runs at once (vmapped), on fixed block shapes, so that
-a search compiles three XLA programs whatever its size; the points are padded to the next of a few
-sizes (`padded_points`, by copies of the first point at weight 0, which add exact zeros), so that
-searches on different numbers of points share them too.
+a search compiles at most three XLA programs whatever its size (the forms with few constants get a
+narrower one only where they are many enough to repay its compilation); the points are padded to
+the next of a few sizes (`padded_points`, by copies of the first point at weight 0, which add exact
+zeros), so that searches on different numbers of points share them too.
 
 Any number of points, in bounded memory: beyond `SCREEN_POINTS` points the screening runs on a
 subsample that spans x (evenly spaced in the order of each variable), every form's screened
@@ -40,7 +41,10 @@ import jax.numpy as jnp  # noqa: E402
 # and the constant counts forms are padded to.
 POLISH_ROWS = 256
 BLOCK_ROWS = 1024
-SMALL_CONSTANTS = 2     # forms with at most this many constants are screened in narrower blocks
+SMALL_CONSTANTS = 2     # forms with at most this many constants are screened in narrower blocks ...
+NARROW_ROW_STEPS = 300_000  # ... where they fill at least this many rows x steps: a narrow program saves
+                            # about 5 us per row and step against the full width and costs a compile of
+                            # about 1.6 s (measured on one core: arithmetic, sin and the ten operations)
 MIN_STEPS = 12      # programs are at least this long ...
 MIN_WIDTH = 5       # ... and fits have at least this many constants: searches up to 12 share shapes
 AGREE = 1e-3            # starts within this relative sum of squares of the best reached the same optimum;
@@ -370,6 +374,8 @@ def search(x, y, max_complexity: int, ops="+-*/", starts: int = 2, iterations: i
                 continue
             repeats = np.where(nonlinear_count[group] > 0, count_, 1)
             rows = np.repeat(group, repeats)
+            if rows.size * steps < NARROW_ROW_STEPS:
+                w = width           # too few for a program of their own: the full width's
             k = first + np.concatenate([np.arange(r) for r in repeats])
             # (data per row, as in the refits, so that the widest screening and the refits share one
             # compiled program)
