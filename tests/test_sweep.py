@@ -31,6 +31,7 @@ name = "s"
 config = "{LIGHT_CONFIG}"
 mode = "zip"
 only = ["accuracy"]
+set = {{ "derivation.constants" = "fitted" }}
 [axes]
 "derivation.Q" = [0.6, 0.62, 0.66, 0.68]
 "solver.max_steps" = [256, 256, 256, 8]
@@ -160,6 +161,7 @@ CLUSTER_SWEEP = f"""
 name = "c"
 config = "{LIGHT_CONFIG}"
 only = ["accuracy"]
+set = {{ "derivation.constants" = "fitted" }}
 [axes]
 "derivation.Q" = [0.53, 0.54, 0.56, 0.57]
 """

@@ -68,7 +68,7 @@ def test_a_change_recomputes_only_what_reads_it_and_stops_where_values_repeat(wa
 @pytest.mark.slow
 def test_a_q_refit_reuses_the_work_that_does_not_depend_on_q(warm_cache, light_run):
     before = {name: memo_entries(warm_cache, name) for name in ("family_errors", "shape_errors", "energy_table")}
-    config = pipeline.load_config(LIGHT_CONFIG, ("derivation.Q=0.7",))
+    config = pipeline.load_config(LIGHT_CONFIG, ("derivation.Q=0.7", "derivation.constants=fitted"))
     results, computed, _ = run(config, warm_cache)
     assert "zone" not in computed and "q_scan" not in computed and "render" in computed
     after = {name: memo_entries(warm_cache, name) for name in before}
