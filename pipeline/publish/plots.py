@@ -667,7 +667,7 @@ def error_cost_front(out, config, r):
                  fontsize=9.5, wrap=True)
     _names_at_power(fig)
     fig.tight_layout(rect=(0, 0.02, 1, 0.95))
-    fig.canvas.draw()
+    _settle(fig)
     for ax, labels in stacks:
         _stacked_labels(fig, ax, labels)
     _names_at_power(fig)
@@ -773,6 +773,14 @@ ARCHITECTURE_NAMES = {"rdna3": "RDNA3", "rdna2": "RDNA2", "gcn5": "GCN5"}
 LABEL_GAP_PX = 9        # smallest vertical distance between two labels of points of equal cost
 
 
+def _settle(fig) -> None:
+    """The axes' limits and positions as a draw would fix them (autoscaled limits, aspect), so that
+    their transforms are final for `_stacked_labels` without drawing the figure one more time."""
+    for ax in fig.axes:
+        ax.apply_aspect()
+        ax.get_xlim(), ax.get_ylim()        # (autoscales what is pending)
+
+
 def _stacked_labels(fig, ax, labels, near: float = 3.5) -> None:
     """Labels of the points (x: [(d, text, color)]) on a drawn figure (its transforms final): the
     points of costs closer than `near` form one
@@ -846,7 +854,7 @@ def lobe_front(out, config, r):
     fig.suptitle("Cheap forms fitted per n (circles; filled: the front, joined; grey x: grammar forms below 0 "
                  "somewhere, not lobes) and the registry's lobes (squares; the paper's f_Q2 starred)", fontsize=10)
     fig.tight_layout(rect=(0, 0, 1, 0.97))
-    fig.canvas.draw()       # fixes the layout, the axes' limits and transforms: then the labels
+    _settle(fig)
     for ax, labels in stacks:
         _stacked_labels(fig, ax, labels)
     return _save(fig, out, "lobe_front.png", tight=False)
