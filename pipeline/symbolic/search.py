@@ -478,14 +478,15 @@ def _jacobian_block(block, c, x, y, w, codes=ARITHMETIC_OPCODES):
     return jax.vmap(lambda p, c_: _residual_and_jacobian(p, c_, x, y, w, codes))(block, c)
 
 
-def minimax(program, linear, c0, x, y, w, codes, iterations: int = 100):
+def minimax(program, linear, c0, x, y, w, codes, iterations: int = 100, block_rows: int | None = None):
     """Minimax fits of the programs from c0: first Lawson's algorithm (LAWSON_ROUNDS weighted
     least-squares fits whose weights, one per point, are multiplied by each point's error after
     every fit: a start near the minimax), then sequential linear programming (each step minimizes
     the largest linearized error max |r + J d| within a trust region |d| <= radius, by scipy's
     HiGHS; a step is kept where the true largest error falls, the radius doubled, else quartered).
     Returns (constants, largest |value - y| w, converged: the trust region shrank below 1e-12 of
-    the constants or a step gained less than 1e-12 relative)."""
+    the constants or a step gained less than 1e-12 relative). `block_rows`: the rows of the compiled
+    blocks (default the search's)."""
     from scipy.optimize import linprog
 
     rows, points = program.shape[0], y.size
@@ -495,7 +496,7 @@ def minimax(program, linear, c0, x, y, w, codes, iterations: int = 100):
     for _ in range(LAWSON_ROUNDS):
         weight = w * np.sqrt(u * points)
         c, _, _ = _fit(program, linear, c, np.broadcast_to(x, (rows,) + x.shape), np.broadcast_to(y, (rows, points)),
-                       _rows_for(POLISH_ROWS, points, 4 * program.shape[-1]), iterations, 20, weight, codes)
+                       _rows_for(block_rows or POLISH_ROWS, points, 4 * program.shape[-1]), iterations, 20, weight, codes)
         r = np.abs(weighted_residuals(program, c, x, y, w, codes))
         largest = np.where(np.all(np.isfinite(r), axis=1), np.max(r, axis=1), np.inf)
         better = largest < best
@@ -509,7 +510,7 @@ def minimax(program, linear, c0, x, y, w, codes, iterations: int = 100):
     active = np.isfinite(best)
     done = np.zeros(rows, bool)
     x_p, y_p, w_p = _pad_points(x, y, np.broadcast_to(np.asarray(w, dtype=np.float64), y.shape))
-    rows_per_block = _rows_for(BLOCK_ROWS, y_p.size, program.shape[-1])
+    rows_per_block = _rows_for(block_rows or BLOCK_ROWS, y_p.size, program.shape[-1])
     for _ in range(SLP_STEPS):
         index = np.flatnonzero(active & ~done)
         if index.size == 0:
@@ -555,7 +556,7 @@ def pareto_front(size, rms, floor: float = 0.0, margin: float = 1e-6) -> list[in
 
 
 def fit_forms(forms, x, y, starts: int = 8, seed: int = 0, steps: int = MIN_STEPS, width: int = MIN_WIDTH,
-              iterations: int = 200, initial=None, loss: str = "rms", codes=None, block_rows: int = POLISH_ROWS):
+              iterations: int = 200, initial=None, loss: str = "rms", codes=None, block_rows: int | None = None):
     """(constants, rms, converged) of each given form, by the same fit as the front's refits (programs
     of `steps` steps and `width` constants, so that the search's compiled fit serves), from
     `starts` starts. y is one sample's points, x its variable's points or (variables, points); with
@@ -565,11 +566,11 @@ def fit_forms(forms, x, y, starts: int = 8, seed: int = 0, steps: int = MIN_STEP
     "rms" (one sample only), the second value is that loss (`search`), the fit the same as there.
     `codes`: the opcodes to compile the fit for (default the forms' own; a superset lets calls on
     different forms share one compiled program). `block_rows`: the rows of its compiled blocks (by
-    default the search's, whose compiled fit then serves; many calls of a few fits each run faster
-    in a smaller block of their own)."""
+    default the search's, whose compiled fit then serves; many calls of a few fits each, or a few
+    fits on many points, run faster in a smaller block of their own)."""
     x, y = np.asarray(x, dtype=np.float64), np.asarray(y, dtype=np.float64)
     if loss != "rms":
-        return _fit_forms_for_loss(forms, x, y, starts, seed, iterations, initial, loss)
+        return _fit_forms_for_loss(forms, x, y, starts, seed, iterations, initial, loss, block_rows)
     if y.ndim == 1:
         return fit_forms(forms, x[None], y[None], starts, seed, steps, width, iterations, initial, codes=codes,
                          block_rows=block_rows)[0]
@@ -586,8 +587,8 @@ def fit_forms(forms, x, y, starts: int = 8, seed: int = 0, steps: int = MIN_STEP
             first[i, :len(values)] = values
         c0.reshape(samples, len(forms), starts, width)[:, :, 0] = first
     rows_x, rows_y = np.repeat(x, per_sample, axis=0), np.repeat(y, per_sample, axis=0)
-    c, s, ok = _fit(block, linear, c0, rows_x, rows_y, _rows_for(block_rows, y.shape[1], 4 * steps), iterations, 20,
-                    codes=opcodes(forms) if codes is None else tuple(codes))
+    c, s, ok = _fit(block, linear, c0, rows_x, rows_y, _rows_for(block_rows or POLISH_ROWS, y.shape[1], 4 * steps),
+                    iterations, 20, codes=opcodes(forms) if codes is None else tuple(codes))
     s = np.where(np.isfinite(s), s, np.inf).reshape(samples, len(forms), starts)
     c, ok = c.reshape(samples, len(forms), starts, width), ok.reshape(samples, len(forms), starts)
     out = []
@@ -601,7 +602,7 @@ def fit_forms(forms, x, y, starts: int = 8, seed: int = 0, steps: int = MIN_STEP
     return out
 
 
-def _fit_forms_for_loss(forms, x, y, starts, seed, iterations, initial, loss):
+def _fit_forms_for_loss(forms, x, y, starts, seed, iterations, initial, loss, block_rows=None):
     """`fit_forms` of one sample under a loss other than "rms": least squares of the weighted
     residuals from every start (the best kept), then minimax (`minimax`) for the max losses."""
     base = loss_weights(y, loss)
@@ -615,10 +616,10 @@ def _fit_forms_for_loss(forms, x, y, starts, seed, iterations, initial, loss):
             c0[i * starts, :len(values)] = values
     rows = np.repeat(np.arange(len(forms)), starts)
     c, s, ok = _fit(program[rows], linear[rows], c0, np.broadcast_to(x, (rows.size,) + x.shape),
-                    np.broadcast_to(y, (rows.size, y.size)), _rows_for(POLISH_ROWS, y.size, 4 * steps), iterations, 20,
-                    base, codes)
+                    np.broadcast_to(y, (rows.size, y.size)), _rows_for(block_rows or POLISH_ROWS, y.size, 4 * steps),
+                    iterations, 20, base, codes)
     best = _best_per_form(rows, np.where(np.isfinite(s), s, np.inf), len(forms))
     c, value, ok = c[best], np.sqrt(s[best] / y.size), ok[best]
     if loss.startswith("max"):
-        c, value, ok = minimax(program, linear, c, x, y, base, codes, iterations)
+        c, value, ok = minimax(program, linear, c, x, y, base, codes, iterations, block_rows)
     return [(c[i, :constants(e)], float(value[i]), bool(np.isfinite(value[i]) and ok[i])) for i, e in enumerate(forms)]
