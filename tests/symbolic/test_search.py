@@ -234,3 +234,35 @@ def test_padded_points_add_nothing_to_what_is_measured():
     residuals = symbolic.weighted_residuals(program, c, x[None], y, w)
     assert residuals.shape == (3, 37)
     np.testing.assert_allclose(residuals, (values - y) * w, rtol=1e-12, atol=1e-12)
+
+
+def test_a_narrow_screening_program_only_where_its_forms_repay_its_compilation(monkeypatch):
+    """Forms with at most SMALL_CONSTANTS constants are screened in narrower blocks only where they
+    fill NARROW_ROW_STEPS rows x steps; else in the full width's blocks. Either way the front has
+    the same complexities and RMS (1e-9 relative: the same fits, rounded in blocks of another width;
+    every refit runs at the full width; its forms may differ between equivalent ones, (c - x) c
+    against (c + x) c)."""
+    widths = []
+    fit_block = symbolic.fit_block
+
+    def recording(block, linear, *args, **kwargs):
+        widths.append(linear.shape[1])
+        return fit_block(block, linear, *args, **kwargs)
+
+    monkeypatch.setattr(symbolic, "fit_block", recording)
+    y = coef_sample()
+    fronts = {}
+    for threshold in (0, 10**12):       # every screening narrow where it may be, or none
+        monkeypatch.setattr(symbolic, "NARROW_ROW_STEPS", threshold)
+        widths.clear()
+        found = symbolic.search(X50, y, 7)
+        fronts[threshold] = np.array([(found["complexity"][i], found["rms"][i]) for i in found["front"]])
+        assert set(widths) == ({symbolic.SMALL_CONSTANTS, found["width"]} if threshold == 0 else {found["width"]})
+    assert len(fronts[0]) >= 3
+    np.testing.assert_allclose(fronts[0], fronts[10**12], rtol=1e-9)
+    # The default: this search's small forms are too few for a program of their own.
+    monkeypatch.undo()
+    monkeypatch.setattr(symbolic, "fit_block", recording)
+    widths.clear()
+    symbolic.search(X50, y, 7)
+    assert set(widths) == {found["width"]}
