@@ -250,6 +250,7 @@ def test_a_narrow_screening_program_only_where_its_forms_repay_its_compilation(m
         return fit_block(block, linear, *args, **kwargs)
 
     monkeypatch.setattr(symbolic, "fit_block", recording)
+    default = symbolic.NARROW_ROW_STEPS
     y = coef_sample()
     fronts = {}
     for threshold in (0, 10**12):       # every screening narrow where it may be, or none
@@ -261,8 +262,7 @@ def test_a_narrow_screening_program_only_where_its_forms_repay_its_compilation(m
     assert len(fronts[0]) >= 3
     np.testing.assert_allclose(fronts[0], fronts[10**12], rtol=1e-9)
     # The default: this search's small forms are too few for a program of their own.
-    monkeypatch.undo()
-    monkeypatch.setattr(symbolic, "fit_block", recording)
+    monkeypatch.setattr(symbolic, "NARROW_ROW_STEPS", default)
     widths.clear()
     symbolic.search(X50, y, 7)
     assert set(widths) == {found["width"]}
