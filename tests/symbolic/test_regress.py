@@ -53,13 +53,17 @@ def test_regress_writes_the_front(tmp_path):
 
 
 def test_regress_command_rejects_too_few_points(tmp_path):
-    """Fewer points than the constants of the search: exit 2, a message, nothing written."""
+    """Fewer points than the constants of the search: exit 2, a message, nothing written. (Up to
+    complexity 7, where the ten operations' forms have 3 constants: the default 10 would enumerate
+    400,000 forms, seconds, before the same message.)"""
     few = tmp_path / "few.csv"
     few.write_text("t,v\n1,2\n2,3\n3,5\n")
     out = tmp_path / "bad"
     run = subprocess.run([sys.executable, "-m", "pipeline", "regress", str(few), "--x", "t", "--y", "v",
-                          "--out", str(out)], capture_output=True, text=True, env=cli_env(tmp_path))
-    assert run.returncode == 2 and "3 data points" in run.stderr and not out.exists()
+                          "--out", str(out), "--max-complexity", "7"], capture_output=True, text=True,
+                         env=cli_env(tmp_path))
+    assert run.returncode == 2 and "3 data points" in run.stderr and "up to 3 constants" in run.stderr
+    assert not out.exists()
     run = subprocess.run([sys.executable, "-m", "pipeline", "regress", str(few), "--x", "t", "--y", "w"],
                          capture_output=True, text=True, env=cli_env(tmp_path))
     assert run.returncode == 2 and "no column 'w' (--y)" in run.stderr
