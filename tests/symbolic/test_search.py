@@ -236,6 +236,28 @@ def test_padded_points_add_nothing_to_what_is_measured():
     np.testing.assert_allclose(residuals, (values - y) * w, rtol=1e-12, atol=1e-12)
 
 
+def test_a_block_of_short_programs_runs_only_their_steps():
+    """Programs are padded at the front with no-ops to a common length; a block starts at the first
+    step any of its programs uses (`first_step`: rows of no-ops alone, the padding of a last block,
+    do not count). Its fits are those run from step 0, bit for bit (no step reads a skipped
+    register), and starting one step too late changes them."""
+    forms = [symbolic.parse(t) for t in ("c * x + c", "c / (x + c)", "x * x")]     # 5, 5 and 3 steps
+    program = symbolic.programs(forms, symbolic.MIN_STEPS)
+    steps = symbolic.MIN_STEPS
+    assert [symbolic.first_step(program[i:i + 1]) for i in range(3)] == [steps - 5, steps - 5, steps - 3]
+    assert symbolic.first_step(program) == steps - 5
+    assert symbolic.first_step(np.concatenate([program[2:], np.zeros_like(program[:2])])) == steps - 3
+    assert symbolic.first_step(np.zeros_like(program)) == steps
+    x = np.linspace(0.5, 3.0, 16)
+    c = np.array([[1.3, -0.4, 0, 0, 0], [2.0, 0.7, 0, 0, 0], [1, 1, 1, 1, 1]], dtype=float)
+    fit = lambda first: [np.asarray(v) for v in symbolic.fit_block(
+        program, symbolic.linear_masks(forms, 5), c, x[None], np.exp(x), np.ones(16), 20, 0, True, first=first)]
+    whole, skipped, late = fit(0), fit(steps - 5), fit(steps - 4)
+    for a, b in zip(whole, skipped):
+        np.testing.assert_array_equal(a, b)
+    assert not np.array_equal(whole[1], late[1])
+
+
 def test_a_narrow_screening_program_only_where_its_forms_repay_its_compilation(monkeypatch):
     """Forms with at most SMALL_CONSTANTS constants are screened in narrower blocks only where they
     fill NARROW_ROW_STEPS rows x steps; else in the full width's blocks. Either way the front has
