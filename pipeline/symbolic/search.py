@@ -96,13 +96,17 @@ def evaluate(program, c, x, codes=ARITHMETIC_OPCODES, first=0):
     return jax.lax.fori_loop(first, op.shape[0], step, jnp.zeros((op.shape[0],) + x.shape[1:]))[-1]
 
 
-def first_step(block) -> int:
-    """The first step of `block` (programs, 4, steps) that is not a no-op in every program (the
-    programs are padded at the front): the interpreter starts there, so that a block of short
-    programs runs only their steps. Rows of no-ops alone (padding rows) do not count."""
+def _first_steps(block) -> np.ndarray:
+    """Each program's first step that is not a no-op (the programs of `block` (programs, 4, steps)
+    are padded at the front); `steps` for a row of no-ops alone (a padding row)."""
     real = block[:, 0, :] != NOP
-    used = real.any(axis=1)
-    return int(np.min(np.argmax(real[used], axis=1))) if used.any() else block.shape[-1]
+    return np.where(real.any(axis=1), np.argmax(real, axis=1), block.shape[-1])
+
+
+def first_step(block) -> int:
+    """The first step of `block` that a program of it uses: the interpreter starts there, so that a
+    block of short programs runs only their steps (padding rows do not count)."""
+    return int(np.min(_first_steps(block), initial=block.shape[-1]))
 
 
 def _sum_of_squares(program, c, x, y, w, codes, first=0):
@@ -233,7 +237,7 @@ def _fit(block, linear, starts, x, y, rows, iterations, tail, w=None, codes=ARIT
     w = np.broadcast_to(w, y.shape)
     # The rows in order of their programs' length, so that each block holds programs of about one
     # length and runs only their steps (`first_step`); every row's fit is its own.
-    order = np.argsort(np.argmax(block[:, 0, :] != NOP, axis=1), kind="stable")
+    order = np.argsort(_first_steps(block), kind="stable")
     out = []
     for part, count in _blocks(block.shape[0], rows):
         part = order[part]
