@@ -310,10 +310,10 @@ def sums_of_squares(program, constants_, x, y, w=None, codes=ARITHMETIC_OPCODES)
 def _best_per_form(form_of_row, s, forms: int):
     """Index of each form's best row (least sum of squares; -1 for a form with no row)."""
     order = np.lexsort((s, form_of_row))
-    first = np.ones(order.size, bool)
-    first[1:] = form_of_row[order][1:] != form_of_row[order][:-1]
+    leading = np.ones(order.size, bool)
+    leading[1:] = form_of_row[order][1:] != form_of_row[order][:-1]
     best = np.full(forms, -1)
-    best[form_of_row[order][first]] = order[first]
+    best[form_of_row[order][leading]] = order[leading]
     return best
 
 
@@ -385,8 +385,8 @@ def search(x, y, max_complexity: int, ops="+-*/", starts: int = 2, iterations: i
     sum_sq = np.full(len(forms), np.inf)
     fitted = np.ones((len(forms), width))
 
-    def screen(index, first, count_):
-        """Screens the forms `index` from starts first .. first + count_ - 1 (one start for a form
+    def screen(index, first_start, count_):
+        """Screens the forms `index` from starts first_start .. first_start + count_ - 1 (one start for a form
         whose constants are all linear); keeps each form's best."""
         out = []
         small = count[index] <= SMALL_CONSTANTS
@@ -400,7 +400,7 @@ def search(x, y, max_complexity: int, ops="+-*/", starts: int = 2, iterations: i
             rows = np.repeat(group, repeats)
             if rows.size * steps < NARROW_ROW_STEPS:
                 w = width           # too few for a program of their own: the full width's
-            k = first + np.concatenate([np.arange(r) for r in repeats])
+            k = first_start + np.concatenate([np.arange(r) for r in repeats])
             # (data per row, as in the refits, so that the widest screening and the refits share one
             # compiled program)
             c, s, _ = _fit(program[rows], linear[rows, :w], start[k, :w], np.broadcast_to(x_s, (rows.size,) + x_s.shape),
@@ -606,10 +606,10 @@ def fit_forms(forms, x, y, starts: int = 8, seed: int = 0, steps: int = MIN_STEP
     linear = np.tile(np.repeat(linear_masks(forms, width), starts, axis=0), (samples, 1))
     c0 = np.tile(start_constants(starts, width, x, seed), (samples * len(forms), 1))
     if initial is not None:
-        first = np.ones((len(forms), width))
+        given = np.ones((len(forms), width))
         for i, values in enumerate(initial):
-            first[i, :len(values)] = values
-        c0.reshape(samples, len(forms), starts, width)[:, :, 0] = first
+            given[i, :len(values)] = values
+        c0.reshape(samples, len(forms), starts, width)[:, :, 0] = given
     rows_x, rows_y = np.repeat(x, per_sample, axis=0), np.repeat(y, per_sample, axis=0)
     c, s, ok = _fit(block, linear, c0, rows_x, rows_y, _rows_for(block_rows or POLISH_ROWS, y.shape[1], 4 * steps),
                     iterations, 20, codes=opcodes(forms) if codes is None else tuple(codes))
