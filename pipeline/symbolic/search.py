@@ -124,8 +124,10 @@ def _solve(H, g):
 
 
 def _residual_and_jacobian(program, c, x, y, w, codes, first=0):
-    r = lambda c_: (evaluate(program, c_, x, codes, first) - y) * w
-    J, value = jax.jacfwd(lambda c_: (r(c_), r(c_)), has_aux=True)(c)
+    def r(c_):
+        value = (evaluate(program, c_, x, codes, first) - y) * w
+        return value, value         # the residual and, as the aux output, its value: one evaluation
+    J, value = jax.jacfwd(r, has_aux=True)(c)
     finite = jnp.all(jnp.isfinite(value)) & jnp.all(jnp.isfinite(J))
     return jnp.where(finite, value, 0.0), jnp.where(finite, J, 0.0), finite
 
