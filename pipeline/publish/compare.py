@@ -131,5 +131,6 @@ def plot(path: Path, runs, key: str, field: str) -> None:
     if len(lines) > 1 or others:
         ax.legend(fontsize=8)
     fig.tight_layout()
+    fig.set_layout_engine(None)     # laid out: savefig need not draw it once more for tight_layout's placeholder
     fig.savefig(path, dpi=110)
     plt.close(fig)

@@ -49,6 +49,9 @@ def _save(fig, out: Path, name: str, dpi: int = 110, tight: bool = True) -> str:
     _names_at_power(fig)
     if tight:
         fig.tight_layout()
+    # The layout is done: tight_layout leaves a placeholder layout engine behind, for which savefig
+    # would draw the whole figure once more before drawing it into the file.
+    fig.set_layout_engine(None)
     fig.savefig(out / name, dpi=dpi, pil_kwargs=FAST_PNG)
     plt.close(fig)
     return name

@@ -484,5 +484,6 @@ def symbolic_front_figure(path, front, found, title, loss="rms", costed=False) -
     ax.legend(fontsize=8, loc="lower left")
     ax.grid(alpha=0.3, which="both")
     fig.tight_layout()
+    fig.set_layout_engine(None)     # laid out: savefig need not draw it once more for tight_layout's placeholder
     fig.savefig(path, dpi=110, pil_kwargs={"compress_level": 1})
     plt.close(fig)

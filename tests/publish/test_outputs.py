@@ -214,3 +214,30 @@ def test_every_text_of_a_figure_names_the_run_s_power(monkeypatch):
             "error of f_Q4", "f_Q4 against cos^n; accuracy.d_f_Q2 as a field path"} <= set(texts)
     assert not [t for t in texts if "f_Q2" in t and "m = 2" not in t and "d_f_Q2" not in t]
     assert any(re.fullmatch(r"[\d.−-]+", t) for t in texts)        # tick labels, drawn
+
+
+@pytest.mark.parametrize("tight", [True, False])
+def test_a_figure_is_drawn_once_to_be_saved(tmp_path, tight):
+    """`plots._save` draws a figure once, into its file: after tight_layout (which measures the texts
+    without drawing) it leaves no layout engine for savefig to draw the figure once more for. The
+    file is the one a plain savefig of the same figure writes."""
+    import matplotlib.pyplot as plt
+    from pipeline.publish import plots
+
+    def figure():
+        fig, ax = plt.subplots(figsize=(4, 3))
+        ax.plot([1, 10, 100], [0.3, 0.02, 0.01], "o-")
+        ax.set(xscale="log", yscale="log", title="a figure", xlabel="n", ylabel="d")
+        return fig
+
+    fig = figure()
+    draws = []
+    fig.canvas.mpl_connect("draw_event", draws.append)
+    plots._save(fig, tmp_path, "saved.png", tight=tight)
+    assert len(draws) == 1
+    plain = figure()
+    if tight:
+        plain.tight_layout()
+    plain.savefig(tmp_path / "plain.png", dpi=110, pil_kwargs=plots.FAST_PNG)
+    plt.close(plain)
+    assert (tmp_path / "saved.png").read_bytes() == (tmp_path / "plain.png").read_bytes()
