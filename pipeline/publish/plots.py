@@ -11,6 +11,7 @@ import matplotlib
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
+import matplotlib.layout_engine  # noqa: E402
 import matplotlib.text  # noqa: E402
 import matplotlib.ticker  # noqa: E402
 import numpy as np  # noqa: E402
@@ -51,7 +52,8 @@ def _save(fig, out: Path, name: str, dpi: int = 110, tight: bool = True) -> str:
         fig.tight_layout()
     # The layout is done: tight_layout leaves a placeholder layout engine behind, for which savefig
     # would draw the whole figure once more before drawing it into the file.
-    fig.set_layout_engine(None)
+    if isinstance(fig.get_layout_engine(), matplotlib.layout_engine.PlaceHolderLayoutEngine):
+        fig.set_layout_engine(None)
     fig.savefig(out / name, dpi=dpi, pil_kwargs=FAST_PNG)
     plt.close(fig)
     return name
