@@ -67,8 +67,12 @@ reproduce: $(INSTALLED) $(LLVM_READY) $(RADV_READY)
 refit: $(INSTALLED) $(LLVM_READY) $(RADV_READY)
 	$(WITH_LLVM) $(BIN)/pipeline refit --config $(CONFIG) $(foreach s,$(SET),--set $(s)) $(if $(ONLY),--only $(ONLY))
 
+# The compiled XLA programs are kept between runs in the pipeline's own folder (JAX keys each on its
+# HLO, the XLA flags and the jaxlib version): a later `make test` compiles only what changed.
+# `make test TEST_XLA_CACHE=` starts each session from an empty folder of its own (as a fresh clone does).
+TEST_XLA_CACHE ?= $(CURDIR)/.cache/stages/_xla
 test: $(TEST_INSTALLED) $(LLVM_READY) $(RADV_READY)
-	$(WITH_LLVM) $(BIN)/python -m pytest -q -n 2 --dist loadfile
+	$(WITH_LLVM) PIPELINE_XLA_CACHE_DIR="$(TEST_XLA_CACHE)" $(BIN)/python -m pytest -q -n 2 --dist loadfile
 
 # The numerical tests (optics, symbolic regression, the stages and the checks against the paper)
 # under three instruction sets: XLA compiles for the CPU it finds, so the last bits of every jitted
@@ -82,7 +86,7 @@ test-isa: $(TEST_INSTALLED) $(LLVM_READY) $(RADV_READY)
 	@$(WITH_LLVM) failed=""; for isa in $(ISA_LEVELS); do \
 		if [ "$$isa" = native ]; then flags=""; else flags="--xla_cpu_max_isa=$$isa"; fi; \
 		echo "== XLA_FLAGS=$$flags ($$isa)"; \
-		XLA_FLAGS="$$flags" $(BIN)/python -m pytest -q -n 2 --dist loadfile -p no:cacheprovider $(ISA_TESTS) \
+		XLA_FLAGS="$$flags" PIPELINE_XLA_CACHE_DIR= $(BIN)/python -m pytest -q -n 2 --dist loadfile -p no:cacheprovider $(ISA_TESTS) \
 			|| failed="$$failed $$isa"; \
 	done; \
 	if [ -n "$$failed" ]; then echo "test-isa: failed under$$failed"; exit 1; fi; \

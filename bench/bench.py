@@ -23,8 +23,10 @@ less than a time. Measured, each in a fresh cache and outputs folder:
   `pipeline regress`'s default engine with the ten operations (a decay to 12 within 60 s, a
   Schlick curve to 16 within 180 s, cos^n over (t, n) to 10 within 120 s; 1.5 GB);
 - `pipeline keys` and a run with a bad config (answered without importing JAX);
-- `make test` (`python -m pytest -q -n 2 --dist loadfile`), unless BENCH_TESTS=0 (BENCH_ONLY=tests:
-  the floor and `make test` alone);
+- `make test` (`python -m pytest -q -n 2 --dist loadfile`) twice, unless BENCH_TESTS=0 (BENCH_ONLY=tests:
+  the floor and `make test` alone): first with an empty folder of compiled XLA programs (a fresh
+  clone, as CI runs it), then again with the programs the first run compiled (as `make test` keeps
+  them between runs);
 - the throughput of each cheap lobe compiled by XLA (evaluations per second over 2^24 values of t in
   float32, as a shader would use; median of 9 repeats and the range), on the CPU and, where JAX sees
   one, on a GPU.
@@ -239,9 +241,14 @@ def main() -> int:
                                 "derivation.Q=2", "--out", "bad"], env, expect=2)
             rows.append(("bad config (exit 2)", seconds, None, "target < 1 s"))
     if os.environ.get("BENCH_TESTS", "1") != "0":
-        seconds, out = timed([py, "-m", "pytest", "-q", "-n", "2", "--dist", "loadfile", "-p", "no:cacheprovider"],
-                             dict(os.environ))
-        rows.append(("make test", seconds, 75.0, out.strip().splitlines()[-1]))
+        # Twice, on one folder of compiled XLA programs: empty at first (a fresh clone, as CI runs
+        # it), then holding the first session's programs (`make test` keeps them between runs).
+        with tempfile.TemporaryDirectory() as xla:
+            env = dict(os.environ, PIPELINE_XLA_CACHE_DIR=xla)
+            for label in ("make test, XLA cache empty", "make test, XLA cache kept"):
+                seconds, out = timed([py, "-m", "pytest", "-q", "-n", "2", "--dist", "loadfile", "-p",
+                                      "no:cacheprovider"], env)
+                rows.append((label, seconds, 75.0, out.strip().splitlines()[-1]))
 
     import jax
     devices = [("CPU", jax.devices("cpu")[0])]

@@ -94,12 +94,15 @@ def locked(root: Path, name: str):
 @pytest.fixture(scope="session", autouse=True)
 def shared_compilation_cache(shared_root):
     """One folder of compiled XLA programs for the session: the runs in the workers and the CLI
-    subprocesses (`helpers.cli_env`) compile each program once."""
-    paths.XLA_CACHE = str(shared_root / "xla")
+    subprocesses (`helpers.cli_env`) compile each program once. `PIPELINE_XLA_CACHE_DIR` keeps them
+    between sessions (`make test` sets it to the pipeline's own folder, so a later session compiles
+    only what changed: JAX keys each program on its HLO, the XLA flags and the jaxlib version);
+    unset or empty, the session starts from an empty folder of its own (`make test-isa`)."""
+    paths.XLA_CACHE = os.environ.get("PIPELINE_XLA_CACHE_DIR") or str(shared_root / "xla")
     # The tests that call the library directly compile into it too, from the first test on.
     from pipeline.optics.numerics import use_compilation_cache
     use_compilation_cache(paths.XLA_CACHE)
-    return shared_root / "xla"
+    return Path(paths.XLA_CACHE)
 
 
 @pytest.fixture(scope="session")
