@@ -3,6 +3,7 @@
 cycle; no stage imports another stage; every module name is unique."""
 
 import ast
+import functools
 from collections import defaultdict
 from pathlib import Path
 
@@ -35,7 +36,13 @@ def imports(name: str, path: Path, known) -> set[str]:
 
 
 MODULES = modules()
-GRAPH = {name: imports(name, path, MODULES) for name, path in MODULES.items()}
+
+
+@functools.cache
+def import_graph() -> dict[str, set[str]]:
+    """Each module's imports of `pipeline` modules, parsed when a test first asks (not at collection,
+    which every worker process of the suite does)."""
+    return {name: imports(name, path, MODULES) for name, path in MODULES.items()}
 
 
 def wing(name: str) -> str:
@@ -46,7 +53,7 @@ def wing(name: str) -> str:
 
 def test_imports_go_down_the_layers_and_never_across_wings():
     upward, across = [], []
-    for name, targets in GRAPH.items():
+    for name, targets in import_graph().items():
         for target in targets:
             if target == "pipeline":
                 continue
@@ -57,8 +64,8 @@ def test_imports_go_down_the_layers_and_never_across_wings():
                 across.append((name, target))
     assert upward == [] and across == []
     # Every wing is a folder of its own, and the top holds only the command line and the runner.
-    assert {wing(m) for m in GRAPH} == set(LAYER)
-    assert {m for m in GRAPH if wing(m) == ""} == {"pipeline", "pipeline.__main__", "pipeline.cli", "pipeline.run",
+    assert {wing(m) for m in import_graph()} == set(LAYER)
+    assert {m for m in import_graph() if wing(m) == ""} == {"pipeline", "pipeline.__main__", "pipeline.cli", "pipeline.run",
                                                                   "pipeline.sweep"}
 
 
@@ -68,14 +75,14 @@ def test_no_import_cycle():
 
     def visit(name, path):
         state[name] = 1
-        for target in sorted(GRAPH[name]):
+        for target in sorted(import_graph()[name]):
             if state[target] == 1:
                 cycles.append(path[path.index(target):] + [target])
             elif state[target] == 0:
                 visit(target, path + [target])
         state[name] = 2
 
-    for name in sorted(GRAPH):
+    for name in sorted(import_graph()):
         if state[name] == 0:
             visit(name, [name])
     assert cycles == []
@@ -84,9 +91,9 @@ def test_no_import_cycle():
 def test_no_stage_imports_another_stage():
     from pipeline.engine import graph
     helpers = {"pipeline.stages.common", "pipeline.stages.family"}     # shared by the stages, not stages
-    stages = {m for m in GRAPH if wing(m) == "stages" and m.count(".") == 2} - helpers
+    stages = {m for m in import_graph() if wing(m) == "stages" and m.count(".") == 2} - helpers
     assert stages == {s.module for s in graph.STAGES}
-    assert [(m, t) for m in stages for t in GRAPH[m] if t in stages] == []
+    assert [(m, t) for m in stages for t in import_graph()[m] if t in stages] == []
 
 
 def test_every_module_name_is_unique():
