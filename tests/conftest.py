@@ -98,7 +98,7 @@ def shared_compilation_cache(shared_root):
     between sessions (`make test` sets it to the pipeline's own folder, so a later session compiles
     only what changed: JAX keys each program on its HLO, the XLA flags and the jaxlib version);
     unset or empty, the session starts from an empty folder of its own (`make test-isa`)."""
-    paths.XLA_CACHE = os.environ.get("PIPELINE_XLA_CACHE_DIR") or str(shared_root / "xla")
+    paths.XLA_CACHE = paths.XLA_CACHE or str(shared_root / "xla")
     # The tests that call the library directly compile into it too, from the first test on.
     from pipeline.optics.numerics import use_compilation_cache
     use_compilation_cache(paths.XLA_CACHE)

@@ -6,6 +6,7 @@ import shutil
 import subprocess
 import sys
 import time
+import warnings
 
 import numpy as np
 import pytest
@@ -285,7 +286,6 @@ def test_a_compiled_program_cut_short_is_compiled_again_and_fails_no_test(tmp_pa
     assert float(value) == 2.0 * np.sin(0.5) + 1.0        # the same XLA program, compiled again
     assert warned and all(line.startswith("WARNING UserWarning Error reading persistent compilation cache entry")
                           for line in warned), done.stdout
-    import warnings
     warnings.warn(warned[0].removeprefix("WARNING UserWarning "), UserWarning)   # ignored by the filter
     with pytest.raises(UserWarning):
         warnings.warn("Error reading something else", UserWarning)               # still an error
