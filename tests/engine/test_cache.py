@@ -67,6 +67,19 @@ def test_a_change_recomputes_only_what_reads_it_and_stops_where_values_repeat(wa
 
 
 @pytest.mark.slow
+def test_the_light_run_shares_the_paper_run_s_lobes(light_run, light_config, paper_run, paper_config):
+    # The light config sets derivation.constants = "paper" (the default is "fitted"): its line is the
+    # paper's rounded one, so its renders at the exponents the two share are the paper run's memoized
+    # images, bit for bit.
+    line = light_run["linear_coefficient"]
+    assert (line["slope_used"], line["intercept_used"]) == (paper_config["paper_model.slope"],
+                                                            paper_config["paper_model.intercept"])
+    shared = [paper_config["render.exponents"].index(n) for n in light_config["render.exponents"]]
+    assert light_config["render.resolution"] == paper_config["render.resolution"] and len(shared) == 2
+    np.testing.assert_array_equal(light_run["render"]["display"], paper_run["render"]["display"][:, shared])
+
+
+@pytest.mark.slow
 def test_a_q_refit_reuses_the_work_that_does_not_depend_on_q(warm_cache, light_run):
     before = {name: memo_entries(warm_cache, name) for name in ("family_errors", "shape_errors", "energy_table")}
     config = pipeline.load_config(LIGHT_CONFIG, ("derivation.Q=0.7", "derivation.constants=fitted"))
