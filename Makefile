@@ -1,8 +1,10 @@
 # The two commands a user needs: `make reproduce` and `make test`. The first run of either creates
 # .venv and installs the project with the pinned versions of constraints.txt; `make test` adds the
 # test dependencies (pytest, and pytest-xdist: the tests run in two processes). Mitsuba's fast variant (llvm_ad_rgb) needs a shared LLVM >= 15, and
-# the LLVM 15 of Debian 12 aborts every render: as root on Debian, Debian's libllvm19 is installed
-# and selected (DRJIT_LIBLLVM_PATH); elsewhere, or if that fails, the pipeline uses scalar_rgb.
+# the LLVM 15 of Debian 12 aborts every render: as root on Debian, Debian's libllvm19 is installed;
+# elsewhere, or if that fails, the pipeline uses scalar_rgb. The Makefile only installs: the
+# pipeline finds its tools itself (`pipeline.engine.toolchains`: LLVM, Mesa's RADV) and sets JAX's
+# float64 and CPU platform itself, so a command run here is the command a user runs without `make`.
 PYTHON ?= python3
 VENV := .venv
 BIN := $(VENV)/bin
@@ -11,15 +13,9 @@ TEST_INSTALLED := $(VENV)/.installed-test
 PIP := $(BIN)/pip install --quiet --disable-pip-version-check -c constraints.txt
 LLVM_READY := $(VENV)/.llvm
 RADV_READY := $(VENV)/.radv
-# Runs a command with DRJIT_LIBLLVM_PATH set to LLVM 19 where one is installed.
-WITH_LLVM = lib=$$(ls /usr/lib/*/libLLVM.so.19* /usr/lib/llvm-19/lib/libLLVM.so* 2>/dev/null | head -n 1); \
-	if [ -n "$$lib" ]; then export DRJIT_LIBLLVM_PATH=$$lib; fi;
 CONFIG ?= configs/paper.toml
 SET ?=
 ONLY ?=
-
-export JAX_ENABLE_X64 := 1
-export JAX_PLATFORMS := cpu
 
 .PHONY: reproduce test test-isa bench refit clean keys graph
 
@@ -62,17 +58,17 @@ $(RADV_READY): $(INSTALLED)
 	touch $(RADV_READY)
 
 reproduce: $(INSTALLED) $(LLVM_READY) $(RADV_READY)
-	$(WITH_LLVM) $(BIN)/pipeline reproduce
+	$(BIN)/pipeline reproduce
 
 refit: $(INSTALLED) $(LLVM_READY) $(RADV_READY)
-	$(WITH_LLVM) $(BIN)/pipeline refit --config $(CONFIG) $(foreach s,$(SET),--set $(s)) $(if $(ONLY),--only $(ONLY))
+	$(BIN)/pipeline refit --config $(CONFIG) $(foreach s,$(SET),--set $(s)) $(if $(ONLY),--only $(ONLY))
 
 # The compiled XLA programs are kept between runs in the pipeline's own folder (JAX keys each on its
 # HLO, the XLA flags and the jaxlib version): a later `make test` compiles only what changed.
 # `make test TEST_XLA_CACHE=` starts each session from an empty folder of its own (as a fresh clone does).
 TEST_XLA_CACHE ?= $(CURDIR)/.cache/stages/_xla
 test: $(TEST_INSTALLED) $(LLVM_READY) $(RADV_READY)
-	$(WITH_LLVM) PIPELINE_XLA_CACHE_DIR="$(TEST_XLA_CACHE)" $(BIN)/python -m pytest -q -n 2 --dist loadfile
+	PIPELINE_XLA_CACHE_DIR="$(TEST_XLA_CACHE)" $(BIN)/python -m pytest -q -n 2 --dist loadfile
 
 # The numerical tests (optics, symbolic regression, the stages and the checks against the paper)
 # under three instruction sets: XLA compiles for the CPU it finds, so the last bits of every jitted
@@ -83,7 +79,7 @@ test: $(TEST_INSTALLED) $(LLVM_READY) $(RADV_READY)
 ISA_LEVELS ?= SSE4_2 AVX2 native
 ISA_TESTS ?= tests/optics tests/symbolic tests/stages
 test-isa: $(TEST_INSTALLED) $(LLVM_READY) $(RADV_READY)
-	@$(WITH_LLVM) failed=""; for isa in $(ISA_LEVELS); do \
+	@failed=""; for isa in $(ISA_LEVELS); do \
 		if [ "$$isa" = native ]; then flags=""; else flags="--xla_cpu_max_isa=$$isa"; fi; \
 		echo "== XLA_FLAGS=$$flags ($$isa)"; \
 		XLA_FLAGS="$$flags" PIPELINE_XLA_CACHE_DIR= $(BIN)/python -m pytest -q -n 2 --dist loadfile -p no:cacheprovider $(ISA_TESTS) \
@@ -93,7 +89,7 @@ test-isa: $(TEST_INSTALLED) $(LLVM_READY) $(RADV_READY)
 	echo "test-isa: passed under $(ISA_LEVELS)"
 
 bench: $(TEST_INSTALLED) $(LLVM_READY) $(RADV_READY)
-	$(WITH_LLVM) $(BIN)/python bench/bench.py
+	$(BIN)/python bench/bench.py
 
 keys: $(INSTALLED)
 	$(BIN)/pipeline keys

@@ -11,5 +11,14 @@ import os
 # float64 must be on before any JAX array exists: an array made earlier stays float32. The
 # variable is read when JAX is first imported; `pipeline.optics.numerics` also sets the flag directly.
 os.environ.setdefault("JAX_ENABLE_X64", "1")
+# The derivation runs on the CPU however it is started (a CUDA jaxlib would otherwise take a GPU,
+# and its last bits differ); JAX_PLATFORMS set by the user is kept.
+os.environ.setdefault("JAX_PLATFORMS", "cpu")
+
+# The outside tools are found by the package itself, before any library that needs them loads:
+# DRJIT_LIBLLVM_PATH for Dr.Jit, unless the user set it (a glob of the library folders, nothing loaded).
+from .engine import toolchains  # noqa: E402
+
+toolchains.prepare()
 
 from .engine.config import Config as Config, ConfigError as ConfigError, load_config as load_config  # noqa: E402

@@ -1,4 +1,4 @@
-"""Command line: `pipeline reproduce`, `refit`, `explain`, `graph`, `keys`, `cache`, `regress`, `costs`, `compare`, `sweep`.
+"""Command line: `pipeline reproduce`, `refit`, `explain`, `graph`, `keys`, `tools`, `cache`, `regress`, `costs`, `compare`, `sweep`.
 
 Exit codes (`pipeline.engine.faults`): 0 every check passes, differs with a documented cause or is
 not comparable; 1 a check failed or a solver did not converge; 2 bad config, arguments or CSV
@@ -18,7 +18,7 @@ import time
 from concurrent.futures.process import BrokenProcessPool
 from pathlib import Path
 
-from .engine import checks as checks_mod, faults, graph, paths
+from .engine import checks as checks_mod, faults, graph, paths, toolchains
 from .engine.config import ConfigError, key_table, load_config
 from .publish.compare import CompareError
 from .symbolic import grammar
@@ -72,6 +72,28 @@ def _explain(config, only=None) -> int:
         print(f"  {name:<{width}}  {what}")
     print("Nothing was computed. A stage below a recomputed one is skipped when the fields it reads come "
           "out identical.")
+    return 0
+
+
+def _tools() -> int:
+    """`pipeline tools`: each outside tool as `toolchains` finds it, the stages that run it, and
+    the Mitsuba variant that a run's "auto" takes here (probed by a render in a child process)."""
+    from .mitsuba import bsdf
+
+    rows = []
+    for tool in toolchains.FINDERS:
+        found = toolchains.locate(tool)
+        stages = ", ".join(s.name for s in graph.STAGES if tool in s.tools) or "-"
+        rows.append((tool, found.version or "-", found.path or "not found", found.how if found.found
+                     else found.missing, stages))
+    widths = [max(len(r[i]) for r in rows) for i in range(3)]
+    for tool, version, path, how, stages in rows:
+        print(f"{tool:<{widths[0]}}  {version:<{widths[1]}}  {path:<{widths[2]}}  {how}; stages: {stages}")
+    variant = bsdf.choose_variant()
+    print(f"Mitsuba variant (mitsuba.variant = auto): {variant}")
+    warning = bsdf.fallback_warning(variant)
+    if warning:
+        print(warning)
     return 0
 
 
@@ -195,6 +217,7 @@ def _sweep(args) -> int:
 def main(argv: list[str] | None = None) -> int:
     """Runs one command; every way it can end is an exit code and at most one line on stderr."""
     faults.stop_on_signals()
+    toolchains.prepare()        # the outside tools, found here whatever shell started the command
     try:
         code = _main(argv)
         faults.check_interrupted()
@@ -240,6 +263,8 @@ def _main(argv: list[str] | None) -> int:
     exp.add_argument("--only", default=None, metavar="STAGE[,STAGE...]", help=only_help)
     sub.add_parser("keys", help="print every config key with its default and allowed values")
     sub.add_parser("graph", help="print the stage graph: what each stage reads and returns")
+    sub.add_parser("tools", help="the outside tools found here (LLVM, Mesa's RADV, the shader compilers) and the "
+                                 "Mitsuba variant a run takes")
     reg = sub.add_parser("regress", help="symbolic regression of one CSV column against up to three others")
     reg.add_argument("file", metavar="FILE.csv")
     reg.add_argument("--x", required=True, metavar="COLUMN[,COLUMN...]", help="column(s) of the variable(s), up to 3")
@@ -296,6 +321,8 @@ def _main(argv: list[str] | None) -> int:
         if args.command == "graph":
             print(graph.describe())
             return 0
+        if args.command == "tools":
+            return _tools()
         if args.command == "compare":
             return _compare(args)
         if args.command == "sweep":

@@ -24,7 +24,7 @@ from pathlib import Path
 from types import MappingProxyType
 from typing import Any
 
-from .engine import checks as checks_mod, faults, graph, paths
+from .engine import checks as checks_mod, faults, graph, paths, toolchains
 from .engine.cache import PARSING, XLA, Cache, DamagedEntry, Memo, code_hash, digest, direct_imports, stage_key
 from .engine.config import Config
 from .engine.publishing import output_lock, publish
@@ -60,11 +60,14 @@ def stage_inputs(stage: graph.Stage, config: Config, results) -> tuple[dict[str,
 def stage_code(stage: graph.Stage) -> str:
     """What a stage's key takes of its code: the source of its module and of every `pipeline` module
     it imports, and, for a stage that reads the lobe registry itself, the registry's entries (a lobe
-    may be registered at run time, outside any source file)."""
+    may be registered at run time, outside any source file), and, for a stage that runs an outside
+    tool, the tool as found here (a result computed without it is not reused once it is installed)."""
     code = code_hash(stage.module)
     if "pipeline.optics.registry" in direct_imports(stage.module):
         from .optics import registry
         code = digest(code, registry.fingerprint())
+    if stage.tools:
+        code = digest(code, toolchains.fingerprint(stage.tools))
     return code
 
 
@@ -116,12 +119,17 @@ def run_stages(config: Config, cache: Cache, log: Callable[[str], None] = print,
     `workers` at a time: independent stages overlap (one waits in XLA while another imports or
     runs Python), and since each depends only on its inputs, the results do not depend on the order.
     `on_result(results, keys)` is called after each stage is done (the figures start from it).
+    The outside tools are found first (`toolchains.prepare`), and one line is logged for each tool
+    that the chosen stages run and that is missing.
     """
     chosen = [s for s in graph.STAGES if stages is None or s.name in stages]
     missing = sorted({u for s in chosen for u in s.upstream} - {s.name for s in chosen})
     if missing:
         raise ValueError(f"stages {', '.join(s.name for s in chosen)} read stages that are not asked for: "
                          f"{', '.join(missing)} (graph.closure gives every stage they read)")
+    toolchains.prepare()
+    for warning in toolchains.warnings({t for s in chosen for t in s.tools}):
+        log(warning)
     with cache.in_use():            # `cache --prune` waits for no run: it refuses while one holds this
         swept = cache.sweep()
         if swept:

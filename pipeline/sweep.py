@@ -41,7 +41,7 @@ import tomllib
 from pathlib import Path
 from typing import Any
 
-from .engine import faults, paths
+from .engine import faults, paths, toolchains
 from .engine.config import ConfigError, load_config, parse_override
 
 SWEEP_KEYS = ("name", "config", "mode", "only", "set", "plot")
@@ -151,29 +151,38 @@ def run_point(config, only, cache_dir: str, outputs_dir: str, xla_cache_dir: str
     """One point, in a Dask worker (or here): a refit of `config` (its resolved values, sent by the
     client: nothing is read from the worker's directory) into `outputs_dir/<point>/`, with the
     stage cache in `cache_dir` and compiled XLA programs in `xla_cache_dir` (None: the cache's
-    own), all absolute and chosen by the client. Returns what happened; a failure is a returned
-    message, naming the worker, so that the others go on."""
+    own), all absolute and chosen by the client. Returns what happened (with the Mitsuba variant
+    its renders ran, where it rendered, and the warnings of its run: a tool the worker lacks); a
+    failure is a returned message, naming the worker, so that the others go on."""
     import sys
 
     if "jax" not in sys.modules:        # XLA is configured at its first use: one thread per task
         for name, value in WORKER_ENV.items():
             os.environ.setdefault(name, value)
+    toolchains.prepare()        # on a cluster started by others: only PATH and HOME may be set
     paths.XLA_CACHE = xla_cache_dir
     from .optics.roots import SolverError
     from .run import run_derivation
 
     start = time.perf_counter()
+    warnings: list[str] = []
+
+    def log(text: str) -> None:
+        if "warning: " in text:
+            warnings.append(text[text.index("warning: "):])
     try:
-        outcome = run_derivation(config, cache_dir=Path(cache_dir), outputs=Path(outputs_dir), log=lambda s: None,
-                                 only=only)
+        outcome = run_derivation(config, cache_dir=Path(cache_dir), outputs=Path(outputs_dir), log=log, only=only)
     except (SolverError, ConfigError) as e:         # the point's own settings
-        return dict(name=config.name, ok=False, message=f"{type(e).__name__}: {e}", seconds=time.perf_counter() - start)
+        return dict(name=config.name, ok=False, message=f"{type(e).__name__}: {e}", seconds=time.perf_counter() - start,
+                    warnings=warnings)
     except (OSError, faults.EnvironmentFault) as e:          # where it ran: which worker says
         return dict(name=config.name, ok=False, message=f"{type(e).__name__}{_on_worker()}: {e}",
-                    seconds=time.perf_counter() - start)
+                    seconds=time.perf_counter() - start, warnings=warnings)
+    variants = {outcome.results[s]["variant"] for s in ("mitsuba_render", "microfacet_render") if s in outcome.results}
     return dict(name=config.name, ok=True, message=f"{len(outcome.computed)} stages computed"
                 + (f", {len(outcome.failed)} checks FAILED" if outcome.failed else ""),
-                seconds=time.perf_counter() - start)
+                seconds=time.perf_counter() - start, variant=", ".join(sorted(variants)) or None,
+                warnings=warnings, worker=_on_worker())
 
 
 def _on_worker() -> str:
@@ -239,8 +248,14 @@ def run_sweep(sweep: Sweep, scheduler: str | None = None, scheduler_file: str | 
     done: list[dict[str, Any]] = []
     start = time.perf_counter()
 
+    warned: set[str] = set()
+
     def report(result, running):
         done.append(result)
+        for warning in result.get("warnings", ()):
+            if warning not in warned:           # each once, said by the first point that met it
+                warned.add(warning)
+                log(f"{result['name']}{result.get('worker', '')}: {warning}")
         elapsed = time.perf_counter() - start
         left = len(sweep.points) - len(done)
         eta = elapsed / len(done) * left

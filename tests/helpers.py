@@ -2,6 +2,8 @@
 
 import os
 
+import pytest
+
 
 def cli_env(tmp_path, **extra):
     """Environment for running the CLI in a subprocess with its own cache and outputs; compiled XLA
@@ -21,3 +23,19 @@ def copy_cache(source, target):
     import shutil
 
     shutil.copytree(source, target, ignore=shutil.ignore_patterns(".*"))
+
+
+def require_fast_variant(variant: str, why: str) -> None:
+    """Skips a test that needs Mitsuba's vectorized variant where it cannot run here (no LLVM, only
+    Debian 12's LLVM 15, which aborts renders, or PIPELINE_MITSUBA_VARIANT forcing another), with
+    `why`; fails where an LLVM >= 16 was found and still the fallback was taken: the tool was found
+    but not used."""
+    from pipeline.engine import toolchains
+    from pipeline.mitsuba import bsdf
+
+    if variant == bsdf.FAST_VARIANT:
+        return
+    found = toolchains.locate("llvm")
+    if found.found and int(found.version or 0) >= 16 and not os.environ.get(toolchains.VARIANT_VARIABLE):
+        pytest.fail(f"LLVM {found.version} ({found.path}) was found, yet Mitsuba runs {variant}")
+    pytest.skip(why)

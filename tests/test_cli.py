@@ -228,3 +228,34 @@ def test_only_naming_an_unknown_stage_exits_2_listing_the_stages(tmp_path):
     assert plan.returncode == 0, plan.stderr
     listed = [line.split()[0] for line in plan.stdout.splitlines() if line.startswith("  ")]
     assert listed[-1] == "accuracy" and "render" not in listed and "zone" in listed
+
+
+@pytest.mark.slow
+def test_the_cli_started_without_make_finds_llvm_and_renders_with_the_fast_variant(refit_cache, tmp_path):
+    """As a user starts it: `.venv/bin/pipeline` with only PATH and HOME (and the pipeline's own
+    folders) set, none of the variables a Makefile could pass (DRJIT_LIBLLVM_PATH, JAX_ENABLE_X64,
+    JAX_PLATFORMS). Where an LLVM >= 15 is installed, `pipeline tools` names it and the probe picks
+    llvm_ad_rgb; a refit that renders anew runs llvm_ad_rgb at mitsuba.spp (not the fallback's
+    samples) without a warning, and its results.json names the LLVM."""
+    from pipeline.engine import toolchains
+
+    system = toolchains.find_llvm({})
+    if not system.found:
+        pytest.skip(f"no LLVM >= 15 installed here: {system.missing}")
+    env = {"PATH": os.environ["PATH"], "HOME": os.environ.get("HOME", str(tmp_path)),
+           "PIPELINE_CACHE_DIR": str(refit_cache), "PIPELINE_OUTPUTS_DIR": str(tmp_path / "out"),
+           "PIPELINE_XLA_CACHE_DIR": cli_env(tmp_path)["PIPELINE_XLA_CACHE_DIR"]}
+    pipeline = str(Path(sys.executable).parent / "pipeline")
+    tools = subprocess.run([pipeline, "tools"], capture_output=True, text=True, env=env, cwd=tmp_path, timeout=300)
+    assert tools.returncode == 0, tools.stderr
+    assert f"llvm          {system.version}" in tools.stdout and system.path in tools.stdout, tools.stdout
+    assert "Mitsuba variant (mitsuba.variant = auto): llvm_ad_rgb" in tools.stdout, tools.stdout
+    done = subprocess.run([pipeline, "refit", "--config", str(LIGHT_CONFIG), "--set", "mitsuba.width=32", "--set",
+                           "mitsuba.height=16", "--only", "mitsuba_render", "--out", "clean"],
+                          capture_output=True, text=True, env=env, cwd=tmp_path, timeout=600)
+    assert done.returncode == 0, done.stdout + done.stderr
+    assert "mitsuba_render" in done.stdout.split("recomputed: ")[1] and "warning" not in done.stdout + done.stderr
+    doc = json.loads((tmp_path / "out" / "clean" / "results.json").read_text())
+    assert doc["stages"]["mitsuba_render"]["variant"] == "llvm_ad_rgb"
+    assert doc["stages"]["mitsuba_render"]["spp"] == load_config(str(LIGHT_CONFIG))["mitsuba.spp"]
+    assert doc["toolchains"]["llvm"]["path"] == system.path and doc["toolchains"]["llvm"]["version"] == system.version

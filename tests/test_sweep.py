@@ -17,8 +17,9 @@ import psutil
 import pytest
 from distributed import Client
 
-from pipeline.engine import paths
+from pipeline.engine import paths, toolchains
 from pipeline.engine.config import ConfigError, load_config
+from pipeline.mitsuba import bsdf
 from pipeline.sweep import load_sweep, run_point
 
 from .conftest import LIGHT_CONFIG
@@ -185,6 +186,16 @@ def test_a_cluster_started_the_ordinary_way_runs_the_sweep_through_a_killed_work
     config = load_config(str(LIGHT_CONFIG), name="blocked")
     failed = cluster.client.submit(run_point, config, ("zone",), str(refit_cache), "/proc/blocked", None).result()
     assert not failed["ok"] and "/proc/blocked" in failed["message"] and " on worker tcp://" in failed["message"]
+    # The workers find LLVM themselves: where one >= 15 is installed, a point rendered on a worker
+    # (a frame no other test renders) runs llvm_ad_rgb, with no warning; elsewhere the fallback, with one.
+    fast = toolchains.find_llvm({}).found
+    expected = bsdf.FAST_VARIANT if fast else bsdf.FALLBACK_VARIANT
+    assert set(cluster.client.run(bsdf.choose_variant).values()) == {expected}
+    config = load_config(str(LIGHT_CONFIG), ("mitsuba.width=48", "mitsuba.height=16"), name="rendered")
+    rendered = cluster.client.submit(run_point, config, ("mitsuba_render",), str(refit_cache), str(tmp_path / "r"),
+                                     cli_env(tmp_path)["PIPELINE_XLA_CACHE_DIR"]).result()
+    assert rendered["ok"] and rendered["variant"] == expected, rendered
+    assert (rendered["warnings"] == []) == fast, rendered
 
     file = tmp_path / "c.toml"
     file.write_text(CLUSTER_SWEEP)

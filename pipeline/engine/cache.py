@@ -40,6 +40,7 @@ from typing import Any
 
 import numpy as np
 
+from . import toolchains
 from .faults import EnvironmentFault
 
 PACKAGE_ROOT = Path(__file__).resolve().parent.parent
@@ -451,8 +452,10 @@ class Memo:
         return self.store(name, fn, fn(**arguments), **arguments)
 
     def _key(self, name: str, fn, arguments) -> tuple[str, str]:
+        # A function that runs an outside tool (`toolchains.uses`) is keyed on the tool as found here.
+        tools = getattr(fn, "tools", ())
         return f"{MEMO}/{name}", digest("memo", name, fn.__module__, fn.__qualname__, code_hash(fn.__module__),
-                                        arguments, library_versions())
+                                        arguments, library_versions(), *([toolchains.fingerprint(tools)] if tools else []))
 
     def cached(self, name: str, fn, **arguments) -> dict[str, Any] | None:
         """The stored result of `fn(**arguments)`, or None (absent, damaged, or no cache): for a caller

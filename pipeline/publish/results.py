@@ -9,7 +9,7 @@ from typing import Any
 
 import numpy as np
 
-from ..engine import graph
+from ..engine import graph, toolchains
 
 # The headline: the stage fields users script against (the README lists them), each by its one
 # name, `stage.field` as `pipeline graph` declares it. Fractions, not percent.
@@ -78,6 +78,8 @@ def write(path: Path, config, stage_keys, results, checks) -> dict:
                      settings_differ=list(c.settings_differ))
                 for c in checks],
         timings=timings,
+        # The outside tools as found for this run (the stages that ran them are keyed on them).
+        toolchains=toolchains.report(),
     )
     not_run = [s.name for s in graph.STAGES if s.name not in results]
     if not_run:

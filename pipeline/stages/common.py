@@ -48,12 +48,16 @@ def require_converged(ok, what: str, **inputs) -> None:
                       f"({int((~ok).sum())} failures); raise solver.max_steps or loosen solver.rtol/atol")
 
 
-def mitsuba_settings(config, register) -> dict:
+def mitsuba_settings(config, register, log=None) -> dict:
     """The settings the Mitsuba stages share: the spheres' exponents, the frame, the seed, the
     variant (chosen by `register`, which registers the stage's plugins) and its samples per pixel,
-    the quadrature nodes of the normalizations."""
+    the quadrature nodes of the normalizations. Where "auto" fell back to the scalar variant
+    although an LLVM was found, `log` gets one line saying so."""
     wanted = config["mitsuba.variant"]
     variant = register(None if wanted == "auto" else wanted)
+    warning = bsdf.fallback_warning(variant) if wanted == "auto" else ""
+    if warning and log is not None:
+        log(warning)
     fast = variant == bsdf.FAST_VARIANT
     return dict(exponents=[float(n) for n in config["mitsuba.exponents"]], width=config["mitsuba.width"],
                 height=config["mitsuba.height"], seed=config["mitsuba.seed"], variant=variant,

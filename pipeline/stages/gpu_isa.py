@@ -13,6 +13,7 @@ compiler cannot run (no Vulkan loader, no RADV,
 no `vulkan` package), the stage says why and returns no rows.
 """
 
+from ..engine import toolchains
 from ..optics import machine_code, registry
 
 CONSTANTS = registry.Parameters(Q=0.64, slope=0.448, intercept=0.099, coef_scale=0.214, coef_offset=0.807)
@@ -28,10 +29,12 @@ def compiled(powers, registry_shaders: bool) -> dict:
     return dict(available=True, reason="", **found)
 
 
+@toolchains.uses("radv")
 def registry_rows() -> dict:
     return compiled((), registry_shaders=True)
 
 
+@toolchains.uses("radv")
 def family_rows(power: int) -> dict:
     return compiled((power,), registry_shaders=False)
 

@@ -44,6 +44,7 @@ from ..optics.numerics import jax
 import jax.numpy as jnp
 import numpy as np
 
+from ..engine import toolchains
 from ..optics import lobe_families, machine_code, registry
 from ..optics.extrema import error_extrema
 from ..optics.roots import SolverSettings
@@ -255,6 +256,7 @@ def formula_text(names, slopes, intercepts, corrections) -> dict[str, str]:
             for p, m in zip(names, corrections)}
 
 
+@toolchains.uses("radv")
 def compiled_cycles(families, grammar=()) -> dict:
     """{architecture: {family or grammar form: cycles per wave net of the shader returning t}} of each
     family's shader and each grammar form's (its text in w = n (1 - t)), compiled by RADV (parameters
@@ -278,6 +280,7 @@ def compiled_cycles(families, grammar=()) -> dict:
     return dict(available=True, reason="", cycles=cycles, devices=devices)
 
 
+@toolchains.uses("radv")
 def cost_tables(count: int) -> dict:
     """`symbolic.gpu_costs.operation_costs` on `count` calibration forms, or why not."""
     from ..symbolic import gpu_costs

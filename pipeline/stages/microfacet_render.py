@@ -37,7 +37,7 @@ def run(config, inputs, memo):
 
 def _run(config, inputs, memo):
     a, b = inputs["linear_coefficient.slope_used"], inputs["linear_coefficient.intercept_used"]
-    s = mitsuba_settings(config, microfacet.register)
+    s = mitsuba_settings(config, microfacet.register, memo.log)
     exponents, width, height, seed, variant, spp, nodes = (s[k] for k in ("exponents", "width", "height", "seed",
                                                                           "variant", "spp", "nodes"))
     params = registry.Parameters(slope=a, intercept=b, power=config["lobe.power"])

@@ -68,7 +68,7 @@ def run(config, inputs, memo):
 def _run(config, inputs, memo):
     a, b = inputs["linear_coefficient.slope_used"], inputs["linear_coefficient.intercept_used"]
     level = inputs["zone.level"]
-    s = mitsuba_settings(config, bsdf.register)
+    s = mitsuba_settings(config, bsdf.register, memo.log)
     exponents, width, height, seed, variant, spp, nodes = (s[k] for k in ("exponents", "width", "height", "seed",
                                                                           "variant", "spp", "nodes"))
 

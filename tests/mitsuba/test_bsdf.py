@@ -9,6 +9,7 @@ import pytest
 from pipeline.mitsuba import bsdf as mitsuba_bsdf
 from pipeline.optics.albedo import albedo_table
 
+from ..helpers import require_fast_variant
 from ..oracles import scipy_normal_albedo
 
 import drjit as dr  # noqa: E402
@@ -37,10 +38,9 @@ def variant():
     Where no LLVM >= 15 loads (the Makefile installs Debian's libllvm19 where it can), the pipeline
     falls back to scalar_rgb and these tests are skipped, with this reason in pytest's summary."""
     variant = mitsuba_bsdf.register()
-    if variant != mitsuba_bsdf.FAST_VARIANT:
-        pytest.skip(f"Mitsuba's {mitsuba_bsdf.FAST_VARIANT} is not in use (no LLVM >= 15 loaded, or "
-                    "PIPELINE_MITSUBA_VARIANT chose another); "
-                    f"the fallback {variant} cannot run the vectorized chi2 harness")
+    require_fast_variant(variant, f"Mitsuba's {mitsuba_bsdf.FAST_VARIANT} is not in use (no LLVM >= 15 loaded, or "
+                         "PIPELINE_MITSUBA_VARIANT chose another); "
+                         f"the fallback {variant} cannot run the vectorized chi2 harness")
     return variant
 
 

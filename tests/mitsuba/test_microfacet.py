@@ -12,6 +12,7 @@ from pipeline.optics import distributions as ndf
 import drjit as dr  # noqa: E402
 from mitsuba.chi2 import BSDFAdapter, ChiSquareTest  # noqa: E402
 
+from ..helpers import require_fast_variant
 from .test_bsdf import LOBES, LobeDomain, weight_albedo
 
 CASES = [(lobe, n, angle) for lobe in ("f_b", "f_Q2", "f_Q4") for n in (10.0, 100.0, 1000.0) for angle in (0.0, 60.0)]
@@ -20,8 +21,8 @@ CASES = [(lobe, n, angle) for lobe in ("f_b", "f_Q2", "f_Q4") for n in (10.0, 10
 @pytest.fixture(scope="module")
 def variant():
     variant = microfacet.register()
-    if variant != mitsuba_bsdf.FAST_VARIANT:
-        pytest.skip(f"Mitsuba's {mitsuba_bsdf.FAST_VARIANT} is not in use: the chi2 harness needs a vectorized variant")
+    require_fast_variant(variant, f"Mitsuba's {mitsuba_bsdf.FAST_VARIANT} is not in use: the chi2 harness needs "
+                         "a vectorized variant")
     return variant
 
 

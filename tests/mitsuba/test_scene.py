@@ -9,12 +9,13 @@ from pipeline.engine.config import KEYS, MITSUBA_SEED_MAX
 from pipeline.mitsuba import bsdf, scene
 from pipeline.optics import registry
 
+from ..helpers import require_fast_variant
+
 
 @pytest.fixture(scope="module")
 def spheres():
     """The three f_Q2 spheres of the paper's renders (exact Blinn-form coef)."""
-    if bsdf.register() != bsdf.FAST_VARIANT:
-        pytest.skip("no vectorized Mitsuba variant here (no LLVM >= 15)")
+    require_fast_variant(bsdf.register(), "no vectorized Mitsuba variant here (no LLVM >= 15)")
     lobe, p = registry.LOBES["f_Q2"], registry.Parameters(slope=0.448, intercept=0.099)
     out = []
     for n in (10.0, 100.0, 1000.0):

@@ -1,16 +1,17 @@
 """The machine-code stage where the compiler cannot run: it says why, returns no rows, and the
 report and the summary say "machine-code cost not measured", and nothing is decided (nothing fails)."""
 
-from pipeline.engine import graph
+from pipeline.engine import graph, toolchains
 from pipeline.engine.cache import Memo
-from pipeline.optics import machine_code
 from pipeline.publish import report_beyond, summary
 from pipeline.stages import decision, gpu_isa
 
 
 def test_without_radv_the_stage_says_why_and_the_report_says_not_measured(monkeypatch, tmp_path, paper_run,
                                                                           paper_config):
-    monkeypatch.setattr(machine_code, "ICD_FOLDERS", (str(tmp_path),))
+    real = toolchains.locate
+    monkeypatch.setattr(toolchains, "locate", lambda tool: toolchains.find_radv({}, (str(tmp_path),))
+                        if tool == "radv" else real(tool))
     out = gpu_isa.run({"lobe.power": 2, "front.powers": [2, 3]}, {}, Memo(None))
     assert out["available"] is False and out["rows"] == []
     assert "mesa-vulkan-drivers" in out["reason"]
