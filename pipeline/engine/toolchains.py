@@ -56,7 +56,7 @@ VARIANT_VARIABLE = "PIPELINE_MITSUBA_VARIANT"
 class Found:
     """One tool: `path` what was found (None: not found), `version` its version ("" unknown),
     `how` where it came from, `missing` what a run loses without it and how to install it ("" when
-    found)."""
+    found and usable; a path the user chose that cannot serve keeps its path and says why)."""
 
     tool: str
     path: str | None
@@ -66,7 +66,8 @@ class Found:
 
     @property
     def found(self) -> bool:
-        return self.path is not None
+        """Whether the tool is there and usable."""
+        return self.path is not None and not self.missing
 
 
 # ---- LLVM, for Dr.Jit ---------------------------------------------------------------------------
@@ -105,10 +106,17 @@ def find_llvm(environ=os.environ, folders=LLVM_FOLDERS) -> Found:
     user = environ.get(LLVM_VARIABLE)
     if user:
         version = llvm_version(user)
+        how = f"{LLVM_VARIABLE} (set by the user)"
+        usable = [(v, p) for v, p in llvm_candidates(folders) if v >= LLVM_MIN_VERSION]
+        if usable:          # the fix is at hand
+            lost = (f"Mitsuba renders with scalar_rgb at mitsuba.fallback_spp samples per pixel, slower and with "
+                    f"other numbers; LLVM {usable[0][0]} is installed: unset {LLVM_VARIABLE} or set it to {usable[0][1]}")
         if not os.path.isfile(user):
-            return Found("llvm", None, "", f"{LLVM_VARIABLE}={user} (set by the user)",
-                         f"{LLVM_VARIABLE}={user} is not a file: {lost}")
-        return Found("llvm", user, str(version or ""), f"{LLVM_VARIABLE} (set by the user)")
+            return Found("llvm", None, "", how, f"{LLVM_VARIABLE}={user} is not a file: {lost}")
+        if version is not None and version < LLVM_MIN_VERSION:
+            return Found("llvm", user, str(version), how,
+                         f"{LLVM_VARIABLE}={user} is LLVM {version}, older than {LLVM_MIN_VERSION}: {lost}")
+        return Found("llvm", user, str(version or ""), how)
     candidates = llvm_candidates(folders)
     usable = [(v, p) for v, p in candidates if v >= LLVM_MIN_VERSION]
     if usable:

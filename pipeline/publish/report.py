@@ -191,11 +191,11 @@ def tools_section(doc) -> list[str]:
     lines = ["## Tools", ""]
     for tool, found in doc["toolchains"].items():
         role = TOOL_ROLES.get(tool, tool)
-        if found["path"]:
+        if not found["missing"]:
             version = f"{found['version']}, " if found["version"] else ""
             lines.append(f"- {role}: {version}`{found['path']}`")
         else:
-            lines.append(f"- {role}: not found: {found['missing']}")
+            lines.append(f"- {role}: not usable: {found['missing']}")
     ran = {stage: doc["stages"][stage]["variant"] for stage in ("mitsuba_render", "microfacet_render")
            if stage in doc["stages"]}
     if ran:
