@@ -1,4 +1,4 @@
-"""The house: `pipeline/` is wings in folders (engine, optics, symbolic, mitsuba, stages, publish) under
+"""The house: `pipeline/` is wings in folders (engine, optics, symbolic, mitsuba, isa, stages, publish) under
 `cli.py` and `run.py`; imports go down the layers only, never across wings of one layer, never in a
 cycle; no stage imports another stage; every module name is unique."""
 
@@ -11,7 +11,7 @@ import pipeline
 
 PACKAGE = Path(pipeline.__file__).parent
 # Layer of each wing: a module may import its own wing and the layers below it.
-LAYER = {"engine": 0, "optics": 1, "symbolic": 2, "mitsuba": 2, "stages": 3, "publish": 3, "": 4}
+LAYER = {"engine": 0, "optics": 1, "symbolic": 2, "mitsuba": 2, "isa": 2, "stages": 3, "publish": 3, "": 4}
 
 
 def modules() -> dict[str, Path]:

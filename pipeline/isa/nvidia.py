@@ -1,0 +1,225 @@
+"""NVIDIA machine code (SASS) of a fragment shader's arithmetic, by NVIDIA's own offline compiler.
+
+The shader's operations (`pipeline.isa.lowering`, from glslang's optimized SPIR-V) are printed as a
+PTX kernel with the instructions an NVIDIA GLSL driver lowers them to under graphics precision:
+pow x^y as lg2.approx, mul, ex2.approx; exp as a multiply by log2(e) and ex2.approx; log2 and sqrt,
+1/sqrt, sin and cos as their .approx instructions; a division as div.approx (MUFU.RCP and a
+multiply); max, min and abs; every float instruction with .ftz (without it ptxas adds range
+fix-ups around each MUFU, which a graphics driver does not), and add and mul without a rounding
+mode, so that ptxas may contract them into FFMA as drivers do. The varyings (t, n) are loaded from
+global memory, the per-material uniforms are kernel parameters (constant-bank operands, as a
+graphics uniform is) and the result is stored, so nothing folds at compile time. `ptxas` (pip `nvidia-cuda-nvcc-cu12`) compiles the kernel for each architecture and
+`cuobjdump -sass` (pip `nvidia-cuda-cuobjdump`, which runs `nvidia-cuda-nvdisasm`; 13.x reads
+sm_75 and newer) prints the SASS.
+
+Counted by the pipe that runs them: `fma` (FADD, FMUL, FFMA, and their FTZ forms), `alu` (FMNMX,
+FSEL, FSETP: compare, minimum and maximum), `mufu` (the special-function unit: MUFU.EX2, .LG2,
+.RCP, .RSQ, .SQRT, .SIN, .COS), `other`; each net of the same kernel returning t (the loads, the
+store and the index arithmetic).
+
+The cost model (`cycles`, "nvidia-throughput"): cycles per warp on one SM sub-partition (an SM has
+four), bound by throughput: the largest of the issue slots (one instruction per cycle) and each
+pipe's busy cycles, count x 32 / (the pipe's results per clock per SM / 4). The results per clock
+per SM are the CUDA C++ Programming Guide's table "Throughput of Native Arithmetic Instructions"
+(32-bit floating-point add, multiply, multiply-add: 64 on compute capability 7.5, 128 on 8.6, 8.9,
+9.0 and 12.0; compare, minimum, maximum: 64; reciprocal, reciprocal square root, base-2 logarithm
+and exponential, sine, cosine: 16). Latency, register pressure and occupancy are not modelled.
+"""
+
+from __future__ import annotations
+
+import re
+import subprocess
+import tempfile
+from pathlib import Path
+
+from ..engine import toolchains
+from .lowering import LoweringError, Op
+
+ARCHITECTURES = {"sm_75": "Turing", "sm_86": "Ampere", "sm_89": "Ada", "sm_90": "Hopper", "sm_120": "Blackwell"}
+# Results per clock per SM (CUDA C++ Programming Guide, "Throughput of Native Arithmetic Instructions").
+THROUGHPUT = {
+    "sm_75": {"fma": 64, "alu": 64, "mufu": 16},
+    "sm_86": {"fma": 128, "alu": 64, "mufu": 16},
+    "sm_89": {"fma": 128, "alu": 64, "mufu": 16},
+    "sm_90": {"fma": 128, "alu": 64, "mufu": 16},
+    "sm_120": {"fma": 128, "alu": 64, "mufu": 16},
+}
+COST_MODEL = "nvidia-throughput"
+WARP = 32
+SUB_PARTITIONS = 4
+PTX_VERSION = "8.7"                 # sm_120 needs PTX ISA 8.7 (CUDA 12.8)
+LOG2_E = 1.4426950408889634
+LN_2 = 0.6931471805599453
+INV_2PI = 0.15915494309189535
+TIMEOUT_S = 60
+PIPES = {"fma": re.compile(r"^(FADD|FMUL|FFMA)\b"), "alu": re.compile(r"^(FMNMX|FSEL|FSETP)\b"),
+         "mufu": re.compile(r"^MUFU\.")}
+CLASSES = ("fma", "alu", "mufu", "other")
+
+
+class CompilerMissing(RuntimeError):
+    """ptxas or cuobjdump is not installed."""
+
+
+def _hex(value: float) -> str:
+    import struct
+    return "0f%08X" % struct.unpack("<I", struct.pack("<f", value))[0]
+
+
+def ptx(ops: list[Op], result: str, architecture: str) -> str:
+    """The PTX kernel of the operations: each varying (t, n) from in[thread], each uniform a kernel
+    parameter (read from the constant bank, as a graphics uniform is), the result to out[thread]."""
+    inputs = sorted({op.op for op in ops if op.kind == "input"})
+    uniforms = sorted({op.op for op in ops if op.kind == "uniform"})
+    reg: dict[str, str] = {}
+    body: list[str] = []
+    count = [0]
+
+    def new(kind="f") -> str:
+        count[0] += 1
+        return f"%{kind}{count[0]}"
+
+    for op in ops:
+        a = [reg[x] for x in op.args]
+        r = new("p" if op.kind == "compare" else "f")
+        if op.kind == "input":
+            body.append(f"ld.global.f32 {r}, [%rin+{4096 * inputs.index(op.op)}];")
+        elif op.kind == "uniform":
+            body.append(f"ld.param.f32 {r}, [u{uniforms.index(op.op)}];")
+        elif op.kind == "constant":
+            body.append(f"mov.f32 {r}, {_hex(op.value)};")
+        elif op.kind == "arithmetic":
+            body.append({"FAdd": f"add.ftz.f32 {r}, {a[0]}, {a[1] if len(a) > 1 else ''};",
+                         "FSub": f"sub.ftz.f32 {r}, {a[0]}, {a[1] if len(a) > 1 else ''};",
+                         "FMul": f"mul.ftz.f32 {r}, {a[0]}, {a[1] if len(a) > 1 else ''};",
+                         "FDiv": f"div.approx.ftz.f32 {r}, {a[0]}, {a[1] if len(a) > 1 else ''};",
+                         "FNegate": f"neg.ftz.f32 {r}, {a[0]};"}[op.op])
+        elif op.kind == "function":
+            body += _function(op.op, r, a, new)
+        elif op.kind == "compare":
+            body.append(f"setp.{op.op}.ftz.f32 {r}, {a[0]}, {a[1]};")
+        elif op.kind == "select":
+            body.append(f"selp.f32 {r}, {a[1]}, {a[2]}, {a[0]};")
+        reg[op.name] = r
+    n_f = count[0] + 1
+    lines = [f".version {PTX_VERSION}", f".target {architecture}", ".address_size 64",
+             ".visible .entry lobe(" + ", ".join([".param .u64 p_in", ".param .u64 p_out"]
+                                                 + [f".param .f32 u{i}" for i in range(len(uniforms))]) + ")", "{",
+             "  .reg .b64 %rd<8>;", "  .reg .b64 %rin, %rbase;", "  .reg .b32 %r1;",
+             f"  .reg .f32 %f<{n_f}>;", f"  .reg .pred %p<{n_f}>;",
+             "  ld.param.u64 %rd1, [p_in];", "  ld.param.u64 %rd2, [p_out];",
+             "  cvta.to.global.u64 %rbase, %rd1;", "  cvta.to.global.u64 %rd4, %rd2;",
+             "  mov.u32 %r1, %tid.x;", "  mul.wide.u32 %rd5, %r1, 4;", "  add.s64 %rin, %rbase, %rd5;"]
+    lines += ["  " + line for line in body]
+    lines += ["  add.s64 %rd7, %rd4, %rd5;", f"  st.global.f32 [%rd7], {reg[result]};", "  ret;", "}", ""]
+    return "\n".join(lines)
+
+
+def _function(name: str, r: str, a: list[str], new) -> list[str]:
+    """PTX of one GLSL.std.450 function, as a driver lowers it."""
+    if name == "Pow":
+        lg, m = new(), new()
+        return [f"lg2.approx.ftz.f32 {lg}, {a[0]};", f"mul.ftz.f32 {m}, {lg}, {a[1]};", f"ex2.approx.ftz.f32 {r}, {m};"]
+    if name == "Exp":
+        m = new()
+        return [f"mul.ftz.f32 {m}, {a[0]}, {_hex(LOG2_E)};", f"ex2.approx.ftz.f32 {r}, {m};"]
+    if name == "Log":
+        lg = new()
+        return [f"lg2.approx.ftz.f32 {lg}, {a[0]};", f"mul.ftz.f32 {r}, {lg}, {_hex(LN_2)};"]
+    single = {"Exp2": "ex2.approx.ftz", "Log2": "lg2.approx.ftz", "Sqrt": "sqrt.approx.ftz",
+              "InverseSqrt": "rsqrt.approx.ftz", "Sin": "sin.approx.ftz", "Cos": "cos.approx.ftz", "FAbs": "abs.ftz"}
+    if name in single:
+        return [f"{single[name]}.f32 {r}, {a[0]};"]
+    if name in ("FMax", "NMax"):
+        return [f"max.ftz.f32 {r}, {a[0]}, {a[1]};"]
+    if name in ("FMin", "NMin"):
+        return [f"min.ftz.f32 {r}, {a[0]}, {a[1]};"]
+    if name in ("FClamp", "NClamp"):
+        m = new()
+        return [f"max.ftz.f32 {m}, {a[0]}, {a[1]};", f"min.ftz.f32 {r}, {m}, {a[2]};"]
+    if name == "Fma":
+        return [f"fma.rn.ftz.f32 {r}, {a[0]}, {a[1]}, {a[2]};"]
+    raise LoweringError(f"no PTX lowering for the GLSL.std.450 function {name}")
+
+
+def tools() -> tuple[str, str]:
+    """(ptxas, cuobjdump) as `toolchains` finds them, or CompilerMissing saying what is missing."""
+    found = toolchains.locate("nvidia")
+    if not found.found:
+        raise CompilerMissing(found.missing)
+    return found.path, toolchains.nvidia_tools()["cuobjdump"]
+
+
+def sass(source: str, architecture: str) -> list[str]:
+    """The SASS instructions (opcode and operands, addresses and encodings dropped) of a PTX
+    kernel compiled by ptxas for `architecture`, up to its EXIT."""
+    ptxas, cuobjdump = tools()
+    with tempfile.TemporaryDirectory() as tmp:
+        src, cubin = Path(tmp) / "lobe.ptx", Path(tmp) / "lobe.cubin"
+        src.write_text(source)
+        done = subprocess.run([ptxas, f"-arch={architecture}", str(src), "-o", str(cubin)], capture_output=True,
+                              text=True, timeout=TIMEOUT_S)
+        if done.returncode != 0:
+            raise RuntimeError(f"ptxas ({architecture}) failed: {done.stderr.strip()}\n{source}")
+        listing = subprocess.run([cuobjdump, "-sass", str(cubin)], capture_output=True, text=True,
+                                 timeout=TIMEOUT_S, env=toolchains.nvidia_env())
+    if listing.returncode != 0:
+        raise RuntimeError(f"cuobjdump ({architecture}) failed: {listing.stderr.strip()}")
+    out = []
+    for line in listing.stdout.splitlines():
+        m = re.match(r"\s+/\*[0-9a-f]{4}\*/\s+(.*?);", line)
+        if m:
+            instruction = re.sub(r"^@!?U?P\w+\s+", "", m.group(1).strip())      # a predicate guard
+            out.append(instruction)
+            if instruction.startswith("EXIT"):
+                break
+    return out
+
+
+def count(listing: list[str]) -> dict[str, int]:
+    """Instructions of a SASS listing by pipe (`CLASSES`) and in all."""
+    counts = dict.fromkeys(CLASSES, 0)
+    for line in listing:
+        pipe = next((p for p, pattern in PIPES.items() if pattern.match(line)), "other")
+        counts[pipe] += 1
+    return dict(counts, instructions=len(listing))
+
+
+def cycles(net: dict[str, int], architecture: str) -> float:
+    """Cycles per warp on one SM sub-partition by the throughput model, from instruction counts
+    net of the wrapper: the largest of the issue slots and each pipe's busy cycles."""
+    rates = THROUGHPUT[architecture]
+    busy = [net[pipe] * WARP / (rates[pipe] / SUB_PARTITIONS) for pipe in rates]
+    issued = sum(net[c] for c in CLASSES)
+    return float(max([issued] + busy))
+
+
+def shader_costs(sources: dict[str, str], architectures=tuple(ARCHITECTURES), wrapper: str = "wrapper") -> dict:
+    """{architecture: {name: row}} for every fragment shader of `sources` (name -> GLSL; the entry
+    `wrapper` is the shader returning t, whose counts every other row is net of): the SASS listing,
+    the counts by pipe, the net counts (`net_*`, `net_instructions`) and the model's `cycles`.
+    Raises CompilerMissing where ptxas or cuobjdump is not installed."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    from ..optics import spirv
+    from .lowering import operations
+
+    tools()
+    lowered = {name: operations(spirv.optimized_disassembly(source)) for name, source in sources.items()}
+    jobs = [(arch, name) for arch in architectures for name in sources]
+    with ThreadPoolExecutor(4) as pool:
+        listings = dict(zip(jobs, pool.map(lambda job: sass(ptx(*lowered[job[1]], job[0]), job[0]), jobs)))
+    out = {}
+    for arch in architectures:
+        base = count(listings[(arch, wrapper)])
+        rows = {}
+        for name in sources:
+            counts = count(listings[(arch, name)])
+            net = {c: counts[c] - base[c] for c in CLASSES}
+            rows[name] = dict(counts, **{f"net_{c}": net[c] for c in CLASSES},
+                              net_instructions=counts["instructions"] - base["instructions"],
+                              cycles=cycles(net, arch) if name != wrapper else 0.0, cost_model=COST_MODEL,
+                              listing=listings[(arch, name)])
+        out[arch] = rows
+    return out
