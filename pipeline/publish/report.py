@@ -180,9 +180,11 @@ def _comparison(doc, baseline) -> list[str]:
     return rows + [""]
 
 
-TOOL_ROLES = {"llvm": "LLVM, for Mitsuba's llvm_ad_rgb variant (Dr.Jit)",
-              "radv": "Mesa's RADV, for AMD machine code (Vulkan ICD)",
-              "shader_tools": "GLSL to SPIR-V (glslang, SPIRV-Tools)"}
+# What each tool is for, and the name its version is given with.
+TOOL_ROLES = {"llvm": ("LLVM, for Mitsuba's llvm_ad_rgb variant (Dr.Jit)", "LLVM "),
+              "radv": ("Mesa's RADV, for AMD machine code (Vulkan ICD)", "Mesa "),
+              "shader_tools": ("GLSL to SPIR-V", ""),
+              "nvidia": ("NVIDIA's offline compiler, for NVIDIA machine code (`pipeline.isa.nvidia`)", "")}
 
 
 def tools_section(doc) -> list[str]:
@@ -190,9 +192,9 @@ def tools_section(doc) -> list[str]:
     renders ran, where it rendered."""
     lines = ["## Tools", ""]
     for tool, found in doc["toolchains"].items():
-        role = TOOL_ROLES.get(tool, tool)
+        role, named = TOOL_ROLES.get(tool, (tool, ""))
         if not found["missing"]:
-            version = f"{found['version']}, " if found["version"] else ""
+            version = f"{named}{found['version']}, " if found["version"] else ""
             lines.append(f"- {role}: {version}`{found['path']}`")
         else:
             lines.append(f"- {role}: not usable: {found['missing']}")

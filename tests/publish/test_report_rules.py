@@ -27,3 +27,15 @@ def test_the_ndf_reading_names_the_table_s_winners():
             dict(use="ndf", n_per="material", precision="fp32", architecture="gcn5", n_range=[2.0, 10.0], winner="")]
     text = report_beyond.ndf_decision_text(dict(decision=dict(available=True, table=rows)))
     assert "GGX (RDNA3 2-10)" in text and "nothing (GCN5 2-10)" in text
+
+
+def test_the_tools_section_names_each_tool_its_version_and_what_a_missing_one_costs():
+    from pipeline.publish.report import tools_section
+
+    doc = {"toolchains": {"llvm": {"path": "/lib/libLLVM.so.19.1", "version": "19", "missing": ""},
+                          "radv": {"path": "", "version": "", "missing": "Mesa's RADV driver is not installed"}},
+           "stages": {"mitsuba_render": {"variant": "llvm_ad_rgb"}}}
+    lines = tools_section(doc)
+    assert "- LLVM, for Mitsuba's llvm_ad_rgb variant (Dr.Jit): LLVM 19, `/lib/libLLVM.so.19.1`" in lines
+    assert "- Mesa's RADV, for AMD machine code (Vulkan ICD): not usable: Mesa's RADV driver is not installed" in lines
+    assert lines[-1] == "- Mitsuba variant: llvm_ad_rgb (mitsuba_render)"
