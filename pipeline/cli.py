@@ -22,6 +22,7 @@ from .engine import checks as checks_mod, faults, graph, paths, toolchains
 from .engine.config import ConfigError, key_table, load_config
 from .publish.compare import CompareError
 from .symbolic import grammar
+from .isa.architectures import ARCHITECTURES
 from .symbolic.regress import DEFAULT_OPERATIONS, RegressError
 
 
@@ -149,20 +150,27 @@ def _regress(args) -> int:
 
 
 def _costs(args) -> int:
-    from .optics import machine_code
+    from .isa import architectures
+    from .isa.machine_code import CompilerMissing
+    from .optics.spirv import ToolMissing
     from .symbolic import gpu_costs
 
     out = Path(args.out) if args.out else paths.OUTPUTS / "costs"
     if not 20 <= args.forms <= 2000:
         print(f"error: --forms {args.forms}: give an integer in [20, 2000]", file=sys.stderr)
         return faults.EXIT_BAD_INPUT
-    print(f"compiling {args.forms} forms for RDNA3, RDNA2 and GCN5 (RADV; about {args.forms // 14} s)")
     try:
-        costs = gpu_costs.operation_costs(args.forms)
-    except (machine_code.CompilerMissing, machine_code.spirv.ToolMissing) as e:
+        chosen = [a.name for a in architectures.named(args.gpu.split(","))] if args.gpu else list(architectures.ARCHITECTURES)
+    except ValueError as e:
+        print(f"error: --gpu {args.gpu}: {e}", file=sys.stderr)
+        return faults.EXIT_BAD_INPUT
+    print(f"compiling {args.forms} forms for {architectures.label(chosen)} (about {args.forms // 10} s)")
+    try:
+        costs = gpu_costs.operation_costs(args.forms, chosen)
+    except (CompilerMissing, ToolMissing) as e:
         print(f"error: the GPU compiler cannot run here: {e}", file=sys.stderr)
         return faults.EXIT_ENVIRONMENT
-    print("cycles per wave " + " ".join(f"{op:>7}" for op in gpu_costs.OPERATIONS) + "   held-out error (mean, max)")
+    print("cycles          " + " ".join(f"{op:>7}" for op in gpu_costs.OPERATIONS) + "   held-out error (mean, max)")
     for architecture, table in costs["tables"].items():
         held = costs["held_out"][architecture]
         print(f"{architecture:<15} " + " ".join(f"{table[op]:>7g}" for op in gpu_costs.OPERATIONS)
@@ -277,8 +285,9 @@ def _main(argv: list[str] | None) -> int:
     reg.add_argument("--loss", default="rms", choices=["rms", "relative", "max", "max-relative"],
                      help="what the front ranks by: RMS error (default), RMS of the relative error, largest absolute "
                           "or relative error (minimax)")
-    reg.add_argument("--gpu", default=None, choices=["rdna3", "rdna2", "gcn5"],
-                     help="compile every front member for this GPU (RADV) and report its cycles per wave")
+    reg.add_argument("--gpu", default=None, choices=list(ARCHITECTURES),
+                     help="compile every front member for this GPU architecture and report its cycles (AMD: ACO's "
+                          "cycles per wave; NVIDIA: cycles per warp by the throughput model)")
     reg.add_argument("--cost", default=None, metavar="FILE.toml",
                      help="a cost per operation ([cost] table: exp = 4, ...) to rank by instead of the default count")
     reg.add_argument("--seed", type=int, default=0, help="seed of the random starts and of pyoperon (default 0)")
@@ -304,9 +313,11 @@ def _main(argv: list[str] | None) -> int:
     swp.add_argument("--scheduler-file", default=None, metavar="FILE", help="an existing Dask cluster's scheduler file")
     swp.add_argument("--workers", type=int, default=None, metavar="N",
                      help="LocalCluster worker processes (default: one per core)")
-    cst = sub.add_parser("costs", help="cycles per wave of each symbolic-regression operation on RDNA3, RDNA2 and GCN5 "
-                                       "(RADV's machine code): cost tables for regress --cost")
+    cst = sub.add_parser("costs", help="cycles of each symbolic-regression operation on each GPU architecture (AMD by "
+                                       "RADV, NVIDIA by ptxas): cost tables for regress --cost")
     cst.add_argument("--out", default=None, metavar="DIR", help="folder of the tables (default outputs/costs)")
+    cst.add_argument("--gpu", default=None, metavar="ARCH[,ARCH...]",
+                     help=f"architectures (default every one: {', '.join(ARCHITECTURES)})")
     cst.add_argument("--forms", type=int, default=400, metavar="N",
                      help="forms compiled to fit the tables, a quarter held out (default 400)")
     cch = sub.add_parser("cache", help="show the cache's size per stage; --prune removes unused entries")

@@ -340,20 +340,24 @@ STAGES: tuple[Stage, ...] = (
                  "transcendental) and each opcode [list, instructions per pixel]",
     }),
     _stage("gpu_isa", "beyond", POWER + ("front.powers",), (), {
-        "available": "whether Mesa's RADV compiler ran (Vulkan loader, RADV driver, the vulkan package) [bool]",
-        "reason": "why not, where it did not [text]",
+        "available": "whether any vendor's compiler ran (RADV: the Vulkan loader, the driver, the vulkan "
+                     "package; NVIDIA: ptxas and cuobjdump) [bool]",
+        "reason": "why none did, where none did [text]",
+        "missing": "per vendor whose compiler did not run here: why [dict]",
         "power": "the run's power m, whose family row is the run's fitted lobe [count]",
-        "devices": "the driver's device name per chip family (gfx1100 RDNA3, navi21 RDNA2, vega10 GCN5) [dict]",
-        "rows": "per shader and chip family: lobe, what (a registry lobe alone at the paper's power 2, with a "
+        "devices": "what compiled each architecture (RADV's device name, ptxas's version) [dict]",
+        "rows": "per shader and architecture: architecture (rdna3, ..., sm_120), vendor, family (the chip its "
+                "compiler was told), lobe, what (a registry lobe alone at the paper's power 2, with a "
                 "normalization and n per pixel, or the family at one power; an NDF per material, or Beckmann and "
-                "GGX with n per pixel), "
-                "instructions by kind (vector ALU, transcendental, scalar, other), ACO's latency and cycles per "
-                "wave, the same net of the wrapper shader, and the listing [list]",
-        "pow_transcendental": "transcendental instructions of cos^n = pow(t, n) (fewest over the chips; -1: not "
-                              "measured) [count]",
-        "family_transcendental_max": "most transcendental instructions of any power of the family (f_Q2, f_Q3, ...; "
-                                     "-1: not measured) [count]",
-    }, tools=("radv",)),
+                "GGX with n per pixel), n_per (material or pixel), instructions (math instructions, net of the "
+                "wrapper), special (special-function or transcendental instructions, net), cycles (net, by "
+                "cost_model: aco-perfinfo on AMD, nvidia-throughput on NVIDIA), the vendor's own counts and their "
+                "net values, and the listing [list]",
+        "pow_transcendental": "special-function instructions of cos^n = pow(t, n) (fewest over the architectures; "
+                              "-1: not measured) [count]",
+        "family_transcendental_max": "most special-function instructions of any power of the family (f_Q2, f_Q3, "
+                                     "...; -1: not measured) [count]",
+    }, tools=("radv", "nvidia")),
     _stage("power_front", "beyond",
            RANGE + ("derivation.metric", "derivation.fit", "front.powers", "scan.coarse_step",
                     "scan.fine_step", "solver.*", "albedo.quadrature_nodes", "comparison.albedo_angles"),
@@ -367,7 +371,8 @@ STAGES: tuple[Stage, ...] = (
     _stage("lobe_search", "beyond", RANGE + ("lobe_search.*", "solver.*", "comparison.grid_cells"),
            ("zone.level", "lobe_comparison.lobes", "lobe_comparison.d_curves", "lobe_comparison.D_curves",
             "gpu_isa.rows", "gpu_isa.power"), {
-        "available": "whether RADV compiled the families (cycles and fronts; without it, fits and errors only) [bool]",
+        "available": "whether any vendor's compiler compiled the families (cycles and fronts; without one, fits and "
+                     "errors only) [bool]",
         "reason": "why not, where it did not [text]",
         "devices": "the driver's device name per chip family [dict]",
         "target": "what the forms approximate: cos_n, or beckmann (Beckmann's D over its peak, a^2 = 2/(n + 2)) [text]",
@@ -395,10 +400,10 @@ STAGES: tuple[Stage, ...] = (
                           "maximum on the grid, over ranges and families [fraction]",
         "cycles_prediction_max_error": "per architecture, the largest |predicted - compiled| cycles over the "
                                        "families [dict, cycles per wave]",
-        "cost_tables": "cycles per operation per architecture, fitted to RADV's machine code of forms with uniform "
+        "cost_tables": "cycles per operation per architecture, fitted to its machine code of forms with uniform "
                        "constants (gpu_costs) [dict]",
         "cost_tables_held_out": "the tables' error on held-out forms [dict]",
-    }, tools=("radv",)),
+    }, tools=("radv", "nvidia")),
     _stage("render", "beyond", ("render.*",) + RANGE + POWER,
            ("zone.level", "linear_coefficient.slope_used", "linear_coefficient.intercept_used",
             "f2_errors.d_f_2_curve", "accuracy.d_f_Q2_curve"), {

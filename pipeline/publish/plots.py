@@ -17,6 +17,7 @@ import matplotlib.ticker  # noqa: E402
 import numpy as np  # noqa: E402
 
 from ..engine.exponents import n_range  # noqa: E402
+from ..isa.architectures import ARCHITECTURES, VENDORS  # noqa: E402
 from ..optics import registry  # noqa: E402
 from .report_beyond import at_power, family, keep  # noqa: E402
 
@@ -610,36 +611,46 @@ def error_cost_front(out, config, r):
         return _save(fig, out, "error_cost_front.png", tight=False)
     cands = [m for m in d["candidates"] if m["use"] == "lobe"]
     architectures = list(dict.fromkeys(row["architecture"] for row in d["table"]))
+    vendors = vendor_rows(architectures)
     ranges_ = list(dict.fromkeys(tuple(m["n_range"]) for m in cands))
     marker = {"registry": "s", "power": "o", "search": "^"}
     color = {"registry": "C3", "power": "C0", "search": "C2"}
-    fig = plt.figure(figsize=(4.3 * len(ranges_), 3.3 * len(architectures) + 2.2))
-    grid = fig.add_gridspec(len(architectures) + 1, len(ranges_), height_ratios=[3.3] * len(architectures) + [1.6])
+    fig = plt.figure(figsize=(4.3 * len(ranges_), 3.3 * len(vendors) + 0.25 * len(architectures) + 2.0))
+    grid = fig.add_gridspec(len(vendors) + 1, len(ranges_),
+                            height_ratios=[3.3] * len(vendors) + [0.6 + 0.2 * len(architectures)])
     stacks = []
-    top = max(m["cycles"][a] for m in cands for a in m["cycles"])
-    for i, a in enumerate(architectures):
+    for i, (vendor, archs) in enumerate(vendors):
+        top = max(m["cycles"][a] for m in cands for a in archs if a in m["cycles"])
         for j, (lo, hi) in enumerate(ranges_):
             ax = fig.add_subplot(grid[i, j])
-            here = [m for m in cands if tuple(m["n_range"]) == (lo, hi) and a in m["cycles"]]
-            row = next(x for x in d["table"] if x["architecture"] == a and tuple(x["n_range"]) == (lo, hi)
-                       and x["use"] == "phong" and x["n_per"] == "material" and x["precision"] == "fp32")
             labels: dict = {}
-            for m in here:
-                if m["kind"] == "reference":
-                    ax.axvline(m["cycles"][a], color="black", ls=":", lw=1)
-                    ax.text(m["cycles"][a], 1.0, " cos^n (d = 0)", transform=ax.get_xaxis_transform(), fontsize=6.5,
-                            va="top", ha="left")
-                    continue
-                star = m["name"] == "f_Q2"
-                x, y = m["cycles"][a], 100 * m["d"]
-                ax.plot(x, y, "*" if star else marker[m["kind"]], color="gold" if star else color[m["kind"]],
-                        mec="black" if star else color[m["kind"]], ms=13 if star else 5, zorder=5)
-                if m["name"] == row["winner"]:
-                    ax.plot(x, y, "o", mfc="none", mec="black", ms=13, mew=1.2, zorder=6)
-                best_here = min(o["d"] for o in here if o["cycles"][a] == x and o["kind"] != "reference")
-                if star or m["name"] == row["winner"] or m["d"] == best_here:     # the others: by marker only
-                    labels.setdefault(x, []).append((m["d"], keep(m["name"]) + (" (winner)" if m["name"] == row["winner"]
-                                                                               else ""), "black" if star else color[m["kind"]]))
+            for k, a in enumerate(archs):
+                # The vendor's first architecture in its colours and labelled; the others in grey shades,
+                # their names at the right of each one's reference line.
+                main = k == 0
+                shade = None if main else str(0.35 + 0.45 * k / len(archs))
+                here = [m for m in cands if tuple(m["n_range"]) == (lo, hi) and a in m["cycles"]]
+                row = next(x for x in d["table"] if x["architecture"] == a and tuple(x["n_range"]) == (lo, hi)
+                           and x["use"] == "phong" and x["n_per"] == "material" and x["precision"] == "fp32")
+                for m in here:
+                    if m["kind"] == "reference":
+                        ax.axvline(m["cycles"][a], color="black" if main else shade, ls=":", lw=1)
+                        ax.text(m["cycles"][a], 1.0 - 0.07 * k, f" cos^n, {a}", transform=ax.get_xaxis_transform(),
+                                fontsize=6, va="top", ha="left", color="black" if main else shade)
+                        continue
+                    star = m["name"] == "f_Q2"
+                    x, y = m["cycles"][a], 100 * m["d"]
+                    face = ("gold" if star else color[m["kind"]]) if main else shade
+                    ax.plot(x, y, "*" if star else marker[m["kind"]], color=face, mec="black" if star else face,
+                            ms=(13 if star else 5) if main else (9 if star else 3.5), zorder=5 if main else 4)
+                    if m["name"] == row["winner"]:
+                        ax.plot(x, y, "o", mfc="none", mec="black" if main else shade, ms=13, mew=1.2, zorder=6)
+                    if not main:
+                        continue
+                    best_here = min(o["d"] for o in here if o["cycles"][a] == x and o["kind"] != "reference")
+                    if star or m["name"] == row["winner"] or m["d"] == best_here:     # the others: by marker only
+                        labels.setdefault(x, []).append((m["d"], keep(m["name"]) + (" (winner)" if m["name"] == row["winner"]
+                                                                                   else ""), "black" if star else color[m["kind"]]))
             ax.axhline(100 * d["budgets"]["max_d"], color="0.4", ls="--", lw=0.9)
             ax.set(yscale="log", xlim=(0, top * 1.45))
             ax.grid(alpha=0.3, which="both")
@@ -647,10 +658,9 @@ def error_cost_front(out, config, r):
             if i == 0:
                 ax.set_title(f"n in [{lo:g}, {hi:g}]", fontsize=10)
             if j == 0:
-                ax.set_ylabel(f"{ARCHITECTURE_NAMES.get(a, a)}\nmax d in the zone (%)")
-            if i == len(architectures) - 1:
-                ax.set_xlabel("cycles per wave, n per material (RADV, net of the wrapper)", fontsize=8)
-    strip = fig.add_subplot(grid[len(architectures), :])
+                ax.set_ylabel(f"{VENDORS.get(vendor, vendor)}: {archs[0]} in colour\nmax d in the zone (%)", fontsize=9)
+            ax.set_xlabel(cost_axis(vendor), fontsize=8)
+    strip = fig.add_subplot(grid[len(vendors), :])
     n = np.asarray(d["per_n"]["n"])
     edges = np.concatenate([[n[0]], np.sqrt(n[1:] * n[:-1]), [n[-1]]])
     names = list(dict.fromkeys(w for a in architectures for w in d["per_n"]["winners"][a]))
@@ -658,17 +668,19 @@ def error_cost_front(out, config, r):
     for i, a in enumerate(architectures):
         for k, w in enumerate(d["per_n"]["winners"][a]):
             strip.barh(i, edges[k + 1] - edges[k], left=edges[k], color=palette[w], height=0.8, edgecolor="none")
-    strip.set(xscale="log", yticks=range(len(architectures)), xlim=(n[0], n[-1]),
-              yticklabels=[ARCHITECTURE_NAMES.get(a, a) for a in architectures])
+    strip.set(xscale="log", yticks=range(len(architectures)), xlim=(n[0], n[-1]), yticklabels=architectures)
+    strip.tick_params(axis="y", labelsize=7)
     strip.invert_yaxis()
     strip.set_xlabel("n: the winner at each n of the grid (same rule, the search's forms at their per-n fit)", fontsize=8)
     strip.legend(handles=[plt.Rectangle((0, 0), 1, 1, color=palette[w]) for w in names],
                  labels=[keep(w) for w in names], ncol=min(len(names), 6), fontsize=7, loc="upper center",
                  bbox_to_anchor=(0.5, -0.45), frameon=False)
-    fig.suptitle("The decision, common case (Phong or Blinn lobe, n per material, fp32): max d against cost; dashed: "
-                 "the budget max_d; ringed: the winner. Squares: the registry's lobes (the paper's f_Q2 starred); "
-                 "circles: the family's powers; triangles: the lobe search's forms (parameters as lines in n). "
-                 "Labelled: the winner, f_Q2 and the best at each cost",
+    fig.suptitle("The decision, common case (Phong or Blinn lobe, n per material, fp32): max d against cost (net of "
+                 "the wrapper, n per material), one row "
+                 "per vendor (its first architecture in colour and labelled, the others grey, lighter in the registry's "
+                 "order; dotted: cos^n's cost on each); dashed: the budget max_d; ringed: each architecture's winner. "
+                 "Squares: the registry's lobes (the paper's f_Q2 starred); circles: the family's powers; triangles: "
+                 "the lobe search's forms (parameters as lines in n). Labelled: the winner, f_Q2 and the best at each cost",
                  fontsize=9.5, wrap=True)
     _names_at_power(fig)
     fig.tight_layout(rect=(0, 0.02, 1, 0.95))
@@ -774,7 +786,21 @@ def mitsuba_zoom(out, config, r):
     return _save(fig, out, "mitsuba_zoom.png", tight=False)
 
 
-ARCHITECTURE_NAMES = {"rdna3": "RDNA3", "rdna2": "RDNA2", "gcn5": "GCN5"}
+def vendor_rows(architectures) -> list[tuple[str, list[str]]]:
+    """The architectures grouped by vendor, in the registry's order: a figure's rows."""
+    out: dict[str, list[str]] = {}
+    order = list(ARCHITECTURES)
+    for a in sorted(architectures, key=lambda a: order.index(a) if a in order else len(order)):
+        out.setdefault(ARCHITECTURES[a].vendor if a in ARCHITECTURES else a, []).append(a)
+    return list(out.items())
+
+
+def cost_axis(vendor: str) -> str:
+    """The x label of a vendor's cost: its model's unit."""
+    return {"amd": "cycles per wave (RADV, ACO's estimate)",
+            "nvidia": "cycles per warp (ptxas, throughput model)"}.get(vendor, "cycles")
+
+
 LABEL_GAP_PX = 9        # smallest vertical distance between two labels of points of equal cost
 
 
@@ -821,43 +847,57 @@ def lobe_front(out, config, r):
         ax.text(0.5, 0.5, "No machine code, no fronts: " + s["reason"], ha="center", va="center", wrap=True)
         return _save(fig, out, "lobe_front.png", tight=False)
     architectures = list(dict.fromkeys(c["architecture"] for c in s["candidates"]))
+    vendors = vendor_rows(architectures)
     ranges_ = s["ranges"]
     stacks = []
-    fig, axes = plt.subplots(len(architectures), len(ranges_), figsize=(4.3 * len(ranges_), 3.6 * len(architectures)),
+    fig, axes = plt.subplots(len(vendors), len(ranges_), figsize=(4.3 * len(ranges_), 3.8 * len(vendors)),
                              squeeze=False)
-    for i, architecture in enumerate(architectures):
+    for i, (vendor, archs) in enumerate(vendors):
+        top = max(c["cycles"] for c in s["candidates"] if c["architecture"] in archs)
         for j, (lo, hi) in enumerate(ranges_):
             ax = axes[i, j]
-            rows = [c for c in s["candidates"] if c["architecture"] == architecture and c["n_range"] == [lo, hi]]
-            front = sorted((c for c in rows if c["on_front"]), key=lambda c: c["cycles"])
-            placed = [p for p in s["placements"] if p["architecture"] == architecture and p["n_range"] == [lo, hi]
-                      and p["d"] > 0 and p["lobe"] != registry.REFERENCE]
-            ax.step([c["cycles"] for c in front], [100 * c["d"] for c in front], where="post", color="C0", lw=1.2)
             labels: dict = {}
-            for c in rows:
-                if not c["admissible"]:     # below 0 somewhere: not a lobe, never on a front
-                    ax.plot(c["cycles"], 100 * c["d"], "x", color="0.5", ms=4)
-                    labels.setdefault(c["cycles"], []).append((c["d"], c["family"] + " (< 0)", "0.5"))
-                    continue
-                ax.plot(c["cycles"], 100 * c["d"], "o", color="C0", ms=5 if c["on_front"] else 3.5,
-                        mfc="C0" if c["on_front"] else "white")
-                labels.setdefault(c["cycles"], []).append((c["d"], c["family"], "C0"))
-            for p in placed:
-                star = p["lobe"] == "f_Q2"
-                ax.plot(p["cycles"], 100 * p["d"], "*" if star else "s", color="gold" if star else "C3",
-                        mec="black" if star else "C3", ms=14 if star else 5, zorder=5)
-                labels.setdefault(p["cycles"], []).append((p["d"], p["label"], "black" if star else "C3"))
-            ax.set(yscale="log", xlim=(0, max(c["cycles"] for c in s["candidates"]) * 1.35))
+            for k, architecture in enumerate(archs):
+                # The vendor's first architecture in colour and labelled; the others' fronts in grey shades.
+                main = k == 0
+                shade = "C0" if main else str(0.35 + 0.45 * k / len(archs))
+                rows = [c for c in s["candidates"] if c["architecture"] == architecture and c["n_range"] == [lo, hi]]
+                front = sorted((c for c in rows if c["on_front"]), key=lambda c: c["cycles"])
+                ax.step([c["cycles"] for c in front], [100 * c["d"] for c in front], where="post", color=shade,
+                        lw=1.2 if main else 0.8, label=architecture if j == 0 else None)
+                placed = [p for p in s["placements"] if p["architecture"] == architecture and p["n_range"] == [lo, hi]
+                          and p["d"] > 0 and p["lobe"] != registry.REFERENCE]
+                for c in rows:
+                    if not c["admissible"]:     # below 0 somewhere: not a lobe, never on a front
+                        ax.plot(c["cycles"], 100 * c["d"], "x", color="0.5", ms=4 if main else 3)
+                        if main:
+                            labels.setdefault(c["cycles"], []).append((c["d"], c["family"] + " (< 0)", "0.5"))
+                        continue
+                    ax.plot(c["cycles"], 100 * c["d"], "o", color=shade, ms=(5 if c["on_front"] else 3.5) if main else 3,
+                            mfc=shade if c["on_front"] else "white")
+                    if main:
+                        labels.setdefault(c["cycles"], []).append((c["d"], c["family"], "C0"))
+                for p in placed:
+                    star = p["lobe"] == "f_Q2"
+                    face = ("gold" if star else "C3") if main else shade
+                    ax.plot(p["cycles"], 100 * p["d"], "*" if star else "s", color=face, mec="black" if star else face,
+                            ms=(14 if star else 5) if main else (9 if star else 3.5), zorder=5 if main else 4)
+                    if main:
+                        labels.setdefault(p["cycles"], []).append((p["d"], p["label"], "black" if star else "C3"))
+            ax.set(yscale="log", xlim=(0, top * 1.35))
             stacks.append((ax, labels))
             ax.grid(alpha=0.3, which="both")
             if i == 0:
                 ax.set_title(f"n in [{lo:g}, {hi:g}]", fontsize=10)
             if j == 0:
-                ax.set_ylabel(f"{ARCHITECTURE_NAMES.get(architecture, architecture)}\nmax d in the zone (%)")
-            if i == len(architectures) - 1:
-                ax.set_xlabel("cycles per wave (compiled by RADV, net of the wrapper)", fontsize=8)
+                ax.set_ylabel(f"{VENDORS.get(vendor, vendor)}: {archs[0]} in colour\nmax d in the zone (%)", fontsize=9)
+                if len(archs) > 1:
+                    ax.legend(fontsize=6.5, loc="lower left", title="fronts", title_fontsize=6.5)
+            ax.set_xlabel(cost_axis(vendor), fontsize=8)
     fig.suptitle("Cheap forms fitted per n (circles; filled: the front, joined; grey x: grammar forms below 0 "
-                 "somewhere, not lobes) and the registry's lobes (squares; the paper's f_Q2 starred)", fontsize=10)
+                 "somewhere, not lobes) and the registry's lobes (squares; the paper's f_Q2 starred), one row per "
+                 "vendor: its first architecture in colour and labelled, the others' points and fronts grey", fontsize=10,
+                 wrap=True)
     fig.tight_layout(rect=(0, 0, 1, 0.97))
     _settle(fig)
     for ax, labels in stacks:

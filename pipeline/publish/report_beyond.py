@@ -8,6 +8,7 @@ from __future__ import annotations
 import re
 
 from ..engine.checks import fmt
+from ..isa.architectures import ARCHITECTURES, VENDORS
 from ..optics import registry
 
 
@@ -245,13 +246,17 @@ def verdict_section(config, r) -> list[str]:
     cost = r["shader_cost"]
     q2_code, pow_code = machine_row(r, "f_Q2"), machine_row(r, registry.REFERENCE)
     if q2_code and pow_code:
-        cheap = q2_code["transcendental"] == 0
+        # Cheap: no special-function instruction on any architecture compiled.
+        measured = [a for a in ARCHITECTURES if a in r["gpu_isa"]["devices"]]
+        cheap = all(machine_row(r, "f_Q2", architecture=a)["special"] == 0 for a in measured)
         sg, schlick = machine_row(r, "SG"), machine_row(r, "Schlick")
         exact_px = machine_row(r, "f_Q2", "lobe and coef, n per pixel", normalization="phong exact_phong")
-        per_pixel = "yes" if exact_px and exact_px["net_transcendental"] == 0 else "no"
+        per_pixel = "yes" if all((row := machine_row(r, "f_Q2", "lobe and coef, n per pixel", a, "phong exact_phong"))
+                                 and row["special"] == 0 for a in measured) else "no"
         lines.append(f"- **\"No expensive operations\"**: {'yes' if cheap else 'no'} with n per material, {per_pixel} "
-                     f"with n per pixel and the exact coef, in the machine code a GPU "
-                     f"runs (RADV, RDNA3, net of the wrapper): f_Q2 is {machine_text(q2_code)}, against "
+                     f"with n per pixel and the exact coef, in the machine code of every architecture compiled "
+                     f"({', '.join(measured)}; no special-function instruction). On {arch_name(MAIN_ARCHITECTURE)} "
+                     f"(RADV, net of the wrapper): f_Q2 is {machine_text(q2_code)}, against "
                      f"{machine_text(pow_code)} for cos^n (pow is log, multiply, exp), {machine_text(sg)} for a "
                      f"spherical Gaussian and {machine_text(schlick)} for Schlick's lobe (machine-code table above). "
                      f"With n per pixel and the exact Phong coef computed per pixel: {machine_text(exact_px)}.")
@@ -425,10 +430,16 @@ def render_verdict(s) -> str:
             f"{rows_q2} images (" + "; ".join(shares) + ").")
 
 
-MAIN_FAMILY = "gfx1100"       # the chip family whose machine code the verdict and the front quote (RDNA3)
+MAIN_ARCHITECTURE = "rdna3"       # the architecture whose machine code the verdict and the front quote
 
 
-def machine_row(r, lobe: str, what: str = "lobe", family: str = MAIN_FAMILY, normalization: str = ""):
+def arch_name(architecture: str) -> str:
+    """An architecture by its name and its vendor's: "rdna3 (RDNA3)", "sm_86 (Ampere)"."""
+    a = ARCHITECTURES.get(architecture)
+    return f"{architecture} ({a.title})" if a else architecture
+
+
+def machine_row(r, lobe: str, what: str = "lobe", architecture: str = MAIN_ARCHITECTURE, normalization: str = ""):
     """The gpu_isa row of a shader, or None where the machine code was not measured. The run's
     fitted lobe ("f_Q2", alone) is the family's row at the run's power."""
     g = r.get("gpu_isa")
@@ -436,58 +447,87 @@ def machine_row(r, lobe: str, what: str = "lobe", family: str = MAIN_FAMILY, nor
         return None
     if lobe == "f_Q2" and what == "lobe":
         lobe, what = registry.family_name(g["power"]), "family lobe"
-    return next((row for row in g["rows"] if row["lobe"] == lobe and row["what"] == what and row["family"] == family
-                 and row["normalization"] == normalization), None)
+    return next((row for row in g["rows"] if row["lobe"] == lobe and row["what"] == what
+                 and row["architecture"] == architecture and row["normalization"] == normalization), None)
 
 
 def machine_text(row) -> str:
-    """One shader's net machine code in words."""
+    """One shader's net machine code in words, in its vendor's instruction classes and cost model."""
+    if row["vendor"] == "nvidia":
+        parts = [f"{row['net_fma']} FP32"]
+        if row["net_alu"]:
+            parts.append(f"{row['net_alu']} compare/min/max")
+        if row["net_mufu"]:
+            parts.append(f"{row['net_mufu']} MUFU")
+        if row["net_other"]:
+            parts.append(f"{row['net_other']} other")
+        return ", ".join(parts) + f" instructions, {row['cycles']:g} cycles per warp (throughput model)"
     parts = [f"{row['net_vector_alu']} vector ALU"]
     if row["net_transcendental"]:
         parts.append(f"{row['net_transcendental']} transcendental")
     if row["net_scalar"]:
         parts.append(f"{row['net_scalar']} scalar")
-    return ", ".join(parts) + f" instructions, {row['net_cycles_per_wave']:g} cycles per wave"
+    return ", ".join(parts) + f" instructions, {row['cycles']:g} cycles per wave"
 
 
 def machine_code_section(config, r) -> list[str]:
     g = r.get("gpu_isa")
-    lines = ["## Cost in GPU machine code (Mesa's RADV, ACO back end)", ""]
+    lines = ["## Cost in GPU machine code, per vendor", ""]
     if not g or not g["available"]:
         reason = g["reason"] if g else "the gpu_isa stage did not run"
         return lines + [f"Machine-code cost not measured: {reason}. The costs quoted elsewhere are SPIR-V "
                         "instruction counts, where pow is one instruction.", ""]
-    families = list(g["devices"])
-    lines += ["Each shader compiled by Mesa's RADV driver to the AMD machine code a GPU runs (on RADV's null "
-              "device: " + ", ".join(f"{g['devices'][f]}" for f in families) + "). Counts are per pixel, net of "
-              "the wrapper shader (the same shader whose lobe returns t: interpolation and export); cycles per "
-              "wave are ACO's own throughput estimate (1 / wave64_per_cycle), net of the wrapper's. Transcendental: "
-              "v_log, v_exp, v_rcp, v_rsq, v_sqrt (the quarter-rate unit). `lobe`: n, k and the rate per material "
-              "(push constants); `with coef, n per pixel`: n a varying, k(n) and the normalization computed per "
-              "pixel. The registry's lobes at the paper's power m = 2; the family's rows give each power. Shaders "
-              "compiled with the paper's constants as stand-ins (each is one literal).", "",
-              "| lobe | shader | " + " | ".join(f"{f} ({r_['architecture']})" for f, r_ in
-                                              ((f, next(x for x in g['rows'] if x['family'] == f)) for f in families))
-              + " |", "|---|---|" + "---|" * len(families)]
+    lines += ["Each shader compiled by its vendor's own compiler, without a GPU: the registry's lobes at the paper's "
+              "power m = 2, the family at each power, the lobes with each normalization and n per pixel, the "
+              "microfacet D. `lobe`: n, k and the rate per material (uniforms); `with coef, n per pixel`: n a "
+              "varying, k(n) and the normalization computed per pixel. Counts are per pixel, net of the wrapper "
+              "shader (the same shader returning t). The shaders are compiled with the paper's constants as "
+              "stand-ins (each is one literal). These are the vendors' compilers, each with its own cost model:", ""]
+    for vendor, why in g.get("missing", {}).items():
+        lines.append(f"- {VENDORS[vendor]}: not measured here: {why}.")
+    measured = [a for a in ARCHITECTURES if a in g["devices"]]         # the registry's order
+    amd = [a for a in measured if ARCHITECTURES[a].vendor == "amd"]
+    nvidia = [a for a in measured if ARCHITECTURES[a].vendor == "nvidia"]
+    if amd:
+        lines.append("- AMD: Mesa's RADV driver and its ACO back end on RADV's null device ("
+                     + ", ".join(g["devices"][a] for a in amd) + "). Cycles per wave: ACO's own throughput estimate "
+                     "(1 / wave64_per_cycle, `aco-perfinfo`), net of the wrapper's. Cells: vector ALU + transcendental "
+                     "(v_log, v_exp, v_rcp, v_rsq, v_sqrt: the quarter-rate unit) instructions, cycles.")
+    if nvidia:
+        lines.append("- NVIDIA: the shader's SPIR-V lowered to PTX as a graphics driver lowers it (lg2/ex2.approx, "
+                     ".ftz), compiled by NVIDIA's ptxas and read back as SASS by cuobjdump (" + g["devices"][nvidia[0]]
+                     + " ...). Cycles per warp on one SM sub-partition by a throughput model (`nvidia-throughput`): "
+                     "the largest of the issue slots and each pipe's busy cycles at the CUDA C++ Programming Guide's "
+                     "results per clock per SM (FP32 64 on sm_75, 128 after; compare/min/max 64; MUFU 16). Cells: "
+                     "FP32 + MUFU instructions, cycles.")
     shaders = [(row["lobe"], row["what"], row["normalization"]) for row in g["rows"]
-               if row["family"] == families[0] and row["what"] != "wrapper uniform" and row["what"] != "wrapper per pixel"]
-    for lobe, what, norm in shaders:
-        cells = []
-        for f in families:
-            row = machine_row(r, lobe, what, f, norm)
-            cells.append(f"{row['net_vector_alu']} + {row['net_transcendental']} T, {row['net_cycles_per_wave']:g} cyc")
-        name = keep(lobe)
-        shader = {"lobe": "lobe (m = 2)", "family lobe": "lobe (the family at its power)",
-                  "NDF": "microfacet D, its constants per material",
-                  "NDF, n per pixel": "microfacet D, alpha^2 = 2 / (n + 2) per pixel"}.get(
-                      what, f"with {norm}, n per pixel (m = 2)")
-        lines.append(f"| {name} | {shader} | " + " | ".join(cells) + " |")
-    pow_row, quad_row = machine_row(r, registry.REFERENCE), machine_row(r, "f_Q2")
-    lines += ["", "Cells: vector ALU + transcendental instructions, cycles per wave. The RDNA3 listings, between "
-              "interpolation and export:", "",
-              "cos^n = pow(t, n):", "", "```"] + pow_row["listing"] + ["```", "", "f_Q2:", "", "```"] \
-        + quad_row["listing"] + ["```", ""]
-    return lines
+               if row["architecture"] == measured[0] and not row["what"].startswith("wrapper")]
+    for vendor, archs in (("amd", amd), ("nvidia", nvidia)):
+        if not archs:
+            continue
+        lines += ["", f"{VENDORS[vendor]}:", "", "| lobe | shader | " + " | ".join(arch_name(a) for a in archs) + " |",
+                  "|---|---|" + "---|" * len(archs)]
+        for lobe, what, norm in shaders:
+            cells = []
+            for a in archs:
+                row = machine_row(r, lobe, what, a, norm)
+                if vendor == "amd":
+                    cells.append(f"{row['net_vector_alu']} + {row['net_transcendental']} T, {row['cycles']:g} cyc")
+                else:
+                    cells.append(f"{row['net_fma'] + row['net_alu']} + {row['net_mufu']} MUFU, {row['cycles']:g} cyc")
+            name = keep(lobe)
+            shader = {"lobe": "lobe (m = 2)", "family lobe": "lobe (the family at its power)",
+                      "NDF": "microfacet D, its constants per material",
+                      "NDF, n per pixel": "microfacet D, alpha^2 = 2 / (n + 2) per pixel"}.get(
+                          what, f"with {norm}, n per pixel (m = 2)")
+            lines.append(f"| {name} | {shader} | " + " | ".join(cells) + " |")
+    for a in (amd[:1] + nvidia[:1]):
+        pow_row, quad_row = machine_row(r, registry.REFERENCE, architecture=a), machine_row(r, "f_Q2", architecture=a)
+        lines += ["", f"The listings on {arch_name(a)}" + (", between interpolation and export" if a in amd else
+                                                            ", the SASS of the whole kernel") + ":", "",
+                  "cos^n = pow(t, n):", "", "```"] + pow_row["listing"] + ["```", "", "f_Q2:", "", "```"] \
+            + quad_row["listing"] + ["```"]
+    return lines + [""]
 
 
 def _range_text(lo_hi) -> str:
@@ -502,10 +542,11 @@ def front_section(config, r, figures) -> list[str]:
              f"its own best Q (the best of the paper's grids for the metric {config['derivation.metric']}) and its own "
              f"fitted line ({config['derivation.fit']}), on this run's zone and n range. Energy: the largest "
              "directional albedo over n and incidence angles with that power's exact normalization (Phong and "
-             "Blinn forms). Cost: the multiplies of the power, and the machine code (RDNA3, net of the wrapper).", ""]
+             f"Blinn forms). Cost: the multiplies of the power, and the machine code ({arch_name(MAIN_ARCHITECTURE)}, net "
+             "of the wrapper).", ""]
     ranges_ = [row["n_range"] for row in members[0]["by_range"]]
     lines += ["| lobe | Q | k(n) | max d | max D | " + " | ".join(f"max d, n in {_range_text(x)}" for x in ranges_)
-              + " | largest albedo (Phong, Blinn) | multiplies | machine code (RDNA3) |",
+              + f" | largest albedo (Phong, Blinn) | multiplies | machine code ({MAIN_ARCHITECTURE}) |",
               "|---|---|---|---|---|" + "---|" * len(ranges_) + "---|---|---|"]
     for m in members:
         row = machine_row(r, m["name"], "family lobe")
@@ -527,7 +568,7 @@ def front_section(config, r, figures) -> list[str]:
     for lo, hi in zip(powers, powers[1:]):
         a_, b_ = by[lo], by[hi]
         row_a, row_b = machine_row(r, a_["name"], "family lobe"), machine_row(r, b_["name"], "family lobe")
-        extra = (f"{row_b['net_cycles_per_wave'] - row_a['net_cycles_per_wave']:+g} cycles per wave"
+        extra = (f"{row_b['cycles'] - row_a['cycles']:+g} cycles per wave on {arch_name(MAIN_ARCHITECTURE)}"
                  if row_a and row_b else f"{b_['multiplies'] - a_['multiplies']:+d} multiplies")
         steps.append(f"{keep(a_['name'])} to {keep(b_['name'])}: max d {pct(a_['d'])} to {pct(b_['d'])} "
                      f"({a_['d'] / b_['d']:.2f}x), max D {a_['D']:.4f} to {b_['D']:.4f} ({a_['D'] / b_['D']:.2f}x), "
@@ -564,9 +605,9 @@ def ndf_section(config, r, figures) -> list[str]:
         r["gpu_isa"].get("power", 2)))} if r["gpu_isa"]["available"] else {}
     if code and all(code.values()):
         q = code[registry.family_name(r["gpu_isa"]["power"])]
-        lines += [f"D alone in machine code (RDNA3, net of the wrapper, constants per material): f_Q2 "
+        lines += [f"D alone in machine code ({arch_name(MAIN_ARCHITECTURE)}, net of the wrapper, constants per material): f_Q2 "
                   f"{machine_text(q)}; Beckmann {machine_text(code['Beckmann'])}; GGX {machine_text(code['GGX'])}; "
-                  f"cos^n {machine_text(code['f_b'])} (all three chips in the machine-code table).", ""]
+                  f"cos^n {machine_text(code['f_b'])} (every architecture in the machine-code tables).", ""]
     lines += [f"**Rendered** with Mitsuba 3 ({mr['variant']}, {mr['spp']} spp x 2 seeds, {mr['render_seconds']:.1f} s): "
               "the three spheres with a Cook-Torrance BSDF whose D is each normalized lobe (`pipeline/mitsuba/"
               "microfacet.py`: F = 1 and Smith's G of Beckmann, Mitsuba's own, so that the images differ by D alone) "
@@ -584,10 +625,10 @@ def ndf_section(config, r, figures) -> list[str]:
     lines.append("")
     if code and all(code.values()):
         q = code[registry.family_name(r["gpu_isa"]["power"])]
-        saving = code["GGX"]["net_cycles_per_wave"] - q["net_cycles_per_wave"]
+        saving = code["GGX"]["cycles"] - q["cycles"]
         lines += [f"**For an engine that already ships GGX**: f_Q2 as its D "
                   + (f"saves {saving:g} cycles per wave per light" if saving > 0 else f"costs {-saving:g} cycles per wave more")
-                  + " on RDNA3 (D alone, of a BRDF whose G, F and lights cost more); it ends near 1.5 alpha where GGX "
+                  + f" on {arch_name(MAIN_ARCHITECTURE)} (D alone, of a BRDF whose G, F and lights cost more); it ends near 1.5 alpha where GGX "
                   "has its long tail, and it is "
                   + ("farther from" if mr["flip_f_Q2_vs_beckmann_max"] > mr["flip_ggx_vs_beckmann_max"] else "no farther from")
                   + f" Beckmann (FLIP up to {mr['flip_f_Q2_vs_beckmann_max']:.3f}) than GGX is (up to "
@@ -603,7 +644,7 @@ def ndf_decision_text(r) -> str:
     rows = [x for x in d["table"] if x["use"] == "ndf" and x["n_per"] == "material" and x["precision"] == "fp32"]
     won = {}
     for x in rows:
-        won.setdefault(x["winner"] or "nothing", []).append(f"{x['architecture'].upper()} {x['n_range'][0]:g}-{x['n_range'][1]:g}")
+        won.setdefault(x["winner"] or "nothing", []).append(f"{x['architecture']} {x['n_range'][0]:g}-{x['n_range'][1]:g}")
     return ("By the decision's rule (its budgets on d and D against Beckmann), the NDF scenarios go to "
             + "; ".join(f"{name} ({', '.join(where)})" for name, where in won.items()) + ".")
 
@@ -637,9 +678,9 @@ def decision_section(config, r, figures) -> list[str]:
     arch = list(dict.fromkeys(a for c in d["candidates"] for a in c["cycles"]))
     lines += ["", f"Measures for n in [{widest[0]:g}, {widest[1]:g}] (d, D at equal peak; the normalized peak over the "
               "reference's, farthest from 1; the float16 error over the visible highlight and its better route; cycles "
-              "per wave with n per material):", "",
+              "with n per material, by each architecture's cost model):", "",
               "| candidate | against | max d | max D | normalized peak | float16 error | "
-              + " | ".join(a.upper() for a in arch) + " |", "|---|---|---|---|---|---|" + "---|" * len(arch)]
+              + " | ".join(arch) + " |", "|---|---|---|---|---|---|" + "---|" * len(arch)]
     for c in d["candidates"]:
         if c["n_range"] != widest:
             continue
@@ -713,7 +754,6 @@ def mitsuba_section(config, r, figures) -> list[str]:
     return lines + embed(figures, "mitsuba")
 
 
-ARCHITECTURE_NAMES = {"rdna3": "RDNA3", "rdna2": "RDNA2", "gcn5": "GCN5"}
 TARGET_TEXT = {"cos_n": "cos^n", "beckmann": "Beckmann's D over its peak, a^2 = 2 / (n + 2)"}
 
 
@@ -766,10 +806,11 @@ def lobe_search_section(config, r, figures) -> list[str]:
     placed = ("and the registry's lobes are placed with their own compiled cycles (`gpu_isa`, n and the lobe's "
               "parameter per material)" if s["target"] == "cos_n" else
               "(the registry's lobes approximate cos^n: they are not placed here)")
-    lines += ["Each form is compiled by RADV with its parameters as uniforms; its cost is ACO's cycles per wave net "
-              f"of the shader returning t, {placed}. The cost tables fitted to random forms "
+    lines += ["Each form is compiled for every architecture with its parameters as uniforms; its cost is the "
+              "architecture's cycles by its vendor's model (ACO's cycles per wave on AMD, the throughput model per warp "
+              f"on NVIDIA) net of the shader returning t, {placed}. The cost tables fitted to random forms "
               "(`symbolic.gpu_costs`) predict the forms' cycles within "
-              + ", ".join(f"{v:.3g} cycles ({ARCHITECTURE_NAMES.get(a, a)})"
+              + ", ".join(f"{v:.3g} cycles ({a})"
                           for a, v in s["cycles_prediction_max_error"].items())
               + ": the compiled cycles are what the fronts use.", "",
               "| GPU | n range | front: form (cycles, max d) | the paper's f_Q2 (cycles, max d) | f_Q2 |",
@@ -781,7 +822,7 @@ def lobe_search_section(config, r, figures) -> list[str]:
             front = [c for c in s["front"] if c["architecture"] == architecture and c["n_range"] == [lo, hi]]
             paper = next((p for p in s["placements"] if p["architecture"] == architecture
                           and p["n_range"] == [lo, hi] and p["lobe"] == "f_Q2"), None)
-            row = (f"| {ARCHITECTURE_NAMES.get(architecture, architecture)} | [{lo:g}, {hi:g}] | "
+            row = (f"| {arch_name(architecture)} | [{lo:g}, {hi:g}] | "
                    + "; ".join(f"{c['family']} ({c['cycles']:g}, {pct_small(c['d'])})" for c in front) + " |")
             if s["target"] == "cos_n":
                 row += (f" {paper['cycles']:g}, {pct(paper['d'])} | {f_Q2_standing(paper)} |" if paper else
@@ -791,7 +832,8 @@ def lobe_search_section(config, r, figures) -> list[str]:
     lines += ["", f"Each form over n in [{widest[0]:g}, {widest[1]:g}]: its worst d and D with the best parameters per "
               "n, and with each shader parameter a line in n (least squares through the per-n optima, as the paper "
               "fits k), measured at every integer n:", "",
-              "| form | cycles (RDNA3, RDNA2, GCN5; predicted) | max d | max D | parameters as lines in n | "
+              f"| form | cycles ({', '.join(dict.fromkeys(c['architecture'] for c in s['candidates']))}; predicted) | "
+              "max d | max D | parameters as lines in n | "
               "max d with the lines | max D with the lines |", "|---|---|---|---|---|---|---|"]
     for m in s["members"]:
         if m["n_range"] != widest:

@@ -10,6 +10,7 @@ number is a field of the run's results (results.json).
 
 from __future__ import annotations
 
+from ..isa.architectures import ARCHITECTURES, VENDORS
 from .report_beyond import at_power
 
 USE_NAMES = {"phong": "Phong lobe (t = R.V)", "blinn": "Blinn lobe (t = N.H)", "ndf": "microfacet NDF (against Beckmann)"}
@@ -23,26 +24,65 @@ def _pct(x: float) -> str:
     return f"{100 * x:.3g} %"
 
 
-def _winner(row) -> str:
-    """A scenario's winner in a few words, or that nothing qualifies."""
+def _winner(rows) -> str:
+    """The winner of scenarios that share it (one per architecture of a group) in a few words: its
+    cycles over the group (a range where they differ), or that nothing qualifies."""
+    row = rows[0]
     if not row["winner"]:
         return "nothing qualifies" if row["reason"].startswith(("nothing", "in float16")) else "not decided"
     route = {"u": ", u route", "t": ", t route"}.get(row["winner_fp16_route"], "")
-    return f"{row['winner']}: {row['winner_cycles']:g} cycles, max d {_pct(row['winner_d'])}{route}"
+    lo, hi = min(r["winner_cycles"] for r in rows), max(r["winner_cycles"] for r in rows)
+    cycles = f"{lo:g}" if lo == hi else f"{lo:g}-{hi:g}"
+    return f"{row['winner']}: {cycles} cycles, max d {_pct(max(r['winner_d'] for r in rows))}{route}"
 
 
 def _rows(table, **where):
     return [r for r in table if all(r[k] == v for k, v in where.items())]
 
 
-def _cell(table, architecture, n_range, n_per="material", precision="fp32", uses=("phong", "blinn")) -> str:
-    """The winners of the given uses in one table cell: one when they agree."""
-    rows = [r for r in table if r["architecture"] == architecture and r["n_range"] == n_range and r["use"] in uses
-            and r["n_per"] == n_per and r["precision"] == precision]
-    texts = {r["use"]: _winner(r) for r in rows}
+def _scenarios(table, architectures, n_range, n_per, precision, uses) -> dict[str, list[dict]]:
+    """{use: its rows on `architectures`} of one range, place of n and precision."""
+    out: dict[str, list[dict]] = {}
+    for r in table:
+        if (r["architecture"] in architectures and r["n_range"] == n_range and r["use"] in uses
+                and r["n_per"] == n_per and r["precision"] == precision):
+            out.setdefault(r["use"], []).append(r)
+    return out
+
+
+def _cell(table, group, n_range, n_per="material", precision="fp32", uses=("phong", "blinn")) -> str:
+    """The winners of the given uses on a group of architectures in one table cell: one text when
+    the uses agree; per architecture where the group's own winners differ."""
+    scenarios = _scenarios(table, group, n_range, n_per, precision, uses)
+    if any(len({r["winner"] for r in rows}) > 1 for rows in scenarios.values()):
+        return "; ".join(f"{a} {_cell(table, [a], n_range, n_per, precision, uses)}" for a in group)
+    texts = {use: _winner(rows) for use, rows in scenarios.items()}
     if len(set(texts.values())) == 1:
         return next(iter(texts.values()))
     return "; ".join(f"{use}: {text}" for use, text in texts.items())
+
+
+def groups(table, architectures, ranges) -> list[list[str]]:
+    """The architectures in groups: consecutive architectures of one vendor whose common-case winners
+    (Phong and Blinn lobes, n per material, fp32) agree on every range; one group each otherwise."""
+    def answer(a):
+        return [(r["use"], r["winner"]) for n_range in ranges
+                for rows in _scenarios(table, [a], list(n_range), "material", "fp32", ("phong", "blinn")).values()
+                for r in rows]
+    out: list[list[str]] = []
+    for a in architectures:
+        if out and ARCHITECTURES[out[-1][0]].vendor == ARCHITECTURES[a].vendor and answer(out[-1][0]) == answer(a):
+            out[-1].append(a)
+        else:
+            out.append([a])
+    return out
+
+
+def group_name(group) -> str:
+    """A group of architectures as its vendor and names: "NVIDIA sm_120 to sm_75", "AMD rdna3"."""
+    vendor = VENDORS.get(ARCHITECTURES[group[0]].vendor, "") if group[0] in ARCHITECTURES else ""
+    names = group[0] if len(group) == 1 else f"{group[0]}, {group[1]}" if len(group) == 2 else f"{group[0]} to {group[-1]}"
+    return f"{vendor} {names}".strip()
 
 
 def fact_text(fact, decision) -> str:
@@ -51,7 +91,7 @@ def fact_text(fact, decision) -> str:
     if not fact["changed"]:
         return ""
     first = fact["changed"][0]
-    where = f"{first['architecture'].upper()}, n in {_range(first['n_range'])}, {first['use']}"
+    where = f"{first['architecture']}, n in {_range(first['n_range'])}, {first['use']}"
     if fact["fact"] == "n_per_pixel":
         return (f"**n per pixel** (the coef computed in the shader) changes {count} of {of}: e.g. {where}: "
                 f"{first['before']} ({first['before_cycles']:g} cycles) gives way to {first['after']} "
@@ -85,18 +125,20 @@ def lines(config, results) -> list[str]:
     architectures = list(dict.fromkeys(r["architecture"] for r in table))
     ranges = list(dict.fromkeys(tuple(r["n_range"]) for r in table))
     widest = list(max(ranges, key=lambda r: r[1] - r[0]))
-    out += ["**The answer** for the common case (Phong or Blinn lobe, n per material, fp32; ACO's cycles per wave, "
-            "the largest max d over the range):", "",
+    grouped = groups(table, architectures, ranges)
+    out += ["**The answer** for the common case (Phong or Blinn lobe, n per material, fp32; cycles by each "
+            "vendor's model: ACO's cycles per wave on AMD, a throughput model per warp on NVIDIA; the largest max d "
+            "over the range; architectures of one vendor share a row where their winners agree):", "",
             "| GPU | " + " | ".join(f"n in {_range(r)}" for r in ranges) + " |",
             "|---|" + "---|" * len(ranges)]
-    for a in architectures:
-        out.append(f"| {a.upper()} | " + " | ".join(_cell(table, a, list(r)) for r in ranges) + " |")
+    for group in grouped:
+        out.append(f"| {group_name(group)} | " + " | ".join(_cell(table, group, list(r)) for r in ranges) + " |")
     out += ["", f"**Where it differs** (n in {_range(widest)}; every scenario's reason is in `decision.table`):", ""]
     for label, kwargs in (("n per pixel, fp32", dict(n_per="pixel")), ("n per material, fp16", dict(precision="fp16")),
                           ("n per pixel, fp16", dict(n_per="pixel", precision="fp16")),
                           ("NDF, n per material, fp32", dict(uses=("ndf",))),
                           ("NDF, n per pixel, fp32", dict(uses=("ndf",), n_per="pixel"))):
-        cells = [f"{a.upper()} {_cell(table, a, widest, **kwargs)}" for a in architectures]
+        cells = [f"{group_name(group)} {_cell(table, group, widest, **kwargs)}" for group in grouped]
         out.append(f"- {label}: " + "; ".join(cells) + ".")
     out.append("  (fp16 routes: u = 1 - N.H from the cross product, as `cosquad_u`; t = N.H in float16.)")
     changing = [f for f in d["facts"] if f["count"]]

@@ -1,6 +1,6 @@
 """Decisions (beyond the paper): which lobe a renderer should ship, per scenario, by one declared rule.
 
-A scenario is an architecture (each `gpu_isa` chip: rdna3, rdna2, gcn5) x a range of n (the lobe
+A scenario is an architecture (each one `gpu_isa` compiled for: rdna3, ..., sm_120) x a range of n (the lobe
 search's ranges) x a use ("phong": the lobe of t = R.V; "blinn": of t = N.H; "ndf": the microfacet
 distribution, against Beckmann at the matched roughness a^2 = 2 / (n + 2)) x where n lives
 ("material": the lobe's parameters and coef are uniforms, the coef computed exactly on the CPU;
@@ -44,12 +44,12 @@ import math
 import numpy as np
 from scipy.integrate import quad
 
-from ..optics import lobe_families, machine_code, registry
+from ..isa import machine_code
+from ..optics import lobe_families, registry
 from ..optics.float16 import float16_power, routes, vectors
 from ..optics.normalizations import normalizations
 from .common import n_range
 
-ARCHITECTURES = {family: name.lower() for family, name in machine_code.FAMILIES.items()}
 USES = ("phong", "blinn", "ndf")
 N_PER = ("material", "pixel")
 PRECISIONS = ("fp32", "fp16")
@@ -399,7 +399,7 @@ def coef_measure(expression: str, n) -> dict:
     return dict(error=coef_float16_error(sp.sympify(expression), n))
 
 
-def ndf_per_pixel(rows, chip: str, name: str, power: int):
+def ndf_per_pixel(rows, architecture: str, name: str, power: int):
     """(its normalization's name, the normalization key whose float16 error it has, cycles) of an NDF with
     n per pixel, or None where it was not compiled: Beckmann and GGX with alpha^2 = 2 / (n + 2) in the
     shader ("alpha_per_pixel": their 1 / (pi alpha^2) is cos^n's (n + 2) / (2 pi), whose float16 error
@@ -407,19 +407,19 @@ def ndf_per_pixel(rows, chip: str, name: str, power: int):
     NDF's normalization, int D (N.h) dw_h = 1, is the Phong-form coef), f_Q2 at the paper's power only.
     Each normalization is exact: projected area 1 (`ndf`), so no energy excess."""
     if name in machine_code.NDF_PER_PIXEL:
-        cycles = _cycles(rows, chip, name, "NDF, n per pixel")
+        cycles = _cycles(rows, architecture, name, "NDF, n per pixel")
         return None if cycles is None else ("alpha_per_pixel", registry.PHONG_COS_N, cycles)
     key = {registry.REFERENCE: registry.PHONG_COS_N, "f_Q2": "exact_phong"}.get(name)
     if key is None or (name == "f_Q2" and power != 2):
         return None
-    cycles = _cycles(rows, chip, name, "lobe and coef, n per pixel", f"phong {key}")
+    cycles = _cycles(rows, architecture, name, "lobe and coef, n per pixel", f"phong {key}")
     return None if cycles is None else (key, key, cycles)
 
 
-def _cycles(rows, chip: str, lobe: str, what: str, normalization: str = ""):
-    row = next((r for r in rows if r["family"] == chip and r["lobe"] == lobe and r["what"] == what
+def _cycles(rows, architecture: str, lobe: str, what: str, normalization: str = ""):
+    row = next((r for r in rows if r["architecture"] == architecture and r["lobe"] == lobe and r["what"] == what
                 and r["normalization"] == normalization), None)
-    return None if row is None else float(row["net_cycles_per_wave"])
+    return None if row is None else float(row["cycles"])
 
 
 def run(config, inputs, memo):
@@ -435,7 +435,7 @@ def run(config, inputs, memo):
     ranges = [tuple(r) for r in inputs["lobe_search.ranges"]]
     grid = np.asarray(inputs["lobe_search.n_grid"], dtype=np.float64)
     gpu_rows = inputs["gpu_isa.rows"] if inputs["gpu_isa.available"] else []
-    chips = [chip for chip in ARCHITECTURES if any(r["family"] == chip for r in gpu_rows)]
+    chips = [a for a in machine_code.ARCHITECTURES if any(r["architecture"] == a for r in gpu_rows)]
     norms = normalizations(p)
     albedo = {(r["lobe"], r["form"], r["normalization"]): r["albedo_max"] for r in inputs["lobe_comparison.rows"]}
 
@@ -497,11 +497,10 @@ def run(config, inputs, memo):
             measure = dict(name=c["name"], label=c["label"], kind=c["kind"],
                            use="ndf" if c["target"] == "beckmann" else "lobe",
                            n_range=[lo, hi], d=float(d), D=float(D), **shaped, cycles={}, pixel={})
-            for chip in chips:
-                arch = ARCHITECTURES[chip]
+            for arch in chips:
                 if c["target"] == "beckmann":
-                    cycles = _cycles(gpu_rows, chip, c["ndf_row"], "NDF")
-                    pixel = ndf_per_pixel(gpu_rows, chip, c["name"], power)
+                    cycles = _cycles(gpu_rows, arch, c["ndf_row"], "NDF")
+                    pixel = ndf_per_pixel(gpu_rows, arch, c["name"], power)
                     if pixel is not None:
                         label, key, px = pixel
                         measure["pixel"][arch] = [dict(
@@ -512,19 +511,19 @@ def run(config, inputs, memo):
                     cycles = next((r["cycles"] for r in inputs["lobe_search.candidates"] if r["architecture"] == arch
                                    and r["family"] == c["name"] and tuple(r["n_range"]) == (lo, hi)), None)
                 elif c["kind"] == "power":
-                    cycles = _cycles(gpu_rows, chip, c["lobe_key"], "family lobe")
+                    cycles = _cycles(gpu_rows, arch, c["lobe_key"], "family lobe")
                 elif c["lobe_key"] in registry.LOBES and registry.LOBES[c["lobe_key"]].follows_power:
                     # f_Q and f_Q2 at the run's power m: the family's shader at m, k a uniform (gpu_isa
                     # compiles the registry's own shaders at m = 2).
-                    cycles = _cycles(gpu_rows, chip, registry.family_name(power), "family lobe")
+                    cycles = _cycles(gpu_rows, arch, registry.family_name(power), "family lobe")
                 else:
-                    cycles = _cycles(gpu_rows, chip, c["lobe_key"], "lobe")
+                    cycles = _cycles(gpu_rows, arch, c["lobe_key"], "lobe")
                 if cycles is not None:
                     measure["cycles"][arch] = cycles
                 if (c["target"] == "cos_n" and c["lobe_key"] in registry.LOBES
                         and not (registry.LOBES[c["lobe_key"]].follows_power and power != 2)):
                     for form, key in registry.LOBES[c["lobe_key"]].energy:
-                        px = _cycles(gpu_rows, chip, c["lobe_key"], "lobe and coef, n per pixel", f"{form} {key}")
+                        px = _cycles(gpu_rows, arch, c["lobe_key"], "lobe and coef, n per pixel", f"{form} {key}")
                         if px is None:
                             continue
                         measure["pixel"].setdefault(arch, []).append(dict(
@@ -586,8 +585,7 @@ def scenario_options(measures, n_range, arch: str, use: str, n_per: str, precisi
 def scenario_table(measures, ranges, chips, budget) -> list[dict]:
     """One row per scenario: the winner and runner-up by `decide`, or why there is none."""
     rows = []
-    for chip in chips:
-        arch = ARCHITECTURES[chip]
+    for arch in chips:
         for lo, hi in ranges:
             for use in USES:
                 reference = "Beckmann" if use == "ndf" else registry.REFERENCE

@@ -1,8 +1,9 @@
 """Cost in GPU machine code (beyond the paper): every lobe of the registry (at the paper's power 2),
 the family (k (t - 1) + 1)^m at each power of `front.powers` and at the run's `lobe.power`, and each
-registry lobe times each of its normalizations with n per pixel, compiled by Mesa's RADV driver
-(ACO back end) for RDNA3, RDNA2 and GCN5 on its null device (`pipeline.optics.machine_code`):
-instructions by kind and ACO's cycle estimates, net of the shader's fixed wrapper.
+registry lobe times each of its normalizations with n per pixel, compiled for every architecture of
+`pipeline.isa.architectures` by its vendor's back end (Mesa's RADV for AMD, ptxas for NVIDIA:
+`pipeline.isa.machine_code`): instructions by the vendor's classes and cycles by its cost model,
+net of the shader's fixed wrapper.
 
 The shaders are compiled with the paper's constants as stand-ins (`CONSTANTS`): each constant is
 one literal in the code, so the machine code does not depend on its value, and a refit that moves
@@ -10,11 +11,12 @@ Q or the line keeps this stage. The registry's shaders and the family at each po
 apart (what is missing is compiled at once, then stored apart), so a run with other powers
 compiles only the powers not compiled before. Where the
 compiler cannot run (no Vulkan loader, no RADV,
-no `vulkan` package), the stage says why and returns no rows.
+no `vulkan` package; no ptxas), the stage says why per vendor and returns the other vendors' rows.
 """
 
 from ..engine import toolchains
-from ..optics import machine_code, registry
+from ..isa import machine_code
+from ..optics import registry
 
 CONSTANTS = registry.Parameters(Q=0.64, slope=0.448, intercept=0.099, coef_scale=0.214, coef_offset=0.807)
 
@@ -25,16 +27,16 @@ def compiled(powers, registry_shaders: bool) -> dict:
     try:
         found = machine_code.costs(CONSTANTS, [int(m) for m in powers], registry_shaders=registry_shaders)
     except machine_code.CompilerMissing as e:
-        return dict(available=False, reason=str(e), devices={}, rows=[])
+        return dict(available=False, reason=str(e), devices={}, rows=[], missing={})
     return dict(available=True, reason="", **found)
 
 
-@toolchains.uses("radv")
+@toolchains.uses("radv", "nvidia")
 def registry_rows() -> dict:
     return compiled((), registry_shaders=True)
 
 
-@toolchains.uses("radv")
+@toolchains.uses("radv", "nvidia")
 def family_rows(power: int) -> dict:
     return compiled((power,), registry_shaders=False)
 
@@ -52,16 +54,17 @@ def _parts(found: dict, powers) -> tuple[dict, dict[int, dict]]:
 
 
 def merged(base: dict, families: list[dict]) -> dict:
-    """The rows of `base` (the registry's) and of each family part, per chip family in the order of
+    """The rows of `base` (the registry's) and of each family part, per architecture in the order of
     one compilation of them all: the lobes, the family at each power, the NDFs, the wrappers."""
     if not base["available"]:
         return base
     rows = []
-    for chip in base["devices"]:
-        own = [r for r in base["rows"] if r["family"] == chip]
+    # The registry's order (a stored dict comes back with its keys sorted).
+    for architecture in (a for a in machine_code.ARCHITECTURES if a in base["devices"]):
+        own = [r for r in base["rows"] if r["architecture"] == architecture]
         rows += [r for r in own if r["what"].startswith("lobe")]
         rows += [r for part in families for r in part["rows"]
-                 if r["family"] == chip and not r["what"].startswith("wrapper")]
+                 if r["architecture"] == architecture and not r["what"].startswith("wrapper")]
         rows += [r for r in own if not r["what"].startswith("lobe")]
     return dict(base, rows=rows)
 
@@ -85,5 +88,5 @@ def run(config, inputs, memo):
     family = [r for r in rows if r["what"] == "family lobe"]
     pow_rows = [r for r in rows if r["what"] == "lobe" and r["lobe"] == registry.REFERENCE]
     return dict(found, power=power,
-                pow_transcendental=min(r["transcendental"] for r in pow_rows) if pow_rows else -1,
-                family_transcendental_max=max(r["transcendental"] for r in family) if family else -1)
+                pow_transcendental=min(r["special"] for r in pow_rows) if pow_rows else -1,
+                family_transcendental_max=max(r["special"] for r in family) if family else -1)

@@ -26,13 +26,14 @@ goes below 0 somewhere on the hemisphere at some n (a grammar form is not clampe
 is reported, never on a front. The target is cos^n, or Beckmann's D over its peak
 (`lobe_search.target`: the same search for another function a shader approximates).
 
-Each family is compiled by RADV for RDNA3, RDNA2 and GCN5 (its parameters as uniforms) and its
-cycles per wave, net of the shader returning t, are its cost; the cost tables of
+Each family is compiled for every architecture of `pipeline.isa.architectures` whose compiler runs
+here (RADV for AMD, ptxas for NVIDIA; its parameters as uniforms) and its cycles by the vendor's
+cost model, net of the shader returning t, are its cost; the cost tables of
 `symbolic.gpu_costs` (fitted to `lobe_search.calibration_forms` random forms) give the predicted
 cost beside it. Per architecture and range the front is the families no other family beats at
 equal or lower cycles; the registry's lobes (the paper's f_Q2 with the run's line, the spherical
 Gaussians, Schlick, f_2, cos^n itself) are placed on it with their own compiled cycles and their
-d and D from `lobe_comparison`. Where RADV cannot run, the stage fits and measures the families and
+d and D from `lobe_comparison`. Where no compiler runs, the stage fits and measures the families and
 says why there are no cycles (no fronts).
 """
 
@@ -45,13 +46,13 @@ import jax.numpy as jnp
 import numpy as np
 
 from ..engine import toolchains
-from ..optics import lobe_families, machine_code, registry
+from ..isa import machine_code
+from ..optics import lobe_families, registry
 from ..optics.extrema import error_extrema
 from ..optics.roots import SolverSettings
 from .common import n_range, require_converged
 
-ARCHITECTURES = {family: name.lower() for family, name in machine_code.FAMILIES.items()}
-# The lobe shader of `optics.machine_code` with this search's uniforms: a family's parameters A, B, C;
+# The lobe shader of `isa.machine_code` with this search's uniforms: a family's parameters A, B, C;
 # a grammar form's n and constants (written in w = n (1 - t), its constants of order 1 for every n:
 # one multiply-add more than a form in t).
 MATERIAL = "float n; float k; float rate;"
@@ -256,11 +257,11 @@ def formula_text(names, slopes, intercepts, corrections) -> dict[str, str]:
             for p, m in zip(names, corrections)}
 
 
-@toolchains.uses("radv")
+@toolchains.uses("radv", "nvidia")
 def compiled_cycles(families, grammar=()) -> dict:
-    """{architecture: {family or grammar form: cycles per wave net of the shader returning t}} of each
-    family's shader and each grammar form's (its text in w = n (1 - t)), compiled by RADV (parameters
-    uniforms), or {"reason": why not}."""
+    """{architecture: {family or grammar form: cycles net of the shader returning t}} of each
+    family's shader and each grammar form's (its text in w = n (1 - t)), compiled for every
+    architecture whose compiler runs here (parameters uniforms), or {"reason": why not}."""
     from ..symbolic import grammar as grammar_
     sources = {"wrapper": SHADER.format(body="return t;")}
     names = list(families) + list(grammar)
@@ -271,16 +272,15 @@ def compiled_cycles(families, grammar=()) -> dict:
              + grammar_.glsl(grammar_.parse(text), [], variable="w", uniforms="c") + ";")
         for i, text in enumerate(grammar)})
     try:
-        compiled, devices = machine_code.compile_shaders(sources)
+        compiled = machine_code.compile_shaders(sources, dict.fromkeys(sources, "wrapper"))
     except machine_code.CompilerMissing as e:
         return dict(available=False, reason=str(e), cycles={}, devices={})
-    cycles = {ARCHITECTURES[chip]: {name: round(rows[f"family_{i:02d}"]["cycles_per_wave"]
-                                                - rows["wrapper"]["cycles_per_wave"], 1) for i, name in enumerate(names)}
-              for chip, rows in compiled.items()}
-    return dict(available=True, reason="", cycles=cycles, devices=devices)
+    cycles = {architecture: {name: round(rows[f"family_{i:02d}"]["cycles"], 1) for i, name in enumerate(names)}
+              for architecture, rows in compiled["rows"].items()}
+    return dict(available=True, reason="", cycles=cycles, devices=compiled["devices"])
 
 
-@toolchains.uses("radv")
+@toolchains.uses("radv", "nvidia")
 def cost_tables(count: int) -> dict:
     """`symbolic.gpu_costs.operation_costs` on `count` calibration forms, or why not."""
     from ..symbolic import gpu_costs
@@ -323,16 +323,16 @@ def placement(cycles: float, d: float, front) -> dict | None:
     return min(beating, key=lambda r: r["d"]) if beating else None
 
 
-def registry_cycles(rows, lobe: str, chip: str, power: int):
+def registry_cycles(rows, lobe: str, architecture: str, power: int):
     """Compiled cycles of a registry lobe alone (n and its parameter per material) from gpu_isa's rows;
     a lobe that follows the run's power (f_Q, f_Q2) is the family's row at that power (the same shader
     with k a uniform; the registry's own rows are compiled at m = 2)."""
     what = "lobe"
     if registry.LOBES[lobe].follows_power:     # f_Q, f_Q2 at the run's power: the family's shader, k a uniform
         lobe, what = registry.family_name(power), "family lobe"
-    row = next((r for r in rows if r["lobe"] == lobe and r["what"] == what and r["family"] == chip
+    row = next((r for r in rows if r["lobe"] == lobe and r["what"] == what and r["architecture"] == architecture
                 and r["normalization"] == ""), None)
-    return None if row is None else float(row["net_cycles_per_wave"])
+    return None if row is None else float(row["cycles"])
 
 
 def run(config, inputs, memo):
@@ -434,7 +434,8 @@ def run(config, inputs, memo):
                    and target == "cos_n"]
     front, candidates, placements = [], [], []
     if compiled["available"]:
-        for chip, architecture in ARCHITECTURES.items():
+        # The registry's order (a stored dict comes back with its keys sorted).
+        for architecture in (a for a in machine_code.ARCHITECTURES if a in compiled["cycles"]):
             table = tables["tables"].get(architecture) if tables["available"] else None
             for lo, hi in ranges:
                 rows = [dict(m, architecture=architecture, cycles=compiled["cycles"][architecture][m["grammar"] or m["family"]],
@@ -448,7 +449,8 @@ def run(config, inputs, memo):
                 front += on_front
                 inside = (n_all >= lo) & (n_all <= hi)
                 for i, lobe in placed_keys:
-                    cycles = registry_cycles(inputs["gpu_isa.rows"], lobe["registry_key"], chip, inputs["gpu_isa.power"])
+                    cycles = registry_cycles(inputs["gpu_isa.rows"], lobe["registry_key"], architecture,
+                                             inputs["gpu_isa.power"])
                     if cycles is None:
                         continue
                     d = float(np.asarray(inputs["lobe_comparison.d_curves"])[i][inside].max())
@@ -460,7 +462,8 @@ def run(config, inputs, memo):
                         dominated_by=best["family"] if best else "", dominated_by_cycles=best["cycles"] if best else -1.0,
                         d_ratio=d / best["d"] if best else 1.0))
     prediction_error = {a: max((abs(c["cycles_predicted"] - c["cycles"]) for c in candidates if c["architecture"] == a),
-                               default=float("nan")) for a in ARCHITECTURES.values()} if tables["available"] else {}
+                               default=float("nan")) for a in machine_code.ARCHITECTURES if a in compiled["cycles"]} \
+        if tables["available"] else {}
     return dict(
         available=bool(compiled["available"]), reason=compiled["reason"], devices=compiled["devices"], target=target,
         cycles_prediction_max_error=prediction_error,

@@ -1,10 +1,12 @@
-"""Cycles per operation on each GPU architecture the `gpu_isa` stage compiles for (RDNA3, RDNA2,
-GCN5): the cost tables of `pipeline regress --cost` for a search ranked by machine code.
+"""Cycles per operation on each GPU architecture the `gpu_isa` stage compiles for
+(`pipeline.isa.architectures`: AMD through RADV, NVIDIA through ptxas): the cost tables of
+`pipeline regress --cost` for a search ranked by machine code.
 
-A form's cost is what RADV compiles it to: a fragment shader returning the form in t (the
-interpolated input; its constants written as numbers, as a shader specialized to one material has
-them), ACO's throughput estimate in cycles per wave net of the shader returning t
-(`optics.machine_code.compile_shaders`). The table gives each operation a cost such that a form's
+A form's cost is what its architecture's compiler makes of it: a fragment shader returning the form
+in t (the interpolated input; its constants written as numbers, as a shader specialized to one
+material has them), its cycles by the back end's cost model (ACO's cycles per wave on AMD, the
+throughput model per warp on NVIDIA), net of the shader returning t
+(`isa.machine_code.compile_shaders`). The table gives each operation a cost such that a form's
 cost is about the sum of its operations' costs: fitted by non-negative least squares to the
 compiled cycles of `CALIBRATION` forms drawn from every form of the grammar's ten operations
 (`OPERATIONS`: what a lobe is made of) up to complexity 7 (random constants, a fixed seed), a
@@ -23,7 +25,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..optics.machine_code import FAMILIES, UNIFORM, compile_shaders
+from ..isa.machine_code import ALL, ARCHITECTURES, UNIFORM, compile_shaders
 from . import grammar
 
 CALIBRATION = 400           # forms compiled to fit the tables (a quarter held out)
@@ -37,23 +39,21 @@ UNIFORM_CONSTANTS = UNIFORM.replace("float n; float k; float rate;", "float c[{c
 MAX_CONSTANTS = 8
 
 
-def expression_cycles(expressions: dict[str, str], families=tuple(FAMILIES),
+def expression_cycles(expressions: dict[str, str], architectures=ALL,
                       template: str = UNIFORM) -> dict[str, dict[str, float]]:
-    """{architecture: {name: cycles per wave}} of each GLSL expression in t (a fragment shader
-    returning it), net of the shader returning t; 0 for an expression without t (it skips the
-    interpolation of t, which a lobe computes anyway)."""
+    """{architecture: {name: cycles}} of each GLSL expression in t (a fragment shader returning it),
+    net of the shader returning t, on each architecture whose compiler runs here; 0 for an
+    expression without t (it skips the interpolation of t, which a lobe computes anyway). Raises
+    CompilerMissing where none runs."""
     def shader(body):
         return template.format(body=body, count=MAX_CONSTANTS)
     sources = {"expression_none": shader("return t;")}
     names = list(expressions)
     sources.update({f"expression_{i:03d}": shader(f"return {expressions[name]};") for i, name in enumerate(names)})
-    compiled, _ = compile_shaders(sources, families)
-    out = {}
-    for family, shaders in compiled.items():
-        base = shaders["expression_none"]["cycles_per_wave"]
-        out[FAMILIES[family].lower()] = {name: max(round(shaders[f"expression_{i:03d}"]["cycles_per_wave"] - base, 2), 0.0)
-                                         for i, name in enumerate(names)}
-    return out
+    compiled = compile_shaders(sources, dict.fromkeys(sources, "expression_none"), architectures)
+    return {architecture: {name: max(round(shaders[f"expression_{i:03d}"]["cycles"], 2), 0.0)
+                           for i, name in enumerate(names)}
+            for architecture, shaders in compiled["rows"].items()}
 
 
 def operation_counts(e) -> list[int]:
@@ -70,13 +70,13 @@ def operation_counts(e) -> list[int]:
     return list(counts.values())
 
 
-def operation_costs(count: int = CALIBRATION, families=tuple(FAMILIES), uniforms: bool = False) -> dict:
-    """{"tables": {architecture ("rdna3", "rdna2", "gcn5"): {operation: cycles per wave}},
+def operation_costs(count: int = CALIBRATION, architectures=ALL, uniforms: bool = False) -> dict:
+    """{"tables": {architecture (rdna3, ..., sm_120): {operation: cycles}},
     "held_out": {architecture: {"forms", "mean_cycles", "mean_abs_error", "max_abs_error",
     "mean_abs_error_flat"}}}, the last being the error of one cost for every operation fitted
     alike (what the table must beat). With `uniforms` the forms' constants are per-material uniforms
-    (a lobe whose parameters depend on n) instead of numbers. Raises machine_code.CompilerMissing
-    where RADV cannot run."""
+    (a lobe whose parameters depend on n) instead of numbers. Raises CompilerMissing where no
+    back end runs."""
     from scipy.optimize import nnls
 
     forms = grammar.enumerate_forms(CALIBRATION_COMPLEXITY, OPERATIONS)
@@ -84,7 +84,7 @@ def operation_costs(count: int = CALIBRATION, families=tuple(FAMILIES), uniforms
     chosen = [forms[i] for i in rng.choice(len(forms), min(count, len(forms)), replace=False)]
     glsl = {f"form{i:03d}": grammar.glsl(e, rng.uniform(0.5, 1.5, grammar.constants(e)), uniforms="c" if uniforms else "")
             for i, e in enumerate(chosen)}
-    measured = expression_cycles(glsl, families, UNIFORM_CONSTANTS if uniforms else UNIFORM)
+    measured = expression_cycles(glsl, architectures, UNIFORM_CONSTANTS if uniforms else UNIFORM)
     A = np.array([operation_counts(e) for e in chosen], dtype=float)
     fit = slice(0, 3 * len(chosen) // 4)
     held = slice(3 * len(chosen) // 4, len(chosen))
@@ -108,8 +108,9 @@ def write_tables(tables: dict[str, dict[str, float]], folder: Path) -> list[Path
     folder.mkdir(parents=True, exist_ok=True)
     paths = []
     for architecture, table in tables.items():
-        lines = [f"# Cycles per wave of each operation on {architecture.upper()}, fitted to RADV's machine code of",
-                 f"# {CALIBRATION} forms (pipeline.symbolic.gpu_costs)", "[cost]", "constant = 0", "variable = 0"]
+        lines = [f"# Cycles of each operation on {architecture} ({ARCHITECTURES[architecture].title}), fitted to the "
+                 f"machine code of {CALIBRATION} forms", "# (pipeline.symbolic.gpu_costs)", "[cost]", "constant = 0",
+                 "variable = 0"]
         lines += [f'"{op}" = {cycles:g}' for op, cycles in table.items()]
         path = folder / f"cost_{architecture}.toml"
         path.write_text("\n".join(lines) + "\n")

@@ -31,6 +31,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..isa.architectures import ARCHITECTURES
 from . import grammar
 
 MAX_COMPLEXITY = 16
@@ -218,8 +219,9 @@ def regress(path: Path, x_column, y_column: str, out: Path, max_complexity: int 
     max_complexity in the rest, one merged front) or "auto" (exhaustive where it reaches
     max_complexity, else both). `loss` ranks (`search.LOSSES`); `cost`, a TOML file of costs per
     operation (`grammar.read_cost_table`), ranks by its complexity instead of the default count.
-    `gpu` ("rdna3", "rdna2" or "gcn5", one variable only): every front member compiled by RADV for
-    that architecture, its cycles per wave in the member's `cycles` (`gpu_costs.expression_cycles`)."""
+    `gpu` (an architecture of `isa.architectures`: rdna3, ..., sm_120; one variable only): every front
+    member compiled for that architecture, its cycles in the member's `cycles`
+    (`gpu_costs.expression_cycles`)."""
     from .search import LOSSES, loss_weights
 
     ops = grammar.operations(ops)
@@ -324,22 +326,24 @@ def regress(path: Path, x_column, y_column: str, out: Path, max_complexity: int 
     return front
 
 
-GPUS = ("rdna3", "rdna2", "gcn5")
+GPUS = tuple(ARCHITECTURES)
 
 
 def compiled_cycles(front, fits, gpu: str, log=print) -> None:
-    """Adds `cycles` to each front member: its cycles per wave compiled by RADV for `gpu`."""
-    from ..optics import machine_code
+    """Adds `cycles` to each front member: its cycles compiled for the architecture `gpu` (by its
+    vendor's back end and cost model)."""
+    from ..isa.machine_code import CompilerMissing
+    from ..optics.spirv import ToolMissing
     from .gpu_costs import expression_cycles
 
-    family = next(f for f, name in machine_code.FAMILIES.items() if name.lower() == gpu)
     try:
-        measured = expression_cycles({str(i): grammar.glsl(tree, c) for i, (tree, c) in enumerate(fits)}, (family,))[gpu]
-    except (machine_code.CompilerMissing, machine_code.spirv.ToolMissing) as e:
+        measured = expression_cycles({str(i): grammar.glsl(tree, c) for i, (tree, c) in enumerate(fits)}, (gpu,))[gpu]
+    except (CompilerMissing, ToolMissing) as e:
         raise RegressError(f"--gpu {gpu}: the GPU compiler cannot run here: {e}") from None
     for i, m in enumerate(front):
         m["cycles"] = measured[str(i)]
-    log(f"compiled every front member for {gpu.upper()} (RADV): cycles per wave in front.csv")
+    a = ARCHITECTURES[gpu]
+    log(f"compiled every front member for {gpu} ({a.title}, {a.backend}): cycles in front.csv")
 
 
 def pole_in_range(tree, c, x) -> bool:

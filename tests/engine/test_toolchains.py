@@ -118,7 +118,8 @@ def test_keys_change_with_the_tool_found_and_only_for_what_runs_it(monkeypatch):
     after = keys()
     assert after["zone"] == before["zone"] and after["gpu_isa"] != before["gpu_isa"]
     assert memo_key(gpu_isa.registry_rows) != memo_before and memo_key(zone.run) == plain_before
-    assert graph.BY_NAME["mitsuba_render"].tools == ("llvm",) and graph.BY_NAME["gpu_isa"].tools == ("radv",)
+    assert graph.BY_NAME["mitsuba_render"].tools == ("llvm",)
+    assert graph.BY_NAME["gpu_isa"].tools == ("radv", "nvidia")
 
 
 def test_an_unknown_tool_is_named():
@@ -135,7 +136,7 @@ def test_the_report_names_every_tool():
 
 def test_a_run_says_at_its_start_which_tool_its_stages_lack(monkeypatch, tmp_path):
     """The machine-code stage without RADV: the run's first line names the install, once, and the
-    stage's result says why it measured nothing."""
+    stage's result says why AMD was not measured (NVIDIA's rows are there where ptxas is)."""
     from pipeline.engine.cache import Cache
     from pipeline.run import run_stages
 
@@ -146,5 +147,7 @@ def test_a_run_says_at_its_start_which_tool_its_stages_lack(monkeypatch, tmp_pat
     lines = []
     results, _, computed = run_stages(config, Cache(tmp_path / "cache"), lines.append, stages=("gpu_isa",))
     assert lines[0] == f"warning: {absent.missing}" and sum("warning" in s for s in lines) == 1, lines
-    assert computed == ["gpu_isa"] and results["gpu_isa"]["available"] is False
-    assert results["gpu_isa"]["reason"] == absent.missing
+    g = results["gpu_isa"]
+    assert computed == ["gpu_isa"] and g["missing"]["amd"] == absent.missing
+    assert g["available"] == toolchains.locate("nvidia").found
+    assert {r["vendor"] for r in g["rows"]} == ({"nvidia"} if g["available"] else set())

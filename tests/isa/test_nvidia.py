@@ -7,8 +7,10 @@ import numpy as np
 import pytest
 
 from pipeline.isa import lowering, nvidia
-from pipeline.optics import machine_code, registry, spirv
+from pipeline.isa import machine_code
+from pipeline.optics import registry, spirv
 
+NVIDIA = [a.name for a in machine_code.ARCHITECTURES.values() if a.vendor == "nvidia"]
 T = np.linspace(0.01, 1.0, 97, dtype=np.float32)
 UNIFORMS = {(0,): 37.0, (1,): 18.6, (2,): 0.35}          # n, k, rate
 N, K, RATE = (np.float32(UNIFORMS[(i,)]) for i in range(3))
@@ -55,7 +57,10 @@ def compiled():
     sources["wrapper"] = machine_code.WRAPPER_UNIFORM
     for lobe in registry.LOBES.values():
         sources[f"lobe_{lobe.key}"] = machine_code.UNIFORM.format(body=lobe.glsl_of(registry.Parameters(power=2)))
-    return nvidia.shader_costs(sources)
+    sources["per_pixel"] = machine_code.PER_PIXEL.format(body="return pow(t, n);", parameter="n", coef="n + 2.0")
+    sources["wrapper_per_pixel"] = machine_code.WRAPPER_PER_PIXEL
+    wrappers = dict.fromkeys(sources, "wrapper") | {"per_pixel": "wrapper_per_pixel"}
+    return machine_code.compile_shaders(sources, wrappers, NVIDIA)["rows"]
 
 
 def ops(row):
@@ -63,7 +68,15 @@ def ops(row):
 
 
 def test_every_architecture_compiles(compiled):
-    assert set(compiled) == set(nvidia.ARCHITECTURES)
+    assert list(compiled) == NVIDIA == ["sm_120", "sm_90", "sm_89", "sm_86", "sm_75"]
+
+
+def test_n_per_pixel_adds_its_arithmetic_and_not_its_load(compiled):
+    """pow(t, n) times n + 2 with n a varying: one add and one multiply more than pow with n a
+    uniform; loading the varying is the harness's, as the wrapper's is."""
+    for arch, rows in compiled.items():
+        assert rows["per_pixel"]["net_mufu"] == rows["pow"]["net_mufu"] == 2, arch
+        assert rows["per_pixel"]["net_fma"] - rows["pow"]["net_fma"] in (1, 2), (arch, rows["per_pixel"]["listing"])
 
 
 def test_pow_is_a_log_a_multiply_and_an_exp_and_the_square_has_no_special_function(compiled):

@@ -5,7 +5,8 @@ glslang's log where the source is wrong."""
 import numpy as np
 import pytest
 
-from pipeline.optics import glslang, machine_code, registry, spirv
+from pipeline.isa import machine_code, radv
+from pipeline.optics import glslang, registry, spirv
 from pipeline.symbolic import gpu_costs, grammar
 
 if not glslang.available():
@@ -27,7 +28,7 @@ def shaders():
     registry lobe in the instruction-count shader; random grammar forms of the ten operations with
     numbers and with per-material uniforms (the cost tables). Each validator run costs 0.1 s."""
     p = registry.Parameters(Q=0.64, slope=0.448, intercept=0.099, coef_scale=0.214, coef_offset=0.807)
-    out = [("vertex", machine_code.VERTEX, "vert")]
+    out = [("vertex", radv.VERTEX, "vert")]
     kinds = {}
     for name, (source, lobe, what, norm) in machine_code.shader_sources(p, (3,)).items():
         kinds.setdefault(name if what == "wrapper" else what, (name, source, "frag"))
@@ -55,13 +56,13 @@ def test_a_wrong_source_raises_with_glslang_s_log(tmp_path):
     with pytest.raises(glslang.GlslError, match="'x' : undeclared identifier"):
         glslang.spirv("#version 450\nvoid main() { x = 1.0; }\n", "frag")
     with pytest.raises(RuntimeError, match="glslang failed on shader broken.frag.spv:\n.*undeclared identifier"):
-        machine_code.spirv_binary("#version 450\nvoid main() { x = 1.0; }\n", tmp_path, "broken.frag.spv")
+        radv.spirv_binary("#version 450\nvoid main() { x = 1.0; }\n", tmp_path, "broken.frag.spv")
 
 
 def test_without_the_libraries_glslangvalidator_compiles(tmp_path, monkeypatch):
     source = spirv.FRAGMENT.format(body="return t * t;")
     monkeypatch.setattr(glslang, "available", lambda: False)
-    out = machine_code.spirv_binary(source, tmp_path, "square.frag.spv")
+    out = radv.spirv_binary(source, tmp_path, "square.frag.spv")
     assert (tmp_path / "square.frag.spv.frag").is_file()     # the source written for the validator
     monkeypatch.undo()
     assert out.read_bytes() == glslang.spirv(source, "frag")

@@ -26,7 +26,7 @@ def test_the_ndf_reading_names_the_table_s_winners():
                  winner="GGX"),
             dict(use="ndf", n_per="material", precision="fp32", architecture="gcn5", n_range=[2.0, 10.0], winner="")]
     text = report_beyond.ndf_decision_text(dict(decision=dict(available=True, table=rows)))
-    assert "GGX (RDNA3 2-10)" in text and "nothing (GCN5 2-10)" in text
+    assert "GGX (rdna3 2-10)" in text and "nothing (gcn5 2-10)" in text
 
 
 def test_the_tools_section_names_each_tool_its_version_and_what_a_missing_one_costs():

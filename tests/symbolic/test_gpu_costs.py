@@ -1,4 +1,5 @@
-"""Cycles per operation fitted to RADV's machine code: the cost tables of `pipeline regress --cost`."""
+"""Cycles per operation fitted to each architecture's machine code (AMD by RADV, NVIDIA by ptxas): the
+cost tables of `pipeline regress --cost`."""
 
 import subprocess
 import sys
@@ -6,7 +7,8 @@ import sys
 import numpy as np
 import pytest
 
-from pipeline.optics import machine_code
+from pipeline.isa import machine_code
+from pipeline.optics.spirv import ToolMissing
 from pipeline.symbolic import gpu_costs, grammar
 
 from ..helpers import cli_env
@@ -18,7 +20,7 @@ FORMS = 120     # (the command's 400 take 25 s; the properties below hold on few
 def costs():
     try:
         return gpu_costs.operation_costs(FORMS)
-    except (machine_code.CompilerMissing, machine_code.spirv.ToolMissing) as e:
+    except (machine_code.CompilerMissing, ToolMissing) as e:
         pytest.skip(f"machine-code cost not measured here: {e}")
 
 
@@ -52,13 +54,16 @@ def test_the_costs_command_writes_tables_regress_reads(costs, tmp_path):
     run = subprocess.run([sys.executable, "-m", "pipeline", "costs", "--forms", "20", "--out", str(out)],
                          capture_output=True, text=True, env=cli_env(tmp_path))
     assert run.returncode == 0, run.stderr
-    assert sorted(p.name for p in out.iterdir()) == ["cost_gcn5.toml", "cost_rdna2.toml", "cost_rdna3.toml"]
+    assert sorted(p.name for p in out.iterdir()) == sorted(f"cost_{a}.toml" for a in costs["tables"])
     for path in out.iterdir():
         table = grammar.read_cost_table(path, gpu_costs.OPERATIONS)
         assert all(np.isfinite(table[op]) and table[op] >= 0 for op in gpu_costs.OPERATIONS)
     bad = subprocess.run([sys.executable, "-m", "pipeline", "costs", "--forms", "5"], capture_output=True, text=True,
                          env=cli_env(tmp_path))
     assert bad.returncode == 2 and "--forms 5: give an integer in [20, 2000]" in bad.stderr
+    unknown = subprocess.run([sys.executable, "-m", "pipeline", "costs", "--gpu", "rdna3,navi31"], capture_output=True,
+                             text=True, env=cli_env(tmp_path))
+    assert unknown.returncode == 2 and "unknown GPU architecture 'navi31'" in unknown.stderr
 
 
 def test_regress_compiles_every_front_member_for_the_gpu_asked(costs, tmp_path):
@@ -82,10 +87,10 @@ def test_regress_compiles_every_front_member_for_the_gpu_asked(costs, tmp_path):
         tree = grammar.parse(text, "x", values)
         return grammar.glsl(tree, values)
 
-    alone = gpu_costs.expression_cycles({m["form"]: glsl(m["expression"]) for m in front}, ("gfx1100",))["rdna3"]
+    alone = gpu_costs.expression_cycles({m["form"]: glsl(m["expression"]) for m in front}, ("rdna3",))["rdna3"]
     assert [m["cycles"] for m in front] == [alone[m["form"]] for m in front]
     assert front[0]["form"] == "c" and front[0]["cycles"] == 0
-    with pytest.raises(RegressError, match="--gpu 'navi31': give one of rdna3, rdna2, gcn5"):
+    with pytest.raises(RegressError, match="--gpu 'navi31': give one of rdna3, rdna2, rdna1, gcn5, gcn4, sm_120, sm_90"):
         regress(data, "x", "y", tmp_path / "o2", max_complexity=3, gpu="navi31", log=lambda s: None)
     with pytest.raises(RegressError, match="--gpu compiles forms of one variable"):
         regress(data, "x,z", "y", tmp_path / "o3", max_complexity=3, gpu="gcn5", log=lambda s: None)

@@ -1,10 +1,15 @@
-"""The machine-code cost (`pipeline.optics.machine_code`): the parser on a listing written out here,
-and, where Mesa's RADV compiler is installed (the Makefile installs Debian's mesa-vulkan-drivers
-and libvulkan1 where it can), the compiled lobes themselves."""
+"""AMD's machine code (`pipeline.isa.radv`) and the rows every back end gives
+(`pipeline.isa.machine_code`): the parser on a listing written out here, and, where Mesa's RADV
+compiler is installed (the Makefile installs Debian's mesa-vulkan-drivers and libvulkan1 where it
+can), the compiled lobes themselves."""
 
 import pytest
 
-from pipeline.optics import machine_code, registry
+from pipeline.isa import machine_code, radv
+from pipeline.optics import registry
+from pipeline.optics.spirv import ToolMissing
+
+AMD = [a.name for a in machine_code.ARCHITECTURES.values() if a.vendor == "amd"]
 
 LISTING = """
 @@@ SHADER one
@@ -36,24 +41,24 @@ BB0:
 
 
 def test_the_parser_counts_by_kind_and_unfolds_repeats():
-    shaders = machine_code.split_shaders(LISTING)
+    shaders = radv.split_shaders(LISTING)
     assert list(shaders) == ["one"]
-    parsed = machine_code.parse_fragment(shaders["one"])
+    parsed = radv.parse_fragment(shaders["one"])
     assert parsed["transcendental"] == 2 and parsed["vector_alu"] == 3 and parsed["scalar"] == 2
     assert parsed["other"] == 2             # the interpolation and the export
-    assert parsed["instructions"] == 9 and parsed["latency_cycles"] == 70.0 and parsed["cycles_per_wave"] == 16.0
+    assert parsed["listing_length"] == 9 and parsed["latency_cycles"] == 70.0 and parsed["cycles_per_wave"] == 16.0
 
 
 def test_a_listing_without_estimates_is_an_error():
     with pytest.raises(ValueError, match="perfinfo"):
-        machine_code.parse_fragment(LISTING.replace("latency: 70.000000", ""))
+        radv.parse_fragment(LISTING.replace("latency: 70.000000", ""))
 
 
 @pytest.fixture(scope="module")
 def compiled():
     try:
-        machine_code.check_available()
-    except (machine_code.CompilerMissing, machine_code.spirv.ToolMissing) as e:
+        radv.check_available()
+    except (machine_code.CompilerMissing, ToolMissing) as e:
         pytest.skip(f"machine-code cost not measured here: {e}")
     p = registry.Parameters(Q=0.64, slope=0.448, intercept=0.099, coef_scale=0.214, coef_offset=0.807)
     return machine_code.costs(p, (2, 3, 4, 8, 16))["rows"]
@@ -61,33 +66,32 @@ def compiled():
 
 def test_pow_compiles_to_log_and_exp_on_every_chip(compiled):
     rows = [r for r in compiled if r["lobe"] == registry.REFERENCE and r["what"] == "lobe"]
-    assert {r["family"] for r in rows} == set(machine_code.FAMILIES)
-    for r in rows:
+    assert {r["architecture"] for r in rows if r["vendor"] == "amd"} == set(AMD)
+    for r in (r for r in rows if r["vendor"] == "amd"):
         ops = [line.split()[0] for line in r["listing"]]
         assert any(op.startswith("v_log_f32") for op in ops) and any(op.startswith("v_exp_f32") for op in ops), r["family"]
 
 
 def test_no_power_of_the_family_holds_a_transcendental_instruction(compiled):
-    family = [r for r in compiled if r["what"] == "family lobe"]
+    family = [r for r in compiled if r["what"] == "family lobe" and r["vendor"] == "amd"]
     assert {r["lobe"] for r in family} == {registry.family_name(m) for m in (2, 3, 4, 8, 16)}
     for r in family:
         assert r["transcendental"] == 0, (r["lobe"], r["family"], r["listing"])
     # The squarings are there: f_Q16's four multiplies after the base's multiply-add and clamp.
-    rdna3 = {r["lobe"]: r for r in family if r["family"] == "gfx1100"}
+    rdna3 = {r["lobe"]: r for r in family if r["architecture"] == "rdna3"}
     assert rdna3["f_Q16"]["net_vector_alu"] - rdna3["f_Q2"]["net_vector_alu"] == registry.multiplies(16) - 1
 
 
 def test_the_check_can_fail_pow_of_16_keeps_its_transcendentals(tmp_path):
     """On this compiler pow(b, 16.0) stays log, multiply, exp: writing the squarings out matters."""
     try:
-        icd = machine_code.check_available()
-    except (machine_code.CompilerMissing, machine_code.spirv.ToolMissing) as e:
+        icd = radv.check_available()
+    except (machine_code.CompilerMissing, ToolMissing) as e:
         pytest.skip(f"machine-code cost not measured here: {e}")
     body = "float b = max(k * t + (1.0 - k), 0.0);\n    return pow(b, 16.0);"
-    machine_code.spirv_binary(machine_code.VERTEX, tmp_path, "vert.spv", "vert")
-    machine_code.spirv_binary(machine_code.UNIFORM.format(body=body), tmp_path, "pow16.frag.spv")
-    parsed = machine_code.parse_fragment(machine_code.split_shaders(
-        machine_code.compile_family("gfx1100", tmp_path, icd))["pow16"])
+    radv.spirv_binary(radv.VERTEX, tmp_path, "vert.spv", "vert")
+    radv.spirv_binary(machine_code.UNIFORM.format(body=body), tmp_path, "pow16.frag.spv")
+    parsed = radv.parse_fragment(radv.split_shaders(radv.compile_family("gfx1100", tmp_path, icd))["pow16"])
     assert parsed["transcendental"] == 2
 
 
@@ -107,3 +111,21 @@ def test_the_stage_s_parts_compiled_apart_give_the_rows_of_one_compilation(compi
     assert memo.computed == ["machine_code_family"]
     others = {registry.family_name(m) for m in (2, 4, 8)}
     assert out["rows"] == [r for r in compiled if not (r["lobe"] in others and r["what"] in ("family lobe", "NDF"))]
+
+
+def test_every_row_has_the_fields_every_vendor_gives(compiled):
+    """architecture, vendor, n_per, instructions, cycles, cost_model on every row; for AMD the
+    common fields are the vendor's own (ACO's net cycles; vector ALU and transcendental, net)."""
+    for r in compiled:
+        assert {"architecture", "vendor", "family", "n_per", "instructions", "special", "cycles", "cost_model"} <= set(r)
+        assert r["architecture"] in machine_code.ARCHITECTURES and r["n_per"] in ("material", "pixel")
+        if r["vendor"] == "amd":
+            assert r["cycles"] == r["net_cycles_per_wave"] and r["cost_model"] == "aco-perfinfo"
+            assert r["instructions"] == r["net_vector_alu"] + r["net_transcendental"]
+    pixel = [r for r in compiled if r["what"] == "lobe and coef, n per pixel"]
+    assert pixel and all(r["n_per"] == "pixel" for r in pixel)
+
+
+def test_an_unknown_architecture_is_named():
+    with pytest.raises(ValueError, match="unknown GPU architecture 'gfx1100'; the architectures are rdna3, rdna2"):
+        machine_code.compile_shaders({"w": machine_code.WRAPPER_UNIFORM}, {}, ("gfx1100",))

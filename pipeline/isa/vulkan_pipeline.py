@@ -1,9 +1,9 @@
 """A minimal Vulkan program that has the driver compile graphics pipelines and nothing else: run
-as `python -m pipeline.optics.vulkan_pipeline FOLDER`, it creates one pipeline per fragment shader
+as `python -m pipeline.isa.vulkan_pipeline FOLDER`, it creates one pipeline per fragment shader
 `FOLDER/*.frag.spv` (with the vertex shader `FOLDER/vert.spv`) on the first physical device, and
 writes `@@@ SHADER <name>` to stderr before each and `@@@ END` after the last. Under Mesa's RADV
 with `RADV_DEBUG=shaders` and `ACO_DEBUG=perfinfo` the driver prints each shader's machine code
-and its cycle estimate to the same stderr (`pipeline.optics.machine_code` reads them).
+and its cycle estimate to the same stderr (`pipeline.isa.radv` reads them).
 
 Nothing is drawn and no memory is allocated: pipelines compile on RADV's null device (no GPU), set
 up by `RADV_FORCE_FAMILY`. The `vulkan` package (cffi bindings to libvulkan.so.1) needs no C
