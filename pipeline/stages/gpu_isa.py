@@ -15,7 +15,7 @@ no `vulkan` package; no ptxas), the stage says why per vendor and returns the ot
 """
 
 from ..engine import toolchains
-from ..isa import machine_code
+from ..isa import architectures, machine_code
 from ..optics import registry
 
 CONSTANTS = registry.Parameters(Q=0.64, slope=0.448, intercept=0.099, coef_scale=0.214, coef_offset=0.807)
@@ -84,6 +84,10 @@ def run(config, inputs, memo):
         for m in missing:
             parts[m] = memo.store("machine_code_family", family_rows, new_parts[m], power=m)
     found = merged(base, [parts[m] for m in powers])
+    if memo.log is not None:
+        measured = [a for a in machine_code.ARCHITECTURES if a in found["devices"]]
+        memo.log(f"compiled for {architectures.label(measured) or 'no architecture'}"
+                 + "".join(f"; {machine_code.VENDORS[v]} not measured: {why}" for v, why in found.get("missing", {}).items()))
     rows = found["rows"]
     family = [r for r in rows if r["what"] == "family lobe"]
     pow_rows = [r for r in rows if r["what"] == "lobe" and r["lobe"] == registry.REFERENCE]
