@@ -14,6 +14,7 @@ PIP := $(BIN)/pip install --quiet --disable-pip-version-check -c constraints.txt
 LLVM_READY := $(VENV)/.llvm
 RADV_READY := $(VENV)/.radv
 NVIDIA_READY := $(VENV)/.nvidia
+INTEL_READY := $(VENV)/.intel
 CONFIG ?= configs/paper.toml
 SET ?=
 ONLY ?=
@@ -66,17 +67,31 @@ $(NVIDIA_READY): $(INSTALLED)
 		|| echo "NVIDIA's compilers could not be installed: NVIDIA machine code is not measured"
 	touch $(NVIDIA_READY)
 
-reproduce: $(INSTALLED) $(LLVM_READY) $(RADV_READY) $(NVIDIA_READY)
+# Best effort: Intel's offline compiler (ocloc) and its disassembler's library (IGA), from Debian.
+$(INTEL_READY): $(INSTALLED)
+	@if command -v ocloc >/dev/null && ls /usr/lib/*/libiga64.so* 2>/dev/null | grep -q .; then \
+		echo "Intel's ocloc found: the gpu_isa stage compiles to Intel machine code"; \
+	elif [ "$$(id -u)" = 0 ] && command -v apt-get >/dev/null; then \
+		echo "installing Debian's intel-opencl-icd and libigc-tools for Intel machine code ..."; \
+		DEBIAN_FRONTEND=noninteractive apt-get install -y -q intel-opencl-icd libigc-tools >/dev/null 2>&1 \
+		|| (apt-get update -q >/dev/null 2>&1 && DEBIAN_FRONTEND=noninteractive apt-get install -y -q intel-opencl-icd libigc-tools >/dev/null 2>&1) \
+		|| echo "intel-opencl-icd could not be installed: Intel machine code is not measured"; \
+	else \
+		echo "no ocloc and no apt-get as root: Intel machine code is not measured"; \
+	fi
+	touch $(INTEL_READY)
+
+reproduce: $(INSTALLED) $(LLVM_READY) $(RADV_READY) $(NVIDIA_READY) $(INTEL_READY)
 	$(BIN)/pipeline reproduce
 
-refit: $(INSTALLED) $(LLVM_READY) $(RADV_READY) $(NVIDIA_READY)
+refit: $(INSTALLED) $(LLVM_READY) $(RADV_READY) $(NVIDIA_READY) $(INTEL_READY)
 	$(BIN)/pipeline refit --config $(CONFIG) $(foreach s,$(SET),--set $(s)) $(if $(ONLY),--only $(ONLY))
 
 # The compiled XLA programs are kept between runs in the pipeline's own folder (JAX keys each on its
 # HLO, the XLA flags and the jaxlib version): a later `make test` compiles only what changed.
 # `make test TEST_XLA_CACHE=` starts each session from an empty folder of its own (as a fresh clone does).
 TEST_XLA_CACHE ?= $(CURDIR)/.cache/stages/_xla
-test: $(TEST_INSTALLED) $(LLVM_READY) $(RADV_READY) $(NVIDIA_READY)
+test: $(TEST_INSTALLED) $(LLVM_READY) $(RADV_READY) $(NVIDIA_READY) $(INTEL_READY)
 	PIPELINE_XLA_CACHE_DIR="$(TEST_XLA_CACHE)" $(BIN)/python -m pytest -q -n 2 --dist loadfile
 
 # The numerical tests (optics, symbolic regression, the stages and the checks against the paper)
@@ -87,7 +102,7 @@ test: $(TEST_INSTALLED) $(LLVM_READY) $(RADV_READY) $(NVIDIA_READY)
 # fails if any did.
 ISA_LEVELS ?= SSE4_2 AVX2 native
 ISA_TESTS ?= tests/optics tests/symbolic tests/stages
-test-isa: $(TEST_INSTALLED) $(LLVM_READY) $(RADV_READY) $(NVIDIA_READY)
+test-isa: $(TEST_INSTALLED) $(LLVM_READY) $(RADV_READY) $(NVIDIA_READY) $(INTEL_READY)
 	@failed=""; for isa in $(ISA_LEVELS); do \
 		if [ "$$isa" = native ]; then flags=""; else flags="--xla_cpu_max_isa=$$isa"; fi; \
 		echo "== XLA_FLAGS=$$flags ($$isa)"; \
@@ -97,7 +112,7 @@ test-isa: $(TEST_INSTALLED) $(LLVM_READY) $(RADV_READY) $(NVIDIA_READY)
 	if [ -n "$$failed" ]; then echo "test-isa: failed under$$failed"; exit 1; fi; \
 	echo "test-isa: passed under $(ISA_LEVELS)"
 
-bench: $(TEST_INSTALLED) $(LLVM_READY) $(RADV_READY) $(NVIDIA_READY)
+bench: $(TEST_INSTALLED) $(LLVM_READY) $(RADV_READY) $(NVIDIA_READY) $(INTEL_READY)
 	$(BIN)/python bench/bench.py
 
 keys: $(INSTALLED)

@@ -227,9 +227,50 @@ def nvidia_env() -> dict[str, str]:
     return dict(os.environ, PATH=os.pathsep.join(filter(None, [folder, os.environ.get("PATH")])))
 
 
+# ---- Intel's offline compiler (Debian) -----------------------------------------------------------
+
+INTEL_INSTALL = ("install Intel's compiler (Debian: apt-get install intel-opencl-icd libigc-tools, which `make` "
+                 "does as root)")
+IGA_FOLDERS = ("/usr/lib/x86_64-linux-gnu", "/usr/lib64", "/usr/lib", "/usr/local/lib")
+
+
+def intel_iga() -> str:
+    """IGA's library (libiga64.so, or Debian's libiga64.so.1), which `ocloc disasm` opens; "" if none."""
+    for folder in IGA_FOLDERS:
+        for path in sorted(glob.glob(os.path.join(folder, "libiga64.so*"))):
+            if os.path.isfile(path):
+                return path
+    return ""
+
+
+def _debian_version(package: str) -> str:
+    status = Path("/var/lib/dpkg/status")
+    try:
+        text = status.read_text(errors="replace")
+    except OSError:
+        return ""
+    m = re.search(rf"^Package: {re.escape(package)}\n(?:[^\n]+\n)*?Version: (\S+)", text, re.M)
+    return m.group(1) if m else ""
+
+
+def find_intel(environ=os.environ) -> Found:
+    """ocloc on PATH (or /usr/bin) with IGA's library for its disassembler."""
+    import shutil
+
+    ocloc = shutil.which("ocloc", path=environ.get("PATH")) or ("/usr/bin/ocloc" if os.path.isfile("/usr/bin/ocloc")
+                                                                else None)
+    lost = f"Intel machine code is not measured; {INTEL_INSTALL}"
+    if ocloc is None:
+        return Found("intel", None, "", "", f"ocloc not found: {lost}")
+    if not intel_iga():
+        return Found("intel", ocloc, "", "", f"IGA's libiga64.so (for ocloc disasm) not found: {lost}")
+    return Found("intel", ocloc, _debian_version("intel-opencl-icd") or "", "found on PATH")
+
+
 # ---- the registry -------------------------------------------------------------------------------
 
-FINDERS = {"llvm": find_llvm, "radv": find_radv, "shader_tools": find_shader_tools, "nvidia": find_nvidia}
+FINDERS = {"llvm": find_llvm, "radv": find_radv, "shader_tools": find_shader_tools, "nvidia": find_nvidia,
+           "intel": find_intel}
 
 
 @functools.cache

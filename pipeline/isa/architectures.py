@@ -37,8 +37,11 @@ ARCHITECTURES = {a.name: a for a in (
     Architecture("sm_89", "nvidia", "sm_89", "Ada", "nvidia"),
     Architecture("sm_86", "nvidia", "sm_86", "Ampere", "nvidia"),
     Architecture("sm_75", "nvidia", "sm_75", "Turing", "nvidia"),
+    Architecture("xe_hpg", "intel", "acm-g10", "Xe-HPG", "intel"),
+    Architecture("xe_lp", "intel", "tgllp", "Xe-LP", "intel"),
+    Architecture("gen9", "intel", "skl", "Gen9", "intel"),
 )}
-VENDORS = {"amd": "AMD", "nvidia": "NVIDIA"}
+VENDORS = {"amd": "AMD", "nvidia": "NVIDIA", "intel": "Intel"}
 BY_CHIP = {a.chip: a for a in ARCHITECTURES.values()}
 
 

@@ -1,23 +1,24 @@
 """What each shader costs in the machine code of each GPU architecture (`architectures`): the
 shaders of `shaders`, compiled by each architecture's back end (`radv` for AMD, `nvidia` for
-NVIDIA), counted by its own instruction classes and costed by its own model, every count net of
+NVIDIA, `intel` for Intel), counted by its own instruction classes and costed by its own model, every count net of
 the shader's wrapper.
 
 Every row, whatever its vendor, has `architecture` (the registry's name), `vendor`, `family` (the
 chip its compiler was told), `instructions` (math instructions, net), `special` (special-function
 or transcendental instructions, net), `cycles` (net, by `cost_model`) and the listing; beside them
-the back end's own counts (`net_vector_alu` ... for AMD, `net_fma` ... for NVIDIA). A back end
+the back end's own counts (`net_vector_alu` ... for AMD, `net_fma` ... for NVIDIA, `net_fpu` ... for
+Intel). A back end
 that cannot run here is skipped and its reason kept (`missing`); where none can, CompilerMissing.
 """
 
 from __future__ import annotations
 
-from . import nvidia, radv
+from . import intel, nvidia, radv
 from .architectures import ARCHITECTURES, BY_CHIP, VENDORS, Architecture, CompilerMissing, named  # noqa: F401
 from .shaders import (NDF_BODIES, NDF_PER_PIXEL, PER_PIXEL, UNIFORM, WRAPPER_PER_PIXEL,  # noqa: F401
                       WRAPPER_UNIFORM, glsl_expression, shader_sources)
 
-BACKENDS = {"radv": radv, "nvidia": nvidia}
+BACKENDS = {"radv": radv, "nvidia": nvidia, "intel": intel}
 ALL = tuple(ARCHITECTURES)
 
 

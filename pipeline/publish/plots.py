@@ -798,7 +798,8 @@ def vendor_rows(architectures) -> list[tuple[str, list[str]]]:
 def cost_axis(vendor: str) -> str:
     """The x label of a vendor's cost: its model's unit."""
     return {"amd": "cycles per wave (RADV, ACO's estimate)",
-            "nvidia": "cycles per warp (ptxas, throughput model)"}.get(vendor, "cycles")
+            "nvidia": "cycles per warp (ptxas, throughput model)",
+            "intel": "cycles per SIMD16 thread (ocloc, Mesa's model)"}.get(vendor, "cycles")
 
 
 LABEL_GAP_PX = 9        # smallest vertical distance between two labels of points of equal cost

@@ -453,6 +453,11 @@ def machine_row(r, lobe: str, what: str = "lobe", architecture: str = MAIN_ARCHI
 
 def machine_text(row) -> str:
     """One shader's net machine code in words, in its vendor's instruction classes and cost model."""
+    if row["vendor"] == "intel":
+        parts = [f"{row['net_fpu']} FPU"]
+        if row["net_math"] or row["net_pow"]:
+            parts.append(f"{row['net_math'] + row['net_pow']} extended math")
+        return ", ".join(parts) + f" instructions, {row['cycles']:g} cycles per SIMD16 thread (Mesa's model)"
     if row["vendor"] == "nvidia":
         parts = [f"{row['net_fma']} FP32"]
         if row["net_alu"]:
@@ -488,6 +493,7 @@ def machine_code_section(config, r) -> list[str]:
     measured = [a for a in ARCHITECTURES if a in g["devices"]]         # the registry's order
     amd = [a for a in measured if ARCHITECTURES[a].vendor == "amd"]
     nvidia = [a for a in measured if ARCHITECTURES[a].vendor == "nvidia"]
+    intel = [a for a in measured if ARCHITECTURES[a].vendor == "intel"]
     if amd:
         lines.append("- AMD: Mesa's RADV driver and its ACO back end on RADV's null device ("
                      + ", ".join(g["devices"][a] for a in amd) + "). Cycles per wave: ACO's own throughput estimate "
@@ -500,9 +506,15 @@ def machine_code_section(config, r) -> list[str]:
                      "the largest of the issue slots and each pipe's busy cycles at the CUDA C++ Programming Guide's "
                      "results per clock per SM (FP32 64 on sm_75, 128 after; compare/min/max 64; MUFU 16). Cells: "
                      "FP32 + MUFU instructions, cycles.")
+    if intel:
+        lines.append("- Intel: the shader's SPIR-V printed as OpenCL C with the native_* functions a graphics driver "
+                     "uses, SIMD16, compiled by Intel's ocloc and disassembled through IGA (" + g["devices"][intel[0]]
+                     + " ...). Cycles per SIMD16 thread by Mesa's model of the EU (`intel-mesa`, "
+                     "brw_ir_performance.cpp): the largest of the front end's, the FPU's (2 cycles per GRF) and the "
+                     "extended-math unit's (4 per GRF, pow 8) busy cycles. Cells: FPU + extended-math instructions, cycles.")
     shaders = [(row["lobe"], row["what"], row["normalization"]) for row in g["rows"]
                if row["architecture"] == measured[0] and not row["what"].startswith("wrapper")]
-    for vendor, archs in (("amd", amd), ("nvidia", nvidia)):
+    for vendor, archs in (("amd", amd), ("nvidia", nvidia), ("intel", intel)):
         if not archs:
             continue
         lines += ["", f"{VENDORS[vendor]}:", "", "| lobe | shader | " + " | ".join(arch_name(a) for a in archs) + " |",
@@ -513,6 +525,8 @@ def machine_code_section(config, r) -> list[str]:
                 row = machine_row(r, lobe, what, a, norm)
                 if vendor == "amd":
                     cells.append(f"{row['net_vector_alu']} + {row['net_transcendental']} T, {row['cycles']:g} cyc")
+                elif vendor == "intel":
+                    cells.append(f"{row['net_fpu']} + {row['net_math'] + row['net_pow']} EM, {row['cycles']:g} cyc")
                 else:
                     cells.append(f"{row['net_fma'] + row['net_alu']} + {row['net_mufu']} MUFU, {row['cycles']:g} cyc")
             name = keep(lobe)

@@ -31,12 +31,12 @@ def compiled(powers, registry_shaders: bool) -> dict:
     return dict(available=True, reason="", **found)
 
 
-@toolchains.uses("radv", "nvidia")
+@toolchains.uses("radv", "nvidia", "intel")
 def registry_rows() -> dict:
     return compiled((), registry_shaders=True)
 
 
-@toolchains.uses("radv", "nvidia")
+@toolchains.uses("radv", "nvidia", "intel")
 def family_rows(power: int) -> dict:
     return compiled((power,), registry_shaders=False)
 

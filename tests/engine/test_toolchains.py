@@ -119,11 +119,11 @@ def test_keys_change_with_the_tool_found_and_only_for_what_runs_it(monkeypatch):
     assert after["zone"] == before["zone"] and after["gpu_isa"] != before["gpu_isa"]
     assert memo_key(gpu_isa.registry_rows) != memo_before and memo_key(zone.run) == plain_before
     assert graph.BY_NAME["mitsuba_render"].tools == ("llvm",)
-    assert graph.BY_NAME["gpu_isa"].tools == ("radv", "nvidia")
+    assert graph.BY_NAME["gpu_isa"].tools == ("radv", "nvidia", "intel")
 
 
 def test_an_unknown_tool_is_named():
-    with pytest.raises(KeyError, match="unknown tool 'ptx'; the tools are llvm, radv, shader_tools, nvidia"):
+    with pytest.raises(KeyError, match="unknown tool 'ptx'; the tools are llvm, radv, shader_tools, nvidia, intel"):
         toolchains.uses("ptx")
 
 
@@ -149,5 +149,5 @@ def test_a_run_says_at_its_start_which_tool_its_stages_lack(monkeypatch, tmp_pat
     assert lines[0] == f"warning: {absent.missing}" and sum("warning" in s for s in lines) == 1, lines
     g = results["gpu_isa"]
     assert computed == ["gpu_isa"] and g["missing"]["amd"] == absent.missing
-    assert g["available"] == toolchains.locate("nvidia").found
-    assert {r["vendor"] for r in g["rows"]} == ({"nvidia"} if g["available"] else set())
+    others = {v for v, tool in (("nvidia", "nvidia"), ("intel", "intel")) if toolchains.locate(tool).found}
+    assert g["available"] == bool(others) and {r["vendor"] for r in g["rows"]} == others

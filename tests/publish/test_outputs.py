@@ -14,6 +14,7 @@ from PIL import Image
 
 import pipeline
 from pipeline.engine import paths
+from pipeline.isa.architectures import VENDORS
 from pipeline.publish.figures import FIGURES
 from pipeline.run import run_derivation
 
@@ -187,7 +188,7 @@ def test_the_summary_is_one_screen_at_the_top_of_the_report(paper_outputs):
         architectures = list(dict.fromkeys(r["architecture"] for r in table))
         grouped = groups(table, architectures, list(dict.fromkeys(tuple(r["n_range"]) for r in table)))
         assert sorted(a for g in grouped for a in g) == sorted(architectures)
-        rows = [line for line in summary.splitlines() if line.startswith(("| AMD ", "| NVIDIA "))]
+        rows = [line for line in summary.splitlines() if line.startswith(tuple(f"| {v} " for v in VENDORS.values()))]
         assert len(rows) == len(grouped) < len(architectures)
         for fact in doc["facts"]:
             assert fact["count"] == 0 or f"{fact['count']} of {fact['of']}" in summary

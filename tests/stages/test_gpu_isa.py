@@ -15,7 +15,9 @@ def absent(monkeypatch, tmp_path, tools):
     real = toolchains.locate
     missing = {"radv": toolchains.find_radv({}, (str(tmp_path),)),
                "nvidia": toolchains.Found("nvidia", None, "", "", "ptxas, cuobjdump, nvdisasm not found: NVIDIA "
-                                          "machine code is not measured; " + toolchains.NVIDIA_INSTALL)}
+                                          "machine code is not measured; " + toolchains.NVIDIA_INSTALL),
+               "intel": toolchains.Found("intel", None, "", "", "ocloc not found: Intel machine code is not "
+                                         "measured; " + toolchains.INTEL_INSTALL)}
     monkeypatch.setattr(toolchains, "locate", lambda tool: missing[tool] if tool in tools else real(tool))
 
 
@@ -27,10 +29,10 @@ def decide(r, paper_config):
 
 def test_without_any_compiler_the_stage_says_why_and_the_report_says_not_measured(monkeypatch, tmp_path, paper_run,
                                                                                   paper_config):
-    absent(monkeypatch, tmp_path, ("radv", "nvidia"))
+    absent(monkeypatch, tmp_path, ("radv", "nvidia", "intel"))
     out = gpu_isa.run({"lobe.power": 2, "front.powers": [2, 3]}, {}, Memo(None))
     assert out["available"] is False and out["rows"] == []
-    assert "mesa-vulkan-drivers" in out["reason"] and "nvidia-cuda-nvcc-cu12" in out["reason"]
+    assert all(name in out["reason"] for name in ("mesa-vulkan-drivers", "nvidia-cuda-nvcc-cu12", "intel-opencl-icd"))
     r = dict(paper_run, gpu_isa=out)
     text = "\n".join(report_beyond.machine_code_section(None, r))
     assert "Machine-code cost not measured: " + out["reason"] in text
@@ -46,7 +48,8 @@ def test_without_radv_the_other_vendor_is_measured_and_decided(monkeypatch, tmp_
         pytest.skip(f"NVIDIA machine code not measured here: {toolchains.locate('nvidia').missing}")
     absent(monkeypatch, tmp_path, ("radv",))
     out = gpu_isa.run({"lobe.power": 2, "front.powers": [2, 3]}, {}, Memo(None))
-    assert out["available"] is True and {r["vendor"] for r in out["rows"]} == {"nvidia"}
+    others = {"nvidia"} | ({"intel"} if toolchains.locate("intel").found else set())
+    assert out["available"] is True and {r["vendor"] for r in out["rows"]} == others
     assert "mesa-vulkan-drivers" in out["missing"]["amd"]
     r = dict(paper_run, gpu_isa=out)
     text = "\n".join(report_beyond.machine_code_section(None, r))
