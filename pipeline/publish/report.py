@@ -184,7 +184,9 @@ def _comparison(doc, baseline) -> list[str]:
 TOOL_ROLES = {"llvm": ("LLVM, for Mitsuba's llvm_ad_rgb variant (Dr.Jit)", "LLVM "),
               "radv": ("Mesa's RADV, for AMD machine code (Vulkan ICD)", "Mesa "),
               "shader_tools": ("GLSL to SPIR-V", ""),
-              "nvidia": ("NVIDIA's offline compiler, for NVIDIA machine code (`pipeline.isa.nvidia`)", "")}
+              "nvidia": ("NVIDIA's offline compiler, for NVIDIA machine code (`pipeline.isa.nvidia`)", ""),
+              "intel": ("Intel's offline compiler (ocloc, IGA), for Intel machine code (`pipeline.isa.intel`)",
+                        "intel-opencl-icd ")}
 
 
 def tools_section(doc) -> list[str]:
