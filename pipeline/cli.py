@@ -164,7 +164,7 @@ def _costs(args) -> int:
     except ValueError as e:
         print(f"error: --gpu {args.gpu}: {e}", file=sys.stderr)
         return faults.EXIT_BAD_INPUT
-    print(f"compiling {args.forms} forms for {architectures.label(chosen)} (about {args.forms // 10} s)")
+    print(f"compiling {args.forms} forms for {architectures.label(chosen)} (about {args.forms // 20} s)")
     try:
         costs = gpu_costs.operation_costs(args.forms, chosen)
     except (CompilerMissing, ToolMissing) as e:
