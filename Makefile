@@ -15,6 +15,8 @@ LLVM_READY := $(VENV)/.llvm
 RADV_READY := $(VENV)/.radv
 NVIDIA_READY := $(VENV)/.nvidia
 INTEL_READY := $(VENV)/.intel
+MOBILE_READY := $(VENV)/.mesa-arm64
+MESA_ARM64 := $(or $(PIPELINE_MESA_ARM64),/opt/pipeline/mesa-arm64)
 CONFIG ?= configs/paper.toml
 SET ?=
 ONLY ?=
@@ -81,17 +83,33 @@ $(INTEL_READY): $(INSTALLED)
 	fi
 	touch $(INTEL_READY)
 
-reproduce: $(INSTALLED) $(LLVM_READY) $(RADV_READY) $(NVIDIA_READY) $(INTEL_READY)
+# Best effort: Mesa's compilers for Adreno (freedreno) and Mali (panfrost) on their drm-shim null
+# devices, from Debian's arm64 packages run by qemu-user (scripts/install-mesa-arm64.sh: about 90 MB
+# downloaded, unpacked into $(MESA_ARM64), this machine's packages untouched); without them the
+# Adreno and Mali machine code is not measured.
+$(MOBILE_READY): $(INSTALLED)
+	@if command -v qemu-aarch64-static >/dev/null && [ -e "$(MESA_ARM64)/usr/lib/aarch64-linux-gnu/libpanfrost_noop_drm_shim.so" ]; then \
+		echo "Mesa's arm64 compilers found in $(MESA_ARM64): the gpu_isa stage compiles for Adreno and Mali"; \
+	elif [ "$$(id -u)" = 0 ] && command -v apt-get >/dev/null; then \
+		echo "installing qemu-user-static and Mesa's arm64 compilers for Adreno and Mali machine code ..."; \
+		bash scripts/install-mesa-arm64.sh "$(MESA_ARM64)" \
+		|| echo "Mesa's arm64 compilers could not be installed: Adreno and Mali machine code is not measured"; \
+	else \
+		echo "no Mesa arm64 compilers and no apt-get as root: Adreno and Mali machine code is not measured"; \
+	fi
+	touch $(MOBILE_READY)
+
+reproduce: $(INSTALLED) $(LLVM_READY) $(RADV_READY) $(NVIDIA_READY) $(INTEL_READY) $(MOBILE_READY)
 	$(BIN)/pipeline reproduce
 
-refit: $(INSTALLED) $(LLVM_READY) $(RADV_READY) $(NVIDIA_READY) $(INTEL_READY)
+refit: $(INSTALLED) $(LLVM_READY) $(RADV_READY) $(NVIDIA_READY) $(INTEL_READY) $(MOBILE_READY)
 	$(BIN)/pipeline refit --config $(CONFIG) $(foreach s,$(SET),--set $(s)) $(if $(ONLY),--only $(ONLY))
 
 # The compiled XLA programs are kept between runs in the pipeline's own folder (JAX keys each on its
 # HLO, the XLA flags and the jaxlib version): a later `make test` compiles only what changed.
 # `make test TEST_XLA_CACHE=` starts each session from an empty folder of its own (as a fresh clone does).
 TEST_XLA_CACHE ?= $(CURDIR)/.cache/stages/_xla
-test: $(TEST_INSTALLED) $(LLVM_READY) $(RADV_READY) $(NVIDIA_READY) $(INTEL_READY)
+test: $(TEST_INSTALLED) $(LLVM_READY) $(RADV_READY) $(NVIDIA_READY) $(INTEL_READY) $(MOBILE_READY)
 	PIPELINE_XLA_CACHE_DIR="$(TEST_XLA_CACHE)" $(BIN)/python -m pytest -q -n 2 --dist loadfile
 
 # The numerical tests (optics, symbolic regression, the stages and the checks against the paper)
@@ -102,7 +120,7 @@ test: $(TEST_INSTALLED) $(LLVM_READY) $(RADV_READY) $(NVIDIA_READY) $(INTEL_READ
 # fails if any did.
 ISA_LEVELS ?= SSE4_2 AVX2 native
 ISA_TESTS ?= tests/optics tests/symbolic tests/stages
-test-isa: $(TEST_INSTALLED) $(LLVM_READY) $(RADV_READY) $(NVIDIA_READY) $(INTEL_READY)
+test-isa: $(TEST_INSTALLED) $(LLVM_READY) $(RADV_READY) $(NVIDIA_READY) $(INTEL_READY) $(MOBILE_READY)
 	@failed=""; for isa in $(ISA_LEVELS); do \
 		if [ "$$isa" = native ]; then flags=""; else flags="--xla_cpu_max_isa=$$isa"; fi; \
 		echo "== XLA_FLAGS=$$flags ($$isa)"; \
@@ -112,7 +130,7 @@ test-isa: $(TEST_INSTALLED) $(LLVM_READY) $(RADV_READY) $(NVIDIA_READY) $(INTEL_
 	if [ -n "$$failed" ]; then echo "test-isa: failed under$$failed"; exit 1; fi; \
 	echo "test-isa: passed under $(ISA_LEVELS)"
 
-bench: $(TEST_INSTALLED) $(LLVM_READY) $(RADV_READY) $(NVIDIA_READY) $(INTEL_READY)
+bench: $(TEST_INSTALLED) $(LLVM_READY) $(RADV_READY) $(NVIDIA_READY) $(INTEL_READY) $(MOBILE_READY)
 	$(BIN)/python bench/bench.py
 
 keys: $(INSTALLED)

@@ -138,6 +138,7 @@ def main() -> int:
     if os.environ.get("BENCH_ONLY") != "tests":
         with tempfile.TemporaryDirectory() as tmp:
             env = dict(os.environ, PIPELINE_CACHE_DIR=os.path.join(tmp, "cache"),
+                       PIPELINE_MACHINE_CODE_CACHE=os.path.join(tmp, "machine_code"),
                        PIPELINE_OUTPUTS_DIR=os.path.join(tmp, "outputs"), JAX_ENABLE_X64="1", JAX_PLATFORMS="cpu")
             seconds, out = timed([py, "-c", COUNTED_REPRODUCE], env)
             compiles = next(s for s in out.splitlines() if s.startswith("XLA compilations"))
@@ -147,6 +148,7 @@ def main() -> int:
             # only PATH and HOME (and its own empty folders) set; the pipeline finds its tools itself.
             clean = {"PATH": os.environ["PATH"], "HOME": os.environ.get("HOME", tmp),
                      "PIPELINE_CACHE_DIR": os.path.join(tmp, "cache_clean"),
+                     "PIPELINE_MACHINE_CODE_CACHE": os.path.join(tmp, "machine_code_clean"),
                      "PIPELINE_OUTPUTS_DIR": os.path.join(tmp, "outputs_clean")}
             seconds, out = timed([str(Path(py).parent / "pipeline"), "reproduce"], clean)
             warned = [s for s in out.splitlines() if s.startswith("warning:")]
@@ -221,6 +223,7 @@ def main() -> int:
             # The machine-code stage alone, cold (fresh cache): what it adds to a cold run.
             _, out = timed([py, "-m", "pipeline", "reproduce", "--only", "gpu_isa"],
                            dict(env, PIPELINE_CACHE_DIR=os.path.join(tmp, "cache_isa"),
+                                PIPELINE_MACHINE_CODE_CACHE=os.path.join(tmp, "machine_code_isa"),
                                 PIPELINE_OUTPUTS_DIR=os.path.join(tmp, "outputs_isa")))
             line = next(s for s in out.splitlines() if "gpu_isa" in s and "computed in" in s)
             stage = float(line.split("computed in")[1].split("s")[0])

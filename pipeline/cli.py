@@ -150,7 +150,7 @@ def _regress(args) -> int:
 
 
 def _costs(args) -> int:
-    from .isa import architectures
+    from .isa import architectures, machine_code
     from .isa.machine_code import CompilerMissing
     from .optics.spirv import ToolMissing
     from .symbolic import gpu_costs
@@ -164,7 +164,8 @@ def _costs(args) -> int:
     except ValueError as e:
         print(f"error: --gpu {args.gpu}: {e}", file=sys.stderr)
         return faults.EXIT_BAD_INPUT
-    print(f"compiling {args.forms} forms for {architectures.label(chosen)} (about {args.forms // 20} s)")
+    print(f"compiling {args.forms} forms for {architectures.label(chosen)} "
+          f"(about {machine_code.estimate_seconds(args.forms, chosen):.0f} s)")
     try:
         costs = gpu_costs.operation_costs(args.forms, chosen)
     except (CompilerMissing, ToolMissing) as e:
@@ -314,7 +315,8 @@ def _main(argv: list[str] | None) -> int:
     swp.add_argument("--workers", type=int, default=None, metavar="N",
                      help="LocalCluster worker processes (default: one per core)")
     cst = sub.add_parser("costs", help="cycles of each symbolic-regression operation on each GPU architecture (AMD by "
-                                       "RADV, NVIDIA by ptxas): cost tables for regress --cost")
+                                       "RADV, NVIDIA by ptxas, Intel by ocloc, Adreno and Mali by Mesa's compilers): "
+                                       "cost tables for regress --cost")
     cst.add_argument("--out", default=None, metavar="DIR", help="folder of the tables (default outputs/costs)")
     cst.add_argument("--gpu", default=None, metavar="ARCH[,ARCH...]",
                      help=f"architectures (default every one: {', '.join(ARCHITECTURES)})")

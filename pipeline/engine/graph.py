@@ -18,6 +18,8 @@ import dataclasses
 from collections.abc import Mapping
 from types import MappingProxyType
 
+from . import toolchains
+
 RANGE = ("derivation.n_min", "derivation.n_max")
 POWER = ("lobe.power",)      # the family's power m: every stage that evaluates f_Q or f_Q2 reads it
 
@@ -357,7 +359,7 @@ STAGES: tuple[Stage, ...] = (
                               "-1: not measured) [count]",
         "family_transcendental_max": "most special-function instructions of any power of the family (f_Q2, f_Q3, "
                                      "...; -1: not measured) [count]",
-    }, tools=("radv", "nvidia", "intel")),
+    }, tools=toolchains.MACHINE_CODE),
     _stage("power_front", "beyond",
            RANGE + ("derivation.metric", "derivation.fit", "front.powers", "scan.coarse_step",
                     "scan.fine_step", "solver.*", "albedo.quadrature_nodes", "comparison.albedo_angles"),
@@ -403,7 +405,7 @@ STAGES: tuple[Stage, ...] = (
         "cost_tables": "cycles per operation per architecture, fitted to its machine code of forms with uniform "
                        "constants (gpu_costs) [dict]",
         "cost_tables_held_out": "the tables' error on held-out forms [dict]",
-    }, tools=("radv", "nvidia", "intel")),
+    }, tools=toolchains.MACHINE_CODE),
     _stage("render", "beyond", ("render.*",) + RANGE + POWER,
            ("zone.level", "linear_coefficient.slope_used", "linear_coefficient.intercept_used",
             "f2_errors.d_f_2_curve", "accuracy.d_f_Q2_curve"), {

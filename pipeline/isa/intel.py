@@ -222,3 +222,38 @@ def net(parsed: dict, wrapper: dict, chip: str) -> dict:
     busy = {k: parsed[k] - wrapper[k] for k in ("busy_front", "busy_fpu", "busy_math")}
     return dict(out, instructions=out["net_fpu"] + out["net_math"] + out["net_pow"],
                 special=out["net_math"] + out["net_pow"], cycles=cycles(busy), cost_model=COST_MODEL)
+
+
+SECONDS_PER_SHADER = 0.011  # CPU seconds per shader and architecture, measured on a 2-core x86-64 machine
+MODEL = "Mesa's EU model's cycles per SIMD16 thread"  # the cost model in a few words
+UNIT = "cycles per SIMD16 thread (ocloc, Mesa's model)"
+
+
+def describe(row) -> str:
+    """One shader's net machine code in words."""
+    parts = [f"{row['net_fpu']} FPU"]
+    if row["net_math"] or row["net_pow"]:
+        parts.append(f"{row['net_math'] + row['net_pow']} extended math")
+    return ", ".join(parts) + f" instructions, {row['cycles']:g} cycles per SIMD16 thread (Mesa's model)"
+
+
+def cell(row) -> str:
+    """A table cell: FPU + extended-math instructions, cycles."""
+    return f"{row['net_fpu']} + {row['net_math'] + row['net_pow']} EM, {row['cycles']:g} cyc"
+
+
+def method(devices: list[str]) -> str:
+    """How the numbers were obtained, for the report."""
+    return ("the shader's SPIR-V printed as OpenCL C with the native_* functions a graphics driver uses, SIMD16, "
+            "compiled by Intel's ocloc and disassembled through IGA (" + devices[0] + " ...). Cycles per SIMD16 thread "
+            "by Mesa's model of the EU (`intel-mesa`, brw_ir_performance.cpp): the largest of the front end's, the "
+            "FPU's (2 cycles per GRF) and the extended-math unit's (4 per GRF, pow 8) busy cycles. Cells: FPU + "
+            "extended-math instructions, cycles.")
+
+
+TOOL = "intel"        # what `pipeline.engine.toolchains` finds for this back end
+
+
+def check() -> None:
+    """CompilerMissing, saying what is missing, where this back end cannot compile here."""
+    tools()

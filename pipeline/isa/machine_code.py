@@ -1,25 +1,111 @@
 """What each shader costs in the machine code of each GPU architecture (`architectures`): the
 shaders of `shaders`, compiled by each architecture's back end (`radv` for AMD, `nvidia` for
-NVIDIA, `intel` for Intel), counted by its own instruction classes and costed by its own model, every count net of
-the shader's wrapper.
+NVIDIA, `intel` for Intel, `adreno` for Qualcomm, `mali` for Arm; the back ends run side by side),
+counted by its own instruction classes and costed by its own model, every count net of the
+shader's wrapper. Each back end module gives `compile_shaders`, `net`, its `COST_MODEL`, `MODEL`
+and `UNIT` in words, `describe(row)`, `cell(row)` and `method(devices)` for the report, and
+`SECONDS_PER_SHADER` for the time a compilation is announced with.
 
 Every row, whatever its vendor, has `architecture` (the registry's name), `vendor`, `family` (the
 chip its compiler was told), `instructions` (math instructions, net), `special` (special-function
 or transcendental instructions, net), `cycles` (net, by `cost_model`) and the listing; beside them
 the back end's own counts (`net_vector_alu` ... for AMD, `net_fma` ... for NVIDIA, `net_fpu` ... for
-Intel). A back end
+Intel, `net_alu`, `net_sfu` ... for Adreno, `net_arith`, `net_sfu` ... for Mali). A back end
 that cannot run here is skipped and its reason kept (`missing`); where none can, CompilerMissing.
 """
 
 from __future__ import annotations
 
-from . import intel, nvidia, radv
-from .architectures import ARCHITECTURES, BY_CHIP, VENDORS, Architecture, CompilerMissing, named  # noqa: F401
+import functools
+import hashlib
+import json
+import os
+import threading
+from pathlib import Path
+
+from ..engine import paths, toolchains
+from . import adreno, intel, mali, nvidia, radv
+from .architectures import (ARCHITECTURES, BY_CHIP, VENDORS, Architecture, CompilerMissing, named,  # noqa: F401
+                            vendor_groups)
 from .shaders import (NDF_BODIES, NDF_PER_PIXEL, PER_PIXEL, UNIFORM, WRAPPER_PER_PIXEL,  # noqa: F401
                       WRAPPER_UNIFORM, glsl_expression, shader_sources)
 
-BACKENDS = {"radv": radv, "nvidia": nvidia, "intel": intel}
+BACKENDS = {"radv": radv, "nvidia": nvidia, "intel": intel, "adreno": adreno, "mali": mali}
 ALL = tuple(ARCHITECTURES)
+TOOLS = toolchains.MACHINE_CODE         # the tools the back ends run
+
+
+def backend(architecture: str):
+    """The back end module of an architecture (its counts, its cost model, its words)."""
+    return BACKENDS[ARCHITECTURES[architecture].backend]
+
+
+def vendor_backend(vendor: str):
+    """The back end module of a vendor's architectures."""
+    return next(BACKENDS[a.backend] for a in ARCHITECTURES.values() if a.vendor == vendor)
+
+
+START_SECONDS = 4.0         # the compilers' processes started, the shaders lowered
+
+
+def estimate_seconds(count: int, architectures=ALL) -> float:
+    """About how long compiling `count` shaders for each of `architectures` takes on this machine:
+    each back end's measured CPU seconds per shader and architecture, the back ends side by side on
+    the machine's cores."""
+    cpu = sum(backend(a).SECONDS_PER_SHADER for a in architectures) * count
+    return START_SECONDS + cpu / max(1, min(len(BACKENDS), os.cpu_count() or 1))
+
+
+def models_text(architectures) -> str:
+    """The cost model of each vendor among `architectures`, in words: "ACO's cycles per wave on AMD,
+    a throughput model's cycles per warp on NVIDIA"."""
+    return ", ".join(f"{vendor_backend(vendor).MODEL} on {VENDORS[vendor]}"
+                     for vendor, _ in vendor_groups([a for a in architectures if a in ARCHITECTURES]))
+
+
+@functools.cache
+def _code_version() -> str:
+    """The code that compiles and reads a shader: this wing's modules and the SPIR-V front end."""
+    files = sorted(Path(__file__).parent.glob("*.py")) + [Path(__file__).parent.parent / "optics" / "spirv.py"]
+    return hashlib.sha256(b"".join(f.read_bytes() for f in files)).hexdigest()
+
+
+def _kept_file(backend: str, chip: str, source: str) -> Path:
+    module = BACKENDS[backend]
+    key = json.dumps([_code_version(), toolchains.fingerprint([module.TOOL, "shader_tools"]), backend, chip, source])
+    return paths.MACHINE_CODE_CACHE / backend / f"{hashlib.sha256(key.encode()).hexdigest()[:32]}.json"
+
+
+def _compile_kept(backend: str, sources: dict[str, str], chips) -> tuple[dict, dict]:
+    """A back end's `compile_shaders`, each shader's result kept on disk by its text, the chip, the
+    compiler found and this wing's code (`paths.MACHINE_CODE_CACHE`): only what no run compiled
+    before is compiled, once for all chips that lack it. An entry that cannot be read is compiled
+    again."""
+    module = BACKENDS[backend]
+    module.check()
+    compiled: dict = {chip: {} for chip in chips}
+    devices: dict = {}
+    todo: set[str] = set()
+    for chip in chips:
+        for name, source in sources.items():
+            try:
+                entry = json.loads(_kept_file(backend, chip, source).read_text())
+                compiled[chip][name], devices[chip] = entry["parsed"], entry["device"]
+            except (OSError, ValueError, KeyError, TypeError):
+                todo.add(name)
+    if todo:
+        wanted = [chip for chip in chips if any(name not in compiled[chip] for name in todo)]
+        fresh, names = module.compile_shaders({name: sources[name] for name in sources if name in todo}, wanted)
+        for chip in wanted:
+            devices[chip] = names[chip]
+            for name, parsed in fresh[chip].items():
+                compiled[chip][name] = parsed
+                kept = _kept_file(backend, chip, sources[name])
+                kept.parent.mkdir(parents=True, exist_ok=True)
+                partial = kept.with_suffix(f".{os.getpid()}.{threading.get_ident()}.tmp")
+                partial.write_text(json.dumps(dict(parsed=parsed, device=names[chip])))
+                os.replace(partial, kept)
+    return compiled, devices
 
 
 def compile_shaders(sources: dict[str, str], wrappers: dict[str, str], architectures=ALL) -> dict:
@@ -28,18 +114,23 @@ def compile_shaders(sources: dict[str, str], wrappers: dict[str, str], architect
     wrapper's own row is net of itself). Returns dict(rows={architecture: {name: row}},
     devices={architecture: what compiled it}, missing={vendor: why its back end did not run}).
     Raises CompilerMissing where no back end can run."""
+    from concurrent.futures import ThreadPoolExecutor
+
     chosen = named(architectures)
     rows, devices, missing = {}, {}, {}
-    for backend, module in BACKENDS.items():
-        mine = [a for a in chosen if a.backend == backend]
-        if not mine:
-            continue
+    mine = {backend: [a for a in chosen if a.backend == backend] for backend in BACKENDS}
+    # The back ends side by side: each spends its time in its compiler's processes.
+    with ThreadPoolExecutor(len(BACKENDS)) as pool:
+        futures = {backend: pool.submit(_compile_kept, backend, sources, [a.chip for a in archs])
+                   for backend, archs in mine.items() if archs}
+    for backend, future in futures.items():
+        module = BACKENDS[backend]
         try:
-            compiled, names = module.compile_shaders(sources, [a.chip for a in mine])
+            compiled, names = future.result()
         except CompilerMissing as e:
-            missing[mine[0].vendor] = str(e)
+            missing[mine[backend][0].vendor] = str(e)
             continue
-        for a in mine:
+        for a in mine[backend]:
             shaders = compiled[a.chip]
             devices[a.name] = names[a.chip]
             rows[a.name] = {name: dict(architecture=a.name, vendor=a.vendor, family=a.chip,

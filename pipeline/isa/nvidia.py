@@ -234,3 +234,42 @@ def net(parsed: dict, wrapper: dict, chip: str) -> dict:
     counts = {c: out[f"net_{c}"] for c in CLASSES}
     return dict(out, instructions=counts["fma"] + counts["alu"] + counts["mufu"], special=counts["mufu"],
                 cycles=cycles(counts, chip), cost_model=COST_MODEL)
+
+
+SECONDS_PER_SHADER = 0.0055  # CPU seconds per shader and architecture, measured on a 2-core x86-64 machine
+MODEL = "a throughput model's cycles per warp"  # the cost model in a few words
+UNIT = "cycles per warp (ptxas, throughput model)"
+
+
+def describe(row) -> str:
+    """One shader's net machine code in words."""
+    parts = [f"{row['net_fma']} FP32"]
+    if row["net_alu"]:
+        parts.append(f"{row['net_alu']} compare/min/max")
+    if row["net_mufu"]:
+        parts.append(f"{row['net_mufu']} MUFU")
+    if row["net_other"]:
+        parts.append(f"{row['net_other']} other")
+    return ", ".join(parts) + f" instructions, {row['cycles']:g} cycles per warp (throughput model)"
+
+
+def cell(row) -> str:
+    """A table cell: FP32 and compare + MUFU instructions, cycles."""
+    return f"{row['net_fma'] + row['net_alu']} + {row['net_mufu']} MUFU, {row['cycles']:g} cyc"
+
+
+def method(devices: list[str]) -> str:
+    """How the numbers were obtained, for the report."""
+    return ("the shader's SPIR-V lowered to PTX as a graphics driver lowers it (lg2/ex2.approx, .ftz), compiled by "
+            "NVIDIA's ptxas and read back as SASS by cuobjdump (" + devices[0] + " ...). Cycles per warp on one SM "
+            "sub-partition by a throughput model (`nvidia-throughput`): the largest of the issue slots and each pipe's "
+            "busy cycles at the CUDA C++ Programming Guide's results per clock per SM (FP32 64 on sm_75, 128 after; "
+            "compare/min/max 64; MUFU 16). Cells: FP32 + MUFU instructions, cycles.")
+
+
+TOOL = "nvidia"        # what `pipeline.engine.toolchains` finds for this back end
+
+
+def check() -> None:
+    """CompilerMissing, saying what is missing, where this back end cannot compile here."""
+    tools()

@@ -158,3 +158,38 @@ def compile_shaders(sources: dict[str, str], chips) -> tuple[dict, dict]:
         if missing:
             raise ValueError(f"RADV ({family}) printed no listing for shaders {sorted(missing)}")
     return compiled, devices
+
+
+SECONDS_PER_SHADER = 0.008  # CPU seconds per shader and architecture, measured on a 2-core x86-64 machine
+MODEL = "ACO's cycles per wave"  # the cost model in a few words
+UNIT = "cycles per wave (RADV, ACO's estimate)"
+
+
+def describe(row) -> str:
+    """One shader's net machine code in words."""
+    parts = [f"{row['net_vector_alu']} vector ALU"]
+    if row["net_transcendental"]:
+        parts.append(f"{row['net_transcendental']} transcendental")
+    if row["net_scalar"]:
+        parts.append(f"{row['net_scalar']} scalar")
+    return ", ".join(parts) + f" instructions, {row['cycles']:g} cycles per wave"
+
+
+def cell(row) -> str:
+    """A table cell: vector ALU + transcendental instructions, cycles."""
+    return f"{row['net_vector_alu']} + {row['net_transcendental']} T, {row['cycles']:g} cyc"
+
+
+def method(devices: list[str]) -> str:
+    """How the numbers were obtained, for the report."""
+    return ("Mesa's RADV driver and its ACO back end on RADV's null device (" + ", ".join(devices) + "). Cycles per "
+            "wave: ACO's own throughput estimate (1 / wave64_per_cycle, `aco-perfinfo`), net of the wrapper's. Cells: "
+            "vector ALU + transcendental (v_log, v_exp, v_rcp, v_rsq, v_sqrt: the quarter-rate unit) instructions, cycles.")
+
+
+TOOL = "radv"        # what `pipeline.engine.toolchains` finds for this back end
+
+
+def check() -> None:
+    """CompilerMissing, saying what is missing, where this back end cannot compile here."""
+    check_available()

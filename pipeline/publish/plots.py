@@ -17,7 +17,8 @@ import matplotlib.ticker  # noqa: E402
 import numpy as np  # noqa: E402
 
 from ..engine.exponents import n_range  # noqa: E402
-from ..isa.architectures import ARCHITECTURES, VENDORS  # noqa: E402
+from ..isa import machine_code  # noqa: E402
+from ..isa.architectures import VENDORS, vendor_groups  # noqa: E402
 from ..optics import registry  # noqa: E402
 from .report_beyond import at_power, family, keep  # noqa: E402
 
@@ -652,7 +653,7 @@ def error_cost_front(out, config, r):
                         labels.setdefault(x, []).append((m["d"], keep(m["name"]) + (" (winner)" if m["name"] == row["winner"]
                                                                                    else ""), "black" if star else color[m["kind"]]))
             ax.axhline(100 * d["budgets"]["max_d"], color="0.4", ls="--", lw=0.9)
-            ax.set(yscale="log", xlim=(0, top * 1.45))
+            ax.set(yscale="log", xlim=(-0.03 * top, top * 1.45))
             ax.grid(alpha=0.3, which="both")
             stacks.append((ax, labels))
             if i == 0:
@@ -788,18 +789,12 @@ def mitsuba_zoom(out, config, r):
 
 def vendor_rows(architectures) -> list[tuple[str, list[str]]]:
     """The architectures grouped by vendor, in the registry's order: a figure's rows."""
-    out: dict[str, list[str]] = {}
-    order = list(ARCHITECTURES)
-    for a in sorted(architectures, key=lambda a: order.index(a) if a in order else len(order)):
-        out.setdefault(ARCHITECTURES[a].vendor if a in ARCHITECTURES else a, []).append(a)
-    return list(out.items())
+    return vendor_groups(architectures)
 
 
 def cost_axis(vendor: str) -> str:
     """The x label of a vendor's cost: its model's unit."""
-    return {"amd": "cycles per wave (RADV, ACO's estimate)",
-            "nvidia": "cycles per warp (ptxas, throughput model)",
-            "intel": "cycles per SIMD16 thread (ocloc, Mesa's model)"}.get(vendor, "cycles")
+    return machine_code.vendor_backend(vendor).UNIT if vendor in VENDORS else "cycles"
 
 
 LABEL_GAP_PX = 9        # smallest vertical distance between two labels of points of equal cost
@@ -885,7 +880,7 @@ def lobe_front(out, config, r):
                             ms=(14 if star else 5) if main else (9 if star else 3.5), zorder=5 if main else 4)
                     if main:
                         labels.setdefault(p["cycles"], []).append((p["d"], p["label"], "black" if star else "C3"))
-            ax.set(yscale="log", xlim=(0, top * 1.35))
+            ax.set(yscale="log", xlim=(-0.03 * top, top * 1.35))
             stacks.append((ax, labels))
             ax.grid(alpha=0.3, which="both")
             if i == 0:

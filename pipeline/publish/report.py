@@ -186,7 +186,9 @@ TOOL_ROLES = {"llvm": ("LLVM, for Mitsuba's llvm_ad_rgb variant (Dr.Jit)", "LLVM
               "shader_tools": ("GLSL to SPIR-V", ""),
               "nvidia": ("NVIDIA's offline compiler, for NVIDIA machine code (`pipeline.isa.nvidia`)", ""),
               "intel": ("Intel's offline compiler (ocloc, IGA), for Intel machine code (`pipeline.isa.intel`)",
-                        "intel-opencl-icd ")}
+                        "intel-opencl-icd "),
+              "mesa_mobile": ("Mesa's freedreno and panfrost compilers on drm-shim under qemu-user, for Adreno and "
+                              "Mali machine code (`pipeline.isa.adreno`, `pipeline.isa.mali`)", "Mesa ")}
 
 
 def tools_section(doc) -> list[str]:

@@ -8,7 +8,8 @@ from __future__ import annotations
 import re
 
 from ..engine.checks import fmt
-from ..isa.architectures import ARCHITECTURES, VENDORS
+from ..isa import machine_code
+from ..isa.architectures import ARCHITECTURES, VENDORS, vendor_groups
 from ..optics import registry
 
 
@@ -453,26 +454,7 @@ def machine_row(r, lobe: str, what: str = "lobe", architecture: str = MAIN_ARCHI
 
 def machine_text(row) -> str:
     """One shader's net machine code in words, in its vendor's instruction classes and cost model."""
-    if row["vendor"] == "intel":
-        parts = [f"{row['net_fpu']} FPU"]
-        if row["net_math"] or row["net_pow"]:
-            parts.append(f"{row['net_math'] + row['net_pow']} extended math")
-        return ", ".join(parts) + f" instructions, {row['cycles']:g} cycles per SIMD16 thread (Mesa's model)"
-    if row["vendor"] == "nvidia":
-        parts = [f"{row['net_fma']} FP32"]
-        if row["net_alu"]:
-            parts.append(f"{row['net_alu']} compare/min/max")
-        if row["net_mufu"]:
-            parts.append(f"{row['net_mufu']} MUFU")
-        if row["net_other"]:
-            parts.append(f"{row['net_other']} other")
-        return ", ".join(parts) + f" instructions, {row['cycles']:g} cycles per warp (throughput model)"
-    parts = [f"{row['net_vector_alu']} vector ALU"]
-    if row["net_transcendental"]:
-        parts.append(f"{row['net_transcendental']} transcendental")
-    if row["net_scalar"]:
-        parts.append(f"{row['net_scalar']} scalar")
-    return ", ".join(parts) + f" instructions, {row['cycles']:g} cycles per wave"
+    return machine_code.backend(row["architecture"]).describe(row)
 
 
 def machine_code_section(config, r) -> list[str]:
@@ -491,54 +473,25 @@ def machine_code_section(config, r) -> list[str]:
     for vendor, why in g.get("missing", {}).items():
         lines.append(f"- {VENDORS[vendor]}: not measured here: {why}.")
     measured = [a for a in ARCHITECTURES if a in g["devices"]]         # the registry's order
-    amd = [a for a in measured if ARCHITECTURES[a].vendor == "amd"]
-    nvidia = [a for a in measured if ARCHITECTURES[a].vendor == "nvidia"]
-    intel = [a for a in measured if ARCHITECTURES[a].vendor == "intel"]
-    if amd:
-        lines.append("- AMD: Mesa's RADV driver and its ACO back end on RADV's null device ("
-                     + ", ".join(g["devices"][a] for a in amd) + "). Cycles per wave: ACO's own throughput estimate "
-                     "(1 / wave64_per_cycle, `aco-perfinfo`), net of the wrapper's. Cells: vector ALU + transcendental "
-                     "(v_log, v_exp, v_rcp, v_rsq, v_sqrt: the quarter-rate unit) instructions, cycles.")
-    if nvidia:
-        lines.append("- NVIDIA: the shader's SPIR-V lowered to PTX as a graphics driver lowers it (lg2/ex2.approx, "
-                     ".ftz), compiled by NVIDIA's ptxas and read back as SASS by cuobjdump (" + g["devices"][nvidia[0]]
-                     + " ...). Cycles per warp on one SM sub-partition by a throughput model (`nvidia-throughput`): "
-                     "the largest of the issue slots and each pipe's busy cycles at the CUDA C++ Programming Guide's "
-                     "results per clock per SM (FP32 64 on sm_75, 128 after; compare/min/max 64; MUFU 16). Cells: "
-                     "FP32 + MUFU instructions, cycles.")
-    if intel:
-        lines.append("- Intel: the shader's SPIR-V printed as OpenCL C with the native_* functions a graphics driver "
-                     "uses, SIMD16, compiled by Intel's ocloc and disassembled through IGA (" + g["devices"][intel[0]]
-                     + " ...). Cycles per SIMD16 thread by Mesa's model of the EU (`intel-mesa`, "
-                     "brw_ir_performance.cpp): the largest of the front end's, the FPU's (2 cycles per GRF) and the "
-                     "extended-math unit's (4 per GRF, pow 8) busy cycles. Cells: FPU + extended-math instructions, cycles.")
+    groups = vendor_groups(measured)
+    for vendor, archs in groups:
+        lines.append(f"- {VENDORS[vendor]}: " + machine_code.backend(archs[0]).method([g["devices"][a] for a in archs]))
     shaders = [(row["lobe"], row["what"], row["normalization"]) for row in g["rows"]
                if row["architecture"] == measured[0] and not row["what"].startswith("wrapper")]
-    for vendor, archs in (("amd", amd), ("nvidia", nvidia), ("intel", intel)):
-        if not archs:
-            continue
+    for vendor, archs in groups:
         lines += ["", f"{VENDORS[vendor]}:", "", "| lobe | shader | " + " | ".join(arch_name(a) for a in archs) + " |",
                   "|---|---|" + "---|" * len(archs)]
         for lobe, what, norm in shaders:
-            cells = []
-            for a in archs:
-                row = machine_row(r, lobe, what, a, norm)
-                if vendor == "amd":
-                    cells.append(f"{row['net_vector_alu']} + {row['net_transcendental']} T, {row['cycles']:g} cyc")
-                elif vendor == "intel":
-                    cells.append(f"{row['net_fpu']} + {row['net_math'] + row['net_pow']} EM, {row['cycles']:g} cyc")
-                else:
-                    cells.append(f"{row['net_fma'] + row['net_alu']} + {row['net_mufu']} MUFU, {row['cycles']:g} cyc")
+            cells = [machine_code.backend(a).cell(machine_row(r, lobe, what, a, norm)) for a in archs]
             name = keep(lobe)
             shader = {"lobe": "lobe (m = 2)", "family lobe": "lobe (the family at its power)",
                       "NDF": "microfacet D, its constants per material",
                       "NDF, n per pixel": "microfacet D, alpha^2 = 2 / (n + 2) per pixel"}.get(
                           what, f"with {norm}, n per pixel (m = 2)")
             lines.append(f"| {name} | {shader} | " + " | ".join(cells) + " |")
-    for a in (amd[:1] + nvidia[:1]):
+    for a in (archs[0] for _, archs in groups):
         pow_row, quad_row = machine_row(r, registry.REFERENCE, architecture=a), machine_row(r, "f_Q2", architecture=a)
-        lines += ["", f"The listings on {arch_name(a)}" + (", between interpolation and export" if a in amd else
-                                                            ", the SASS of the whole kernel") + ":", "",
+        lines += ["", f"The listings on {arch_name(a)}:", "",
                   "cos^n = pow(t, n):", "", "```"] + pow_row["listing"] + ["```", "", "f_Q2:", "", "```"] \
             + quad_row["listing"] + ["```"]
     return lines + [""]
@@ -821,8 +774,9 @@ def lobe_search_section(config, r, figures) -> list[str]:
               "parameter per material)" if s["target"] == "cos_n" else
               "(the registry's lobes approximate cos^n: they are not placed here)")
     lines += ["Each form is compiled for every architecture with its parameters as uniforms; its cost is the "
-              "architecture's cycles by its vendor's model (ACO's cycles per wave on AMD, the throughput model per warp "
-              f"on NVIDIA) net of the shader returning t, {placed}. The cost tables fitted to random forms "
+              "architecture's cycles by its vendor's model ("
+              + machine_code.models_text(s["cycles_prediction_max_error"]) + f") net of the shader returning t, {placed}. "
+              "The cost tables fitted to random forms "
               "(`symbolic.gpu_costs`) predict the forms' cycles within "
               + ", ".join(f"{v:.3g} cycles ({a})"
                           for a, v in s["cycles_prediction_max_error"].items())

@@ -10,6 +10,7 @@ number is a field of the run's results (results.json).
 
 from __future__ import annotations
 
+from ..isa import machine_code
 from ..isa.architectures import ARCHITECTURES, VENDORS
 from .report_beyond import at_power
 
@@ -115,10 +116,9 @@ def fact_text(fact, decision) -> str:
 def lines(config, results) -> list[str]:
     d = results["decision"]
     out = ["## Summary: which specular lobe to use, per GPU and range of n", ""]
-    if config["run.question"]:
-        out += [f"**Question.** {config['run.question']}", ""]
-    out += [f"**Rule** (`decision.*`): {d['rule']}. Candidates: cos^n, the registry's lobes, the family's powers "
-            "and the lobe search's forms with their parameters as lines in n (`shader/lobe_search.glsl`).", ""]
+    question = f"**Question.** {config['run.question']} " if config["run.question"] else ""
+    out += [f"{question}**Rule** (`decision.*`): {d['rule']}. Candidates: cos^n, the registry's lobes, the family's "
+            "powers and the lobe search's forms with their parameters as lines in n (`shader/lobe_search.glsl`).", ""]
     if not d["available"]:
         return out + [f"**No answer**: machine-code cost not measured ({d['reason']}), so no scenario is decided.", ""]
     table = d["table"]
@@ -127,26 +127,25 @@ def lines(config, results) -> list[str]:
     widest = list(max(ranges, key=lambda r: r[1] - r[0]))
     grouped = groups(table, architectures, ranges)
     out += ["**The answer** for the common case (Phong or Blinn lobe, n per material, fp32; cycles by each "
-            "vendor's model: ACO's cycles per wave on AMD, a throughput model per warp on NVIDIA; the largest max d "
-            "over the range; architectures of one vendor share a row where their winners agree):", "",
+            f"vendor's model: {machine_code.models_text(architectures)}; the largest max d over the range; "
+            "architectures of one vendor share a row where their winners agree):", "",
             "| GPU | " + " | ".join(f"n in {_range(r)}" for r in ranges) + " |",
             "|---|" + "---|" * len(ranges)]
     for group in grouped:
         out.append(f"| {group_name(group)} | " + " | ".join(_cell(table, group, list(r)) for r in ranges) + " |")
-    out += ["", f"**Where it differs** (n in {_range(widest)}; every scenario's reason is in `decision.table`):", ""]
+    out += ["", f"**Where it differs** (n in {_range(widest)}; fp16 routes: u = 1 - N.H from the cross product, as "
+            "`cosquad_u`, or t = N.H in float16; every scenario's reason is in `decision.table`):", ""]
     for label, kwargs in (("n per pixel, fp32", dict(n_per="pixel")), ("n per material, fp16", dict(precision="fp16")),
                           ("n per pixel, fp16", dict(n_per="pixel", precision="fp16")),
                           ("NDF, n per material, fp32", dict(uses=("ndf",))),
                           ("NDF, n per pixel, fp32", dict(uses=("ndf",), n_per="pixel"))):
         cells = [f"{group_name(group)} {_cell(table, group, widest, **kwargs)}" for group in grouped]
         out.append(f"- {label}: " + "; ".join(cells) + ".")
-    out.append("  (fp16 routes: u = 1 - N.H from the cross product, as `cosquad_u`; t = N.H in float16.)")
     changing = [f for f in d["facts"] if f["count"]]
     still = [f["fact"] for f in d["facts"] if not f["count"]]
-    out += ["", "**What changes the answer**, most first (scenarios of the common case it changes):", ""]
+    none = "; none of them: " + ", ".join(s.replace("_", " ") for s in still) if still else ""
+    out += ["", f"**What changes the answer**, most first (scenarios of the common case it changes{none}):", ""]
     out += [f"{i}. {fact_text(f, d)}" for i, f in enumerate(changing, 1)]
-    if still:
-        out.append(f"{len(changing) + 1}. Changes none of them: " + ", ".join(s.replace("_", " ") for s in still) + ".")
     return out + [""]
 
 

@@ -1,8 +1,8 @@
 """Cost in GPU machine code (beyond the paper): every lobe of the registry (at the paper's power 2),
 the family (k (t - 1) + 1)^m at each power of `front.powers` and at the run's `lobe.power`, and each
 registry lobe times each of its normalizations with n per pixel, compiled for every architecture of
-`pipeline.isa.architectures` by its vendor's back end (Mesa's RADV for AMD, ptxas for NVIDIA:
-`pipeline.isa.machine_code`): instructions by the vendor's classes and cycles by its cost model,
+`pipeline.isa.architectures` by its vendor's back end (Mesa's RADV for AMD, ptxas for NVIDIA,
+ocloc for Intel, Mesa's freedreno and panfrost for Adreno and Mali: `pipeline.isa.machine_code`): instructions by the vendor's classes and cycles by its cost model,
 net of the shader's fixed wrapper.
 
 The shaders are compiled with the paper's constants as stand-ins (`CONSTANTS`): each constant is
@@ -11,7 +11,7 @@ Q or the line keeps this stage. The registry's shaders and the family at each po
 apart (what is missing is compiled at once, then stored apart), so a run with other powers
 compiles only the powers not compiled before. Where the
 compiler cannot run (no Vulkan loader, no RADV,
-no `vulkan` package; no ptxas), the stage says why per vendor and returns the other vendors' rows.
+no `vulkan` package; no ptxas; no ocloc; no qemu-user or arm64 Mesa), the stage says why per vendor and returns the other vendors' rows.
 """
 
 from ..engine import toolchains
@@ -31,12 +31,12 @@ def compiled(powers, registry_shaders: bool) -> dict:
     return dict(available=True, reason="", **found)
 
 
-@toolchains.uses("radv", "nvidia", "intel")
+@toolchains.uses(*toolchains.MACHINE_CODE)
 def registry_rows() -> dict:
     return compiled((), registry_shaders=True)
 
 
-@toolchains.uses("radv", "nvidia", "intel")
+@toolchains.uses(*toolchains.MACHINE_CODE)
 def family_rows(power: int) -> dict:
     return compiled((power,), registry_shaders=False)
 

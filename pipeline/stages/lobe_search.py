@@ -257,7 +257,7 @@ def formula_text(names, slopes, intercepts, corrections) -> dict[str, str]:
             for p, m in zip(names, corrections)}
 
 
-@toolchains.uses("radv", "nvidia", "intel")
+@toolchains.uses(*toolchains.MACHINE_CODE)
 def compiled_cycles(families, grammar=()) -> dict:
     """{architecture: {family or grammar form: cycles net of the shader returning t}} of each
     family's shader and each grammar form's (its text in w = n (1 - t)), compiled for every
@@ -280,7 +280,7 @@ def compiled_cycles(families, grammar=()) -> dict:
     return dict(available=True, reason="", cycles=cycles, devices=compiled["devices"])
 
 
-@toolchains.uses("radv", "nvidia", "intel")
+@toolchains.uses(*toolchains.MACHINE_CODE)
 def cost_tables(count: int) -> dict:
     """`symbolic.gpu_costs.operation_costs` on `count` calibration forms, or why not."""
     from ..symbolic import gpu_costs

@@ -1,11 +1,12 @@
 """Cycles per operation on each GPU architecture the `gpu_isa` stage compiles for
-(`pipeline.isa.architectures`: AMD through RADV, NVIDIA through ptxas): the cost tables of
+(`pipeline.isa.architectures`: AMD through RADV, NVIDIA through ptxas, Intel through ocloc,
+Qualcomm and Arm through Mesa's freedreno and panfrost): the cost tables of
 `pipeline regress --cost` for a search ranked by machine code.
 
 A form's cost is what its architecture's compiler makes of it: a fragment shader returning the form
 in t (the interpolated input; its constants written as numbers, as a shader specialized to one
 material has them), its cycles by the back end's cost model (ACO's cycles per wave on AMD, the
-throughput model per warp on NVIDIA), net of the shader returning t
+throughput model per warp on NVIDIA, and so on: `isa.machine_code.models_text`), net of the shader returning t
 (`isa.machine_code.compile_shaders`). The table gives each operation a cost such that a form's
 cost is about the sum of its operations' costs: fitted by non-negative least squares to the
 compiled cycles of `CALIBRATION` forms drawn from every form of the grammar's ten operations

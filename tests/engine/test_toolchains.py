@@ -89,6 +89,29 @@ def test_radv_is_found_with_mesa_s_version_from_the_driver(tmp_path):
     assert not missing.found and "apt-get install mesa-vulkan-drivers libvulkan1" in missing.missing
 
 
+def test_mesa_s_mobile_compilers_are_found_in_the_arm64_folder_with_their_version(tmp_path):
+    """qemu-user on PATH and the arm64 user space (PIPELINE_MESA_ARM64): missing qemu, then a
+    missing file of the user space, are said with the install; with both, Mesa's version is read
+    from its gallium library's name."""
+    bin_folder, root = tmp_path / "bin", tmp_path / "arm64"
+    bin_folder.mkdir()
+    environ = {"PATH": str(bin_folder), toolchains.MESA_ARM64_VARIABLE: str(root)}
+    missing = toolchains.find_mesa_mobile(environ)
+    assert missing.missing.startswith("qemu-aarch64-static not found") and "install-mesa-arm64.sh" in missing.missing
+    qemu = bin_folder / "qemu-aarch64-static"
+    qemu.write_text("#!/bin/sh\n")
+    qemu.chmod(0o755)
+    for name in toolchains.MESA_ARM64_FILES[:-1]:
+        (root / name).parent.mkdir(parents=True, exist_ok=True)
+        (root / name).write_bytes(b"")
+    lacking = toolchains.find_mesa_mobile(environ)
+    assert f"the arm64 Mesa in {root} lacks usr/lib/aarch64-linux-gnu/dri" in lacking.missing and not lacking.found
+    (root / toolchains.MESA_ARM64_FILES[-1]).mkdir()
+    (root / "usr/lib/aarch64-linux-gnu/libgallium-25.0.7-2~bpo12+1.so").write_bytes(b"")
+    found = toolchains.find_mesa_mobile(environ)
+    assert found.found and found.version == "25.0.7-2~bpo12+1" and found.path == str(root)
+
+
 def test_a_missing_tool_warns_in_one_line_and_a_found_one_not(monkeypatch, tmp_path):
     touch(tmp_path, "libLLVM-14.so.1")
     found = {"llvm": toolchains.find_llvm({}, (str(tmp_path),)),
@@ -119,11 +142,11 @@ def test_keys_change_with_the_tool_found_and_only_for_what_runs_it(monkeypatch):
     assert after["zone"] == before["zone"] and after["gpu_isa"] != before["gpu_isa"]
     assert memo_key(gpu_isa.registry_rows) != memo_before and memo_key(zone.run) == plain_before
     assert graph.BY_NAME["mitsuba_render"].tools == ("llvm",)
-    assert graph.BY_NAME["gpu_isa"].tools == ("radv", "nvidia", "intel")
+    assert graph.BY_NAME["gpu_isa"].tools == ("radv", "nvidia", "intel", "mesa_mobile")
 
 
 def test_an_unknown_tool_is_named():
-    with pytest.raises(KeyError, match="unknown tool 'ptx'; the tools are llvm, radv, shader_tools, nvidia, intel"):
+    with pytest.raises(KeyError, match="unknown tool 'ptx'; the tools are llvm, radv, shader_tools, nvidia, intel, mesa_mobile"):
         toolchains.uses("ptx")
 
 
@@ -149,5 +172,6 @@ def test_a_run_says_at_its_start_which_tool_its_stages_lack(monkeypatch, tmp_pat
     assert lines[0] == f"warning: {absent.missing}" and sum("warning" in s for s in lines) == 1, lines
     g = results["gpu_isa"]
     assert computed == ["gpu_isa"] and g["missing"]["amd"] == absent.missing
-    others = {v for v, tool in (("nvidia", "nvidia"), ("intel", "intel")) if toolchains.locate(tool).found}
+    others = {v for v, tool in (("nvidia", "nvidia"), ("intel", "intel"), ("qualcomm", "mesa_mobile"),
+                                ("arm", "mesa_mobile")) if toolchains.locate(tool).found}
     assert g["available"] == bool(others) and {r["vendor"] for r in g["rows"]} == others

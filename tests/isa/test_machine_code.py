@@ -129,3 +129,36 @@ def test_every_row_has_the_fields_every_vendor_gives(compiled):
 def test_an_unknown_architecture_is_named():
     with pytest.raises(ValueError, match="unknown GPU architecture 'gfx1100'; the architectures are rdna3, rdna2"):
         machine_code.compile_shaders({"w": machine_code.WRAPPER_UNIFORM}, {}, ("gfx1100",))
+
+
+class _Counting:
+    """A back end that records what it is asked to compile."""
+
+    TOOL = "shader_tools"
+    calls: list = []
+
+    @staticmethod
+    def check():
+        pass
+
+    @staticmethod
+    def compile_shaders(sources, chips):
+        _Counting.calls.append((sorted(sources), list(chips)))
+        return ({chip: {name: {"length": len(text), "listing": [text]} for name, text in sources.items()} for chip in chips},
+                {chip: f"counting {chip}" for chip in chips})
+
+
+def test_a_shader_compiled_once_is_kept_and_a_damaged_entry_is_compiled_again(monkeypatch, tmp_path):
+    monkeypatch.setattr(machine_code.paths, "MACHINE_CODE_CACHE", tmp_path)
+    monkeypatch.setitem(machine_code.BACKENDS, "counting", _Counting)
+    _Counting.calls.clear()
+    first = machine_code._compile_kept("counting", {"a": "x", "b": "yy"}, ["c1", "c2"])
+    assert _Counting.calls == [(["a", "b"], ["c1", "c2"])]
+    assert first[0]["c2"]["b"] == {"length": 2, "listing": ["yy"]} and first[1] == {"c1": "counting c1", "c2": "counting c2"}
+    assert machine_code._compile_kept("counting", {"a": "x", "b": "yy"}, ["c1", "c2"]) == first
+    assert len(_Counting.calls) == 1                                       # nothing compiled again
+    machine_code._compile_kept("counting", {"a": "x", "b": "yy", "new": "zzz"}, ["c1", "c2"])
+    assert _Counting.calls[-1] == (["new"], ["c1", "c2"])                  # only what is new
+    machine_code._kept_file("counting", "c1", "x").write_text('{"parsed": ')   # cut short
+    again = machine_code._compile_kept("counting", {"a": "x", "b": "yy"}, ["c1", "c2"])
+    assert _Counting.calls[-1] == (["a"], ["c1"]) and again == first

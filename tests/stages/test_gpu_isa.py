@@ -17,7 +17,8 @@ def absent(monkeypatch, tmp_path, tools):
                "nvidia": toolchains.Found("nvidia", None, "", "", "ptxas, cuobjdump, nvdisasm not found: NVIDIA "
                                           "machine code is not measured; " + toolchains.NVIDIA_INSTALL),
                "intel": toolchains.Found("intel", None, "", "", "ocloc not found: Intel machine code is not "
-                                         "measured; " + toolchains.INTEL_INSTALL)}
+                                         "measured; " + toolchains.INTEL_INSTALL),
+               "mesa_mobile": toolchains.find_mesa_mobile({"PATH": str(tmp_path)})}
     monkeypatch.setattr(toolchains, "locate", lambda tool: missing[tool] if tool in tools else real(tool))
 
 
@@ -29,10 +30,11 @@ def decide(r, paper_config):
 
 def test_without_any_compiler_the_stage_says_why_and_the_report_says_not_measured(monkeypatch, tmp_path, paper_run,
                                                                                   paper_config):
-    absent(monkeypatch, tmp_path, ("radv", "nvidia", "intel"))
+    absent(monkeypatch, tmp_path, ("radv", "nvidia", "intel", "mesa_mobile"))
     out = gpu_isa.run({"lobe.power": 2, "front.powers": [2, 3]}, {}, Memo(None))
     assert out["available"] is False and out["rows"] == []
-    assert all(name in out["reason"] for name in ("mesa-vulkan-drivers", "nvidia-cuda-nvcc-cu12", "intel-opencl-icd"))
+    assert all(name in out["reason"] for name in ("mesa-vulkan-drivers", "nvidia-cuda-nvcc-cu12", "intel-opencl-icd",
+                                                  "install-mesa-arm64.sh"))
     r = dict(paper_run, gpu_isa=out)
     text = "\n".join(report_beyond.machine_code_section(None, r))
     assert "Machine-code cost not measured: " + out["reason"] in text
@@ -48,7 +50,8 @@ def test_without_radv_the_other_vendor_is_measured_and_decided(monkeypatch, tmp_
         pytest.skip(f"NVIDIA machine code not measured here: {toolchains.locate('nvidia').missing}")
     absent(monkeypatch, tmp_path, ("radv",))
     out = gpu_isa.run({"lobe.power": 2, "front.powers": [2, 3]}, {}, Memo(None))
-    others = {"nvidia"} | ({"intel"} if toolchains.locate("intel").found else set())
+    others = {"nvidia"} | ({"intel"} if toolchains.locate("intel").found else set()) \
+        | ({"qualcomm", "arm"} if toolchains.locate("mesa_mobile").found else set())
     assert out["available"] is True and {r["vendor"] for r in out["rows"]} == others
     assert "mesa-vulkan-drivers" in out["missing"]["amd"]
     r = dict(paper_run, gpu_isa=out)

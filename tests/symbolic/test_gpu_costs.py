@@ -35,14 +35,17 @@ def test_the_tables_predict_forms_they_were_not_fitted_to(costs):
 
 
 def test_the_costs_follow_the_hardware(costs):
-    """What AMD's ISA guides say independently of the fit: exp and log run on the quarter-rate
-    transcendental unit, so each costs at least twice a multiply; pow is a log, a multiply and an
-    exp, so more than either; a transcendental costs more per wave on GCN5 (wave64 on 16-lane
-    SIMDs) than on RDNA."""
+    """What AMD's ISA guides say independently of the fit, and holds on every vendor: exp and log run
+    on a slower transcendental unit, so each costs at least twice a multiply; pow is a log, a
+    multiply and an exp, so more than either (but on Bifrost, where a natural log is a log2 and a
+    multiply by ln 2 on the FMA unit and pow's multiply folds into the exp's FMA_RSCALE: both need
+    four tuples, `tests/isa/test_mali.py` reads the listings); a transcendental costs more per
+    wave on GCN5 (wave64 on 16-lane SIMDs) than on RDNA."""
     for architecture, table in costs["tables"].items():
         for op in ("exp", "log"):
             assert table[op] >= 2 * table["*"], (architecture, op)
-        assert table["pow"] > max(table["exp"], table["log"]), architecture
+        if architecture != "g72":
+            assert table["pow"] > max(table["exp"], table["log"]), architecture
     for op in ("exp", "log", "pow", "/"):
         assert costs["tables"]["gcn5"][op] > costs["tables"]["rdna3"][op], op
 
