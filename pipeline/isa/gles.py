@@ -28,7 +28,7 @@ from pathlib import Path
 
 from ..engine import toolchains
 from .architectures import CompilerMissing
-from .lowering import LoweringError, Op
+from .lowering import LoweringError, Op, c_statements
 
 DRIVER = Path(__file__).with_name("gles_driver.py")
 MARK = "@@pipeline-shader"
@@ -49,38 +49,22 @@ FUNCTIONS = {"Pow": "pow", "Exp": "exp", "Exp2": "exp2", "Log": "log", "Log2": "
              "FMin": "min", "NMin": "min", "FClamp": "clamp", "NClamp": "clamp"}
 
 
+def _function(name: str, a: list[str]) -> str:
+    """GL ES of one GLSL.std.450 function (fma as a multiply-add: GL ES 3.1 has no fma)."""
+    if name == "Fma":
+        return f"{a[0]} * {a[1]} + {a[2]}"
+    if name not in FUNCTIONS:
+        raise LoweringError(f"no GL ES lowering for the GLSL.std.450 function {name}")
+    return f"{FUNCTIONS[name]}({', '.join(a)})"
+
+
 def fragment_shader(ops: list[Op], result: str) -> str:
     """The GL ES 3.1 fragment shader of the operations (see the module's text)."""
     uniforms = sorted({op.op for op in ops if op.kind == "uniform"})
     inputs = sorted({op.op for op in ops if op.kind == "input"})
-    names: dict[str, str] = {}
-    body = []
-    for index, op in enumerate(ops):
-        v = f"v{index}"
-        a = [names[x] for x in op.args]
-        if op.kind == "input":
-            expr = f"in_{op.op}"
-        elif op.kind == "uniform":
-            expr = f"u{uniforms.index(op.op)}"
-        elif op.kind == "constant":
-            expr = _c(op.value)
-        elif op.kind == "arithmetic":
-            expr = {"FAdd": lambda: f"{a[0]} + {a[1]}", "FSub": lambda: f"{a[0]} - {a[1]}",
-                    "FMul": lambda: f"{a[0]} * {a[1]}", "FDiv": lambda: f"{a[0]} / {a[1]}",
-                    "FNegate": lambda: f"-{a[0]}"}[op.op]()
-        elif op.kind == "function":
-            if op.op == "Fma":
-                expr = f"{a[0]} * {a[1]} + {a[2]}"
-            elif op.op in FUNCTIONS:
-                expr = f"{FUNCTIONS[op.op]}({', '.join(a)})"
-            else:
-                raise LoweringError(f"no GL ES lowering for the GLSL.std.450 function {op.op}")
-        elif op.kind == "compare":
-            expr = f"{a[0]} {dict(gt='>', ge='>=', lt='<', le='<=', eq='==', ne='!=')[op.op]} {a[1]}"
-        else:
-            expr = f"{a[0]} ? {a[1]} : {a[2]}"
-        body.append(f"  {'bool' if op.kind == 'compare' else 'highp float'} {v} = {expr};")
-        names[op.name] = v
+    body, names = c_statements(ops, input_expr=lambda name: f"in_{name}", uniform_expr=lambda k: f"u{k}",
+                               constant=_c, function=_function, divide=lambda x, y: f"{x} / {y}",
+                               float_type="highp float", bool_type="bool")
     outputs = [names[result]] + [f"in_{i}" for i in inputs]
     outputs += ["0.0"] * (4 - len(outputs))
     head = ["#version 310 es", "precision highp float;"]

@@ -40,7 +40,7 @@ from pathlib import Path
 
 from ..engine import toolchains
 from .architectures import CompilerMissing
-from .lowering import LoweringError, Op
+from .lowering import LoweringError, Op, c_statements
 
 COST_MODEL = "intel-mesa"
 CLASSES = ("fpu", "math", "pow", "other")
@@ -65,29 +65,9 @@ def kernel(name: str, ops: list[Op], result: str) -> str:
     after t), each uniform an argument, the result to out[i]."""
     uniforms = sorted({op.op for op in ops if op.kind == "uniform"})
     inputs = sorted({op.op for op in ops if op.kind == "input"})
-    names: dict[str, str] = {}
-    body = []
-    for index, op in enumerate(ops):
-        v = f"v{index}"
-        a = [names[x] for x in op.args]
-        if op.kind == "input":
-            expr = f"in[i + {1024 * inputs.index(op.op)}]"
-        elif op.kind == "uniform":
-            expr = f"u{uniforms.index(op.op)}"
-        elif op.kind == "constant":
-            expr = _c(op.value)
-        elif op.kind == "arithmetic":
-            expr = {"FAdd": lambda: f"{a[0]} + {a[1]}", "FSub": lambda: f"{a[0]} - {a[1]}",
-                    "FMul": lambda: f"{a[0]} * {a[1]}", "FDiv": lambda: f"native_divide({a[0]}, {a[1]})",
-                    "FNegate": lambda: f"-{a[0]}"}[op.op]()
-        elif op.kind == "function":
-            expr = _function(op.op, a)
-        elif op.kind == "compare":
-            expr = f"{a[0]} {dict(gt='>', ge='>=', lt='<', le='<=', eq='==', ne='!=')[op.op]} {a[1]}"
-        else:
-            expr = f"{a[0]} ? {a[1]} : {a[2]}"
-        body.append(f"  {'int' if op.kind == 'compare' else 'float'} {v} = {expr};")
-        names[op.name] = v
+    body, names = c_statements(ops, input_expr=lambda name: f"in[i + {1024 * inputs.index(name)}]",
+                               uniform_expr=lambda k: f"u{k}", constant=_c, function=_function,
+                               divide=lambda x, y: f"native_divide({x}, {y})", float_type="float", bool_type="int")
     params = ", ".join(["__global const float *in", "__global float *out"] + [f"float u{i}" for i in range(len(uniforms))])
     return ("__attribute__((intel_reqd_sub_group_size(16)))\n"
             f"__kernel void {name}({params})\n{{\n  int i = get_global_id(0);\n" + "\n".join(body)

@@ -157,3 +157,36 @@ def evaluate(ops: list[Op], result: str, inputs: dict[str, np.ndarray], uniforms
                 values[op.name] = np.where(a[0], a[1], a[2])
             values[op.name] = np.asarray(values[op.name], bool if op.kind == "compare" else f32)
     return values[result]
+
+
+INFIX = {"FAdd": "+", "FSub": "-", "FMul": "*", "gt": ">", "ge": ">=", "lt": "<", "le": "<=", "eq": "==", "ne": "!="}
+
+
+def c_statements(ops: list[Op], *, input_expr, uniform_expr, constant, function, divide, float_type: str,
+                 bool_type: str) -> tuple[list[str], dict[str, str]]:
+    """The operations as C-like statements, one variable each (`v0`, `v1`, ...), for the back ends
+    that print a C-family language (OpenCL C, GL ES): the language's own words come from the
+    callables (an input's, a uniform's by its index among the sorted uniforms, a constant's, a
+    function's, a division's). Returns (the statements, {op id: its variable})."""
+    uniforms = sorted({op.op for op in ops if op.kind == "uniform"})
+    names: dict[str, str] = {}
+    body = []
+    for index, op in enumerate(ops):
+        a = [names[x] for x in op.args]
+        if op.kind == "input":
+            expr = input_expr(op.op)
+        elif op.kind == "uniform":
+            expr = uniform_expr(uniforms.index(op.op))
+        elif op.kind == "constant":
+            expr = constant(op.value)
+        elif op.kind == "arithmetic":
+            expr = divide(*a) if op.op == "FDiv" else f"-{a[0]}" if op.op == "FNegate" else f"{a[0]} {INFIX[op.op]} {a[1]}"
+        elif op.kind == "function":
+            expr = function(op.op, a)
+        elif op.kind == "compare":
+            expr = f"{a[0]} {INFIX[op.op]} {a[1]}"
+        else:
+            expr = f"{a[0]} ? {a[1]} : {a[2]}"
+        names[op.name] = f"v{index}"
+        body.append(f"  {bool_type if op.kind == 'compare' else float_type} v{index} = {expr};")
+    return body, names
