@@ -129,6 +129,34 @@ def plain_cluster(folder: str):
             proc.wait()
 
 
+DERIVE_ARCHITECTURES = "rdna3,sm_89,xe_hpg"
+
+
+def derive_rows(py) -> list:
+    """`pipeline derive` on Schlick's (1 - x)^5 and on acos, three architectures, the default budget:
+    cold (empty machine-code and XLA caches; target 120 s) and again with the compiled programs kept
+    (target 30 s); each with the time it announced before starting (target: within 2x)."""
+    import json
+
+    rows = []
+    with tempfile.TemporaryDirectory() as tmp:
+        for target in ("schlick", "acos"):
+            env = dict(os.environ, PIPELINE_CACHE_DIR=os.path.join(tmp, f"cache_{target}"),
+                       PIPELINE_XLA_CACHE_DIR=os.path.join(tmp, f"xla_{target}"),
+                       PIPELINE_MACHINE_CODE_CACHE=os.path.join(tmp, f"machine_code_{target}"),
+                       PIPELINE_OUTPUTS_DIR=os.path.join(tmp, "outputs"))
+            for label, allowed in (("cold", 120.0), ("kept", 30.0)):
+                seconds, _ = timed([py, "-m", "pipeline", "derive", "--target", target, "--gpu", DERIVE_ARCHITECTURES,
+                                    "--out", os.path.join(tmp, target)], env)
+                results = json.loads(Path(tmp, target, "results.json").read_text())
+                estimate = results["estimated_seconds"]
+                within = 0.5 <= estimate / seconds <= 2.0
+                rows.append((f"derive {target}, {label}", seconds, None,
+                             f"{DERIVE_ARCHITECTURES}; target <= {allowed:.0f} s " + ("ok" if seconds <= allowed else "MISSED")
+                             + f"; announced {estimate:.0f} s " + ("(within 2x)" if within else "(MISSED 2x)")))
+    return rows
+
+
 def main() -> int:
     sys.path.insert(0, str(ROOT / "bench"))
     py = sys.executable
@@ -258,7 +286,9 @@ def main() -> int:
             seconds, _ = timed([py, "-m", "pipeline", "refit", "--config", "configs/paper.toml", "--set",
                                 "derivation.Q=2", "--out", "bad"], env, expect=2)
             rows.append(("bad config (exit 2)", seconds, None, "target < 1 s"))
-    if os.environ.get("BENCH_TESTS", "1") != "0":
+    if os.environ.get("BENCH_ONLY") in (None, "derive"):
+        rows += derive_rows(py)
+    if os.environ.get("BENCH_TESTS", "1") != "0" and os.environ.get("BENCH_ONLY") != "derive":
         # Twice, on one folder of compiled XLA programs: empty at first (a fresh clone, as CI runs
         # it), then holding the first session's programs (`make test` keeps them between runs).
         with tempfile.TemporaryDirectory() as xla:

@@ -1,4 +1,4 @@
-"""Command line: `pipeline reproduce`, `refit`, `explain`, `graph`, `keys`, `tools`, `cache`, `regress`, `costs`, `compare`, `sweep`.
+"""Command line: `pipeline reproduce`, `refit`, `explain`, `graph`, `keys`, `tools`, `cache`, `regress`, `derive`, `costs`, `compare`, `sweep`.
 
 Exit codes (`pipeline.engine.faults`): 0 every check passes, differs with a documented cause or is
 not comparable; 1 a check failed or a solver did not converge; 2 bad config, arguments or CSV
@@ -11,6 +11,7 @@ importing JAX, sympy or pysindy.
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import multiprocessing.util
 import os
 import sys
@@ -24,6 +25,7 @@ from .publish.compare import CompareError
 from .symbolic import grammar
 from .isa.architectures import ARCHITECTURES
 from .symbolic.regress import DEFAULT_OPERATIONS, RegressError
+from .derive.targets import DeriveError
 
 
 def _print_checks(outcome) -> None:
@@ -146,6 +148,45 @@ def _regress(args) -> int:
               + (f"{m['engine']:<10}  " if engines else "") + m["canonical"]
               + ("   <- selected" if m["selected"] else ""))
     print(f"wrote {out / 'front.csv'} and {out / 'front.png'}; {time.perf_counter() - start:.1f} s")
+    return 0
+
+
+def _derive(args) -> int:
+    from .derive import publish, targets
+    from .derive.engine import derive
+    from .engine.cache import XLA
+    from .isa.machine_code import CompilerMissing
+    from .optics.spirv import ToolMissing
+    from .optics.numerics import use_compilation_cache
+
+    start = time.perf_counter()
+    if (args.target is None) == (args.expr is None):
+        raise targets.DeriveError("give --target NAME (or FILE.toml) or --expr EXPR, one of them")
+    if args.target is not None:
+        target = targets.named(args.target)
+        if args.metric or args.floor is not None:
+            target = dataclasses.replace(target, metric=args.metric or target.metric,
+                                         floor=target.floor if args.floor is None else args.floor)
+        targets.check(target)
+    else:
+        target = targets.from_expression(args.expr, args.var, args.metric or "abs", args.floor or 0.0)
+    gpu = [g.strip() for g in args.gpu.split(",") if g.strip()] if args.gpu else None
+    out = Path(args.out) if args.out else paths.OUTPUTS / "derive" / target.name
+    use_compilation_cache(paths.XLA_CACHE or paths.CACHE / XLA)
+    try:
+        results = derive(target, gpu, args.seconds, args.max_cycles, args.max_complexity)
+    except (CompilerMissing, ToolMissing) as e:
+        print(f"error: the GPU compilers cannot run here: {e}", file=sys.stderr)
+        return faults.EXIT_ENVIRONMENT
+    written = publish.write(out, results)
+    error = results["error"]
+    for a in results["architectures"]:
+        front = sorted((r for r in results["rows"] if r["architecture"] == a and r["on_front"]), key=lambda r: r["cycles"])
+        print(f"{a}: " + ", ".join(f"{r['cycles']:g} cycles {r[error]:.3g} ({r['name']})" for r in front))
+        for name, v in results["verdicts"][a].items():
+            print(f"  {name} ({v['cycles']:g} cycles, {v['error']:.3g}): {v['verdict']}"
+                  + (f" by {v['by']} ({v['ratio']:.3g} of its error)" if v["by"] else ""))
+    print(f"wrote {', '.join(str(p) for p in written)}; {time.perf_counter() - start:.1f} s")
     return 0
 
 
@@ -322,6 +363,22 @@ def _main(argv: list[str] | None) -> int:
                      help=f"architectures (default every one: {', '.join(ARCHITECTURES)})")
     cst.add_argument("--forms", type=int, default=400, metavar="N",
                      help="forms compiled to fit the tables, a quarter held out (default 400)")
+    der = sub.add_parser("derive", help="the cheapest accurate forms of a function a shader approximates, ranked by "
+                                        "compiled cycles per GPU architecture")
+    der.add_argument("--target", default=None, metavar="NAME|FILE.toml",
+                     help="a registered target (schlick, acos, cos_n20) or a TOML file")
+    der.add_argument("--expr", default=None, metavar="EXPR", help="the target as an expression (sympy), e.g. 'atan(x)'")
+    der.add_argument("--var", default="x=0:1", metavar="NAME=LO:HI", help="with --expr: its variable and domain")
+    der.add_argument("--metric", default=None, choices=("abs", "rel"), help="the error measured (default the target's)")
+    der.add_argument("--floor", type=float, default=None, metavar="F",
+                     help="with --metric rel: |f| below F counts as F")
+    der.add_argument("--gpu", default=None, metavar="ARCH[,ARCH...]",
+                     help="architectures (default every one whose compiler runs here)")
+    der.add_argument("--max-cycles", type=float, default=None, metavar="N", help="leave out forms above N cycles")
+    der.add_argument("--seconds", type=float, default=60.0, metavar="S", help="the grammar search's budget (default 60)")
+    der.add_argument("--max-complexity", type=int, default=12, metavar="K",
+                     help="the grammar's largest complexity (default 12)")
+    der.add_argument("--out", default=None, metavar="DIR", help="output folder (default outputs/derive/<target>)")
     cch = sub.add_parser("cache", help="show the cache's size per stage; --prune removes unused entries")
     cch.add_argument("--prune", action="store_true")
     cch.add_argument("--older-than", type=float, default=14.0, metavar="DAYS",
@@ -348,6 +405,9 @@ def _main(argv: list[str] | None) -> int:
         if args.command == "regress":
             faults.raise_on_signals()       # its search runs in this thread
             return _regress(args)
+        if args.command == "derive":
+            faults.raise_on_signals()
+            return _derive(args)
         only = _only(args.only) if args.command in ("explain", "reproduce", "refit") else None
         if args.command == "explain":
             return _explain(load_config(args.config, tuple(args.changes), name="explain"), only)
@@ -358,7 +418,7 @@ def _main(argv: list[str] | None) -> int:
             if args.dry_run:
                 return _explain(config, only)
             baseline_config = load_config(paths.PAPER_CONFIG)
-    except (ConfigError, RegressError, CompareError) as e:
+    except (ConfigError, RegressError, CompareError, DeriveError) as e:
         print(f"error: {e}", file=sys.stderr)
         return faults.EXIT_BAD_INPUT
     # Both folders are checked before anything is computed.

@@ -57,6 +57,11 @@ class Parameters(NamedTuple):
     power: int = 2
 
 
+# The paper's published values (Q of f_Q, the line 0.448 n + 0.099, coef 0.214 (0.807 + n)): the
+# stand-ins of the machine-code stage and the anchors of `pipeline derive`'s cos^n target.
+PAPER = Parameters(Q=0.64, slope=0.448, intercept=0.099, coef_scale=0.214, coef_offset=0.807)
+
+
 class _SympyMath:
     """The few functions `parameter` uses, for sympy (which has no expm1)."""
 

@@ -18,7 +18,7 @@ from ..engine import toolchains
 from ..isa import architectures, machine_code
 from ..optics import registry
 
-CONSTANTS = registry.Parameters(Q=0.64, slope=0.448, intercept=0.099, coef_scale=0.214, coef_offset=0.807)
+CONSTANTS = registry.PAPER
 
 
 def compiled(powers, registry_shaders: bool) -> dict:

@@ -40,17 +40,43 @@ UNIFORM_CONSTANTS = UNIFORM.replace("float n; float k; float rate;", "float c[{c
 MAX_CONSTANTS = 8
 
 
+def _sources(expressions: dict[str, str], template: str) -> dict[str, str]:
+    def shader(body):
+        return template.format(body=body, count=MAX_CONSTANTS)
+    sources = {"expression_none": shader("return t;")}
+    sources.update({f"expression_{i:03d}": shader(f"return {text};") for i, text in enumerate(expressions.values())})
+    return sources
+
+
+def not_kept(expressions: dict[str, str], architectures=ALL, template: str = UNIFORM) -> float:
+    """The share of the shaders `expression_cycles` would compile that no run has kept (0 to 1), over
+    the architectures (for the time a command announces)."""
+    from ..isa.machine_code import _kept_file
+
+    sources = _sources(expressions, template).values()
+    chosen = [ARCHITECTURES[a] for a in architectures]
+    missing = sum(not _kept_file(a.backend, a.chip, source).is_file() for a in chosen for source in sources)
+    return missing / max(1, len(chosen) * len(sources))
+
+
+def calibration_expressions(count: int = CALIBRATION, uniforms: bool = False) -> tuple[list, dict[str, str]]:
+    """The forms `operation_costs` compiles (a fixed seed) and their GLSL."""
+    forms = grammar.enumerate_forms(CALIBRATION_COMPLEXITY, OPERATIONS)
+    rng = np.random.default_rng(SEED)
+    chosen = [forms[i] for i in rng.choice(len(forms), min(count, len(forms)), replace=False)]
+    glsl = {f"form{i:03d}": grammar.glsl(e, rng.uniform(0.5, 1.5, grammar.constants(e)), uniforms="c" if uniforms else "")
+            for i, e in enumerate(chosen)}
+    return chosen, glsl
+
+
 def expression_cycles(expressions: dict[str, str], architectures=ALL,
                       template: str = UNIFORM) -> dict[str, dict[str, float]]:
     """{architecture: {name: cycles}} of each GLSL expression in t (a fragment shader returning it),
     net of the shader returning t, on each architecture whose compiler runs here; 0 for an
     expression without t (it skips the interpolation of t, which a lobe computes anyway). Raises
     CompilerMissing where none runs."""
-    def shader(body):
-        return template.format(body=body, count=MAX_CONSTANTS)
-    sources = {"expression_none": shader("return t;")}
+    sources = _sources(expressions, template)
     names = list(expressions)
-    sources.update({f"expression_{i:03d}": shader(f"return {expressions[name]};") for i, name in enumerate(names)})
     compiled = compile_shaders(sources, dict.fromkeys(sources, "expression_none"), architectures)
     return {architecture: {name: max(round(shaders[f"expression_{i:03d}"]["cycles"], 2), 0.0)
                            for i, name in enumerate(names)}
@@ -80,11 +106,7 @@ def operation_costs(count: int = CALIBRATION, architectures=ALL, uniforms: bool 
     back end runs."""
     from scipy.optimize import nnls
 
-    forms = grammar.enumerate_forms(CALIBRATION_COMPLEXITY, OPERATIONS)
-    rng = np.random.default_rng(SEED)
-    chosen = [forms[i] for i in rng.choice(len(forms), min(count, len(forms)), replace=False)]
-    glsl = {f"form{i:03d}": grammar.glsl(e, rng.uniform(0.5, 1.5, grammar.constants(e)), uniforms="c" if uniforms else "")
-            for i, e in enumerate(chosen)}
+    chosen, glsl = calibration_expressions(count, uniforms)
     measured = expression_cycles(glsl, architectures, UNIFORM_CONSTANTS if uniforms else UNIFORM)
     A = np.array([operation_counts(e) for e in chosen], dtype=float)
     fit = slice(0, 3 * len(chosen) // 4)

@@ -1,0 +1,442 @@
+"""`derive`: the cheapest accurate forms of a target (`targets`), ranked by compiled cycles per GPU
+architecture.
+
+1. Families fitted by minimax directly (`families`).
+2. The grammar's forms (`symbolic.grammar`, the ten operations): enumerated and fitted exhaustively
+   (`symbolic.search`, loss max or max-relative on `SEARCH_POINTS` Chebyshev points) as deep as
+   `EXHAUSTIVE_SHARE` of the budget reaches (`symbolic.regress.exhaustive_reach`), pyoperon to
+   `max_complexity` in the rest (`symbolic.operon`). Each architecture's cost table
+   (`symbolic.gpu_costs`, fitted to `CALIBRATION` compiled forms) predicts every form's cycles;
+   the forms on some architecture's front of predicted cycles against error go on.
+3. Every form, and each anchor and the exact target, measured over the whole domain
+   (`measure.max_error`), compiled for every architecture (`isa.machine_code`, each shader kept
+   on disk), and the front per architecture read off: the forms no other beats at equal or fewer
+   compiled cycles. The grammar's front members are then polished on the whole interval
+   (`minimax.slp`), measured and compiled again, and the fronts read off again.
+4. Each anchor's verdict per architecture, by `verdict`: beaten, matched or missed.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+
+import numpy as np
+
+from . import families, measure, minimax
+from .forms import Form, glsl, predicted_cycles
+from .targets import DeriveError, check, numpy_function
+
+SEARCH_POINTS = 129
+DEFAULT_SECONDS = 60.0
+EXHAUSTIVE_SHARE = 0.5
+OPERON_MIN_SECONDS = 10.0       # pyoperon runs where at least this much of the budget is left
+MAX_COMPLEXITY = 12
+CALIBRATION = 200               # forms compiled per architecture to fit its cost table
+PER_ARCHITECTURE = 24           # grammar forms taken from each architecture's predicted front, at most
+MATCH = 0.01                    # an error within 1 % of an anchor's matches it
+FAMILY_SECONDS = 12.0           # the families' fits, measured on this machine (about 10 s per target)
+
+
+def constant_error(target, f) -> float:
+    """The error of the best constant (minimax, on the measuring grid): a form worth a cycle beats it.
+    abs: (max f - min f) / 2; rel (f of one sign): (max |f| - min |f|) / (max |f| + min |f|), the
+    floor raising min |f|."""
+    values = f(measure.grid(*target.domain))
+    if target.metric == "abs":
+        return float(values.max() - values.min()) / 2
+    if values.min() < 0 < values.max():
+        return 1.0
+    size = np.maximum(np.abs(values), target.floor)
+    return float((size.max() - size.min()) / (size.max() + size.min()))
+
+
+def available_architectures() -> list[str]:
+    """Every architecture whose compiler runs here."""
+    from ..isa.architectures import ARCHITECTURES, CompilerMissing
+    from ..isa.machine_code import backend
+
+    out = []
+    for name in ARCHITECTURES:
+        try:
+            backend(name).check()
+        except (CompilerMissing, OSError, RuntimeError):
+            continue
+        out.append(name)
+    return out
+
+
+FLOAT32 = 2.0 ** -23        # float32's rounding: errors below it (of the target's range, or relative) are equal
+
+
+def rounding_floor(target, constant: float) -> float:
+    """The error below which two forms are equal in a shader (float32 rounding): FLOAT32 of the
+    target's range (abs; the range is twice the best constant's error) or FLOAT32 (rel)."""
+    return FLOAT32 * (2 * constant if target.metric == "abs" else 1.0)
+
+
+def front(rows: list[dict], error: str, floor: float = 0.0) -> list[dict]:
+    """The rows no other beats at equal or fewer cycles: sorted by cycles, each with an error below
+    every cheaper row's (rows of equal cycles: the most accurate one); errors below `floor` count as
+    `floor` (float32 rounding: a form exact to 1e-15 and the exact one are equal)."""
+    ordered = sorted((r for r in rows if np.isfinite(r[error]) and r["cycles"] is not None),
+                     key=lambda r: (r["cycles"], r[error]))
+    out, best = [], math.inf
+    for r in ordered:
+        if max(r[error], floor) < best:
+            out.append(r)
+            best = max(r[error], floor)
+    return out
+
+
+def verdict(anchor_cycles: float, anchor_error: float, found: list[dict], error: str, floor: float = 0.0) -> dict:
+    """How the found front places an anchor: the most accurate found form at no more cycles, and
+    `beaten` (its error below the anchor's by more than MATCH), `matched` (within MATCH) or
+    `missed` (none as accurate at no more cycles; `ratio` says by how much); errors below `floor`
+    count as `floor`."""
+    cheaper = [r for r in found if r["cycles"] <= anchor_cycles and np.isfinite(r[error])]
+    if not cheaper:
+        return dict(verdict="missed", ratio=math.inf, by=None)
+    best = min(cheaper, key=lambda r: r[error])
+    ratio = max(best[error], floor) / max(anchor_error, floor) if max(anchor_error, floor) > 0 else 1.0
+    word = "beaten" if ratio < 1 - MATCH else "matched" if ratio <= 1 + MATCH else "missed"
+    return dict(verdict=word, ratio=float(ratio), by=best["name"])
+
+
+def _grammar_search(target, f, seconds: float, max_complexity: int, log) -> tuple[list[Form], dict, dict]:
+    """The grammar's forms (module docstring, step 2): (candidates with their search loss, the
+    search's coverage, {form name: (tree, constants)})."""
+    from ..symbolic import grammar, regress, search
+
+    lo, hi = target.domain
+    x = minimax.chebyshev_points(lo, hi, SEARCH_POINTS)
+    y = f(x)
+    loss = "max-relative" if target.metric == "rel" and target.floor == 0 else "max"
+    ops = grammar.TEN
+    reach = regress.exhaustive_reach(1, y.size, max_complexity, ops, EXHAUSTIVE_SHARE * seconds)
+    started = time.perf_counter()
+    trees, fitted, losses = [], [], []
+    coverage = dict(operations=list(ops), loss=loss, points=int(y.size), exhaustive_complexity=int(reach),
+                    exhaustive_forms=0, operon_seconds=0.0, operon_models=0, max_complexity=int(max_complexity))
+    if reach:
+        forms = grammar.enumerate_forms(reach, ops, 1)
+        log(f"grammar: every form of the ten operations to complexity {reach} ({len(forms)} forms), loss {loss}")
+        found = search.search(x, y, reach, ops, loss=loss, forms=forms, progress=lambda s: log("  " + s))
+        coverage["exhaustive_forms"] = len(forms)
+        trees = list(found["forms"])
+        fitted = [found["constants"][i][:found["constant_count"][i]] for i in range(len(trees))]
+        losses = list(found["loss"])
+    left = seconds - (time.perf_counter() - started)
+    if reach < max_complexity and left >= OPERON_MIN_SECONDS:
+        from ..symbolic import operon
+
+        log(f"grammar: pyoperon to complexity {max_complexity} for {left:.0f} s")
+        models = operon.operon_models(x, y, max_complexity, ops, 0, seconds=left, generations=operon.GENERATIONS_TIMED)
+        for tree, c, value, _ in operon.polished(models, x, y, 0, loss=loss):
+            trees.append(tree)
+            fitted.append(np.asarray(c))
+            losses.append(value)
+        coverage.update(operon_seconds=round(left, 1), operon_models=len(models))
+    coverage["seconds"] = round(time.perf_counter() - started, 1)
+    return trees, fitted, np.array(losses, dtype=float), coverage
+
+
+def _code_version() -> str:
+    import hashlib
+    from pathlib import Path
+
+    here = Path(__file__).parent
+    files = sorted(here.glob("*.py")) + sorted((here.parent / "symbolic").glob("*.py"))
+    return hashlib.sha256(b"".join(f.read_bytes() for f in files)).hexdigest()
+
+
+def _kept_search(target, seconds: float, max_complexity: int):
+    """The file that keeps the search of a target under a budget (`_searched`)."""
+    import hashlib
+    import json
+
+    from ..engine import paths
+
+    key = json.dumps([_code_version(), target.expression, target.variable, list(target.domain), target.metric,
+                      target.floor, seconds, max_complexity])
+    return paths.DERIVE_CACHE / f"{hashlib.sha256(key.encode()).hexdigest()[:32]}.json"
+
+
+def _searched(target, f, seconds: float, max_complexity: int, log):
+    """(the families' members, the grammar's trees, constants, losses and coverage): kept in
+    `paths.DERIVE_CACHE` by the target, the budget and this code, so that a rerun (another --gpu,
+    --max-cycles) skips the search; an entry that cannot be read is searched again."""
+    import json
+    import os
+
+    import sympy as sp
+
+    kept = _kept_search(target, seconds, max_complexity)
+    symbol = target.symbol()
+    try:
+        entry = json.loads(kept.read_text())
+        found = [Form(m["name"], m["kind"], m["family"], sp.sympify(m["expression"], locals={target.variable: symbol}),
+                     m["source"], m["converged"]) for m in entry["families"]]
+
+        def tree(node):
+            return tuple(tree(a) if isinstance(a, list) else a for a in node)
+
+        trees = [tree(t) for t in entry["trees"]]
+        fitted = [np.array(c, dtype=float) for c in entry["constants"]]
+        losses = np.array([float(v) for v in entry["losses"]], dtype=float)
+        log(f"the search of an earlier run, kept in {kept.parent} (families, grammar to complexity "
+            f"{entry['coverage']['exhaustive_complexity']})")
+        return found, trees, fitted, losses, entry["coverage"] | dict(kept=True)
+    except (OSError, ValueError, KeyError, TypeError, sp.SympifyError):
+        pass
+    log("families (minimax):")
+    found = families.fit_families(target, f, lambda s: log(s))
+    trees, fitted, losses, coverage = _grammar_search(target, f, seconds, max_complexity, log)
+    entry = dict(families=[dict(name=m.name, kind=m.kind, family=m.family, expression=sp.srepr(m.expression),
+                                source=m.source, converged=m.converged) for m in found],
+                 trees=trees, constants=[np.asarray(c, dtype=float).tolist() for c in fitted],
+                 losses=[repr(float(v)) for v in losses], coverage=coverage)
+    kept.parent.mkdir(parents=True, exist_ok=True)
+    partial = kept.with_suffix(f".{os.getpid()}.tmp")
+    partial.write_text(json.dumps(entry))
+    os.replace(partial, kept)
+    return found, trees, fitted, losses, coverage | dict(kept=False)
+
+
+def _select(trees, losses, tables: dict) -> list[int]:
+    """The forms on some architecture's front of predicted cycles (its cost table) against the
+    search's loss, at most PER_ARCHITECTURE each."""
+    from ..symbolic import gpu_costs
+
+    from ..symbolic import grammar
+
+    counts = np.array([gpu_costs.operation_counts(t) for t in trees], dtype=float)
+    variable = np.array([grammar.X in _leaves(t) for t in trees])       # (a constant approximates nothing)
+    chosen: set[int] = set()
+    for table in tables.values():
+        cost = counts @ np.array([table[op] for op in gpu_costs.OPERATIONS])
+        order = np.lexsort((losses, cost))
+        best, picked = math.inf, []
+        for i in order:
+            if variable[i] and np.isfinite(losses[i]) and losses[i] < best * (1 - 1e-9):
+                picked.append(int(i))
+                best = losses[i]
+        chosen.update(picked[-PER_ARCHITECTURE:])        # (the most accurate end)
+    return sorted(chosen)
+
+
+def _leaves(tree) -> set:
+    return {tree} if len(tree) == 1 else set().union(*(_leaves(a) for a in tree[1:]))
+
+
+def _polish(tree, c, target, f, weight) -> np.ndarray:
+    """A grammar form's constants, minimax on the whole interval from c (finite differences)."""
+    from ..symbolic import grammar
+
+    lo, hi = target.domain
+
+    def model(c_, s):
+        return grammar.evaluate_numpy(tree, c_, s)
+
+    def jacobian(c_, s):
+        columns = []
+        for j in range(c_.size):
+            h = 1e-7 * (abs(c_[j]) + 1e-7)
+            up, down = c_.copy(), c_.copy()
+            up[j] += h
+            down[j] -= h
+            columns.append((model(up, s) - model(down, s)) / (2 * h))
+        return np.stack(columns, axis=1)
+
+    if len(c) == 0:
+        return np.asarray(c, dtype=float)
+    polished, _ = minimax.slp(model, jacobian, np.asarray(c, dtype=float), f, weight, lo, hi, steps=40, exchanges=2)
+    return polished
+
+
+def _measure(form: Form, target, f) -> dict:
+    lo, hi = target.domain
+    return measure.max_error(numpy_function(form.expression, target.symbol()), f, lo, hi, target.floor)
+
+
+def _compile(forms: list[Form], architectures, log) -> tuple[dict, dict]:
+    """({architecture: {form name: cycles}}, {vendor: why not}) of every form (an exact target whose
+    functions no back end lowers is left out where it fails)."""
+    from ..isa.machine_code import CompilerMissing
+    from ..isa.architectures import ARCHITECTURES, vendor_groups
+    from ..symbolic.gpu_costs import expression_cycles
+
+    cycles: dict = {a: {} for a in architectures}
+    missing: dict = {}
+    plain = {m.name: glsl(m.expression, "t") for m in forms if m.kind != "exact"}
+    if plain:
+        try:
+            found = expression_cycles(plain, architectures)
+        except CompilerMissing:
+            raise
+        except Exception:           # one form a back end cannot lower: each alone, that one left out
+            found = {}
+            for name, text in plain.items():
+                try:
+                    for a, values in expression_cycles({name: text}, architectures).items():
+                        found.setdefault(a, {}).update(values)
+                except CompilerMissing:
+                    raise
+                except Exception as e:
+                    missing[name] = str(e).splitlines()[0][:200]
+        for a, values in found.items():
+            cycles[a].update(values)
+        for a in architectures:
+            if a not in found:
+                missing[ARCHITECTURES[a].vendor] = "its compiler did not run"
+    for m in (m for m in forms if m.kind == "exact"):
+        try:
+            text = glsl(m.expression, "t")
+        except Exception as e:          # a function sympy's GLSL printer does not know
+            missing["exact"] = f"{m.expression} has no GLSL form ({type(e).__name__})"
+            continue
+        for vendor, names in vendor_groups(list(architectures)):
+            try:
+                for a, values in expression_cycles({m.name: text}, names).items():
+                    cycles[a].update(values)
+            except (CompilerMissing, Exception) as e:   # (an operation the vendor's lowering lacks)
+                missing[f"exact on {vendor}"] = str(e).splitlines()[0][:200]
+    return cycles, missing
+
+
+def derive(target, gpu=None, seconds: float = DEFAULT_SECONDS, max_cycles: float | None = None,
+           max_complexity: int = MAX_COMPLEXITY, log=print) -> dict:
+    """The derivation of the module docstring for a checked `target` on the architectures `gpu`
+    (names; default every one whose compiler runs here). Returns the results (`results.json`'s
+    content) with the forms' rows."""
+    from ..isa.architectures import ARCHITECTURES
+    from ..isa.machine_code import CompilerMissing, estimate_seconds
+    from ..symbolic import gpu_costs, grammar, regress
+    from ..symbolic.grammar import TEN
+
+    check(target)
+    if not (math.isfinite(seconds) and 5 <= seconds <= 3600):
+        raise DeriveError(f"--seconds {seconds:g}: give a number in [5, 3600]")
+    if max_cycles is not None and not (math.isfinite(max_cycles) and max_cycles > 0):
+        raise DeriveError(f"--max-cycles {max_cycles:g}: give a number > 0")
+    if not 1 <= max_complexity <= regress.MAX_COMPLEXITY:
+        raise DeriveError(f"--max-complexity {max_complexity}: give an integer in [1, {regress.MAX_COMPLEXITY}]")
+    if gpu is None:
+        architectures = available_architectures()
+        if not architectures:
+            raise CompilerMissing("no GPU compiler runs here (make installs Mesa's RADV, NVIDIA's ptxas, Intel's ocloc)")
+    else:
+        unknown = [a for a in gpu if a not in ARCHITECTURES]
+        if unknown or not gpu:
+            raise DeriveError(f"--gpu {unknown[0] if unknown else ''!r}: give architectures among {', '.join(ARCHITECTURES)}")
+        architectures = list(dict.fromkeys(gpu))
+    started = time.perf_counter()
+    f = target.numpy()
+    reach = regress.exhaustive_reach(1, SEARCH_POINTS, max_complexity, TEN, EXHAUSTIVE_SHARE * seconds)
+    forms_count = len(grammar.enumerate_forms(reach, TEN, 1)) if reach else 0
+    search_estimate = regress.estimate_seconds(forms_count, SEARCH_POINTS, ops=TEN) if reach else 0.0
+    operon_estimate = max(seconds - search_estimate, 0.0) if reach < max_complexity and \
+        seconds - search_estimate >= OPERON_MIN_SECONDS else 0.0
+    # (the calibration's shaders that no run kept, and the forms, about three architectures' fronts)
+    calibration = gpu_costs.not_kept(gpu_costs.calibration_expressions(CALIBRATION)[1], architectures)
+    compile_estimate = estimate_seconds(CALIBRATION * calibration + 3 * PER_ARCHITECTURE, architectures)
+    estimate = compile_estimate + (0.0 if _kept_search(target, seconds, max_complexity).is_file() else
+                                   FAMILY_SECONDS + search_estimate + operon_estimate)
+    log(f"{target.name}: {target.expression} on [{target.domain[0]:g}, {target.domain[1]:g}], error {target.metric}; "
+        f"{len(architectures)} architecture{'s' * (len(architectures) > 1)}; about {estimate:.0f} s")
+
+    found, trees, fitted, losses, coverage = _searched(target, f, seconds, max_complexity, log)
+    log(f"cost tables: {CALIBRATION} forms compiled per architecture")
+    tables = gpu_costs.operation_costs(CALIBRATION, architectures)["tables"]
+    chosen = _select(trees, losses, tables)
+    symbol = target.symbol()
+    grammar_forms = {}
+    for k, i in enumerate(chosen):
+        name = f"grammar_{k + 1}"
+        grammar_forms[name] = (trees[i], np.asarray(fitted[i], dtype=float))
+        found.append(Form(name, "found", "grammar", grammar.to_sympy(trees[i], fitted[i], symbol),
+                          f"grammar: {grammar.show(trees[i], target.variable)}"))
+    anchors = [Form(a.name, "anchor", "anchor", expr, a.source)
+               for a, expr in zip(target.anchors, target.anchor_expressions().values())]
+    exact = Form("exact", "exact", "exact", target.sympy(), "the target itself")
+    everything = found + anchors + [exact]
+    log(f"measuring {len(everything)} forms over the whole domain and compiling them for {len(architectures)} "
+        "architectures")
+    errors = {m.name: _measure(m, target, f) for m in everything}
+    cycles, missing = _compile(everything, architectures, log)
+    error_key = "max_abs_error" if target.metric == "abs" else "max_rel_error"
+
+    baseline = constant_error(target, f)
+    floor = rounding_floor(target, baseline)
+
+    def rows_of(a):
+        return [dict(name=m.name, cycles=cycles[a].get(m.name), **errors[m.name]) for m in found
+                if m.name in cycles[a] and (max_cycles is None or cycles[a][m.name] <= max_cycles)
+                and errors[m.name][error_key] < baseline]
+
+    # the grammar's front members polished on the whole interval, measured and compiled again
+    on_fronts = {r["name"] for a in architectures for r in front(rows_of(a), error_key, floor)}
+    weight = families.weight_of(target, f)
+    polished = []
+    for m in found:
+        if m.family == "grammar" and m.name in on_fronts:
+            tree, c = grammar_forms[m.name]
+            better = _polish(tree, c, target, f, weight)
+            candidate = Form(m.name, "found", "grammar", grammar.to_sympy(tree, better, symbol), m.source)
+            measured = _measure(candidate, target, f)
+            if measured[error_key] < errors[m.name][error_key]:
+                errors[m.name] = measured
+                m.expression = candidate.expression
+                polished.append(m)
+    if polished:
+        again, _ = _compile(polished, architectures, log)
+        for a in architectures:
+            cycles[a].update(again.get(a, {}))
+    log(f"polished {len(polished)} grammar front members on the whole interval")
+
+    forms_by_name = {m.name: m for m in everything}
+    rows, fronts, verdicts = [], {}, {}
+    for a in architectures:
+        table = tables.get(a, {})
+        best = front(rows_of(a), error_key, floor)
+        fronts[a] = [r["name"] for r in best]
+        for m in everything:
+            if m.name not in cycles[a]:
+                continue
+            if m.kind == "found" and m.name not in fronts[a]:
+                continue
+            rows.append(dict(architecture=a, kind=m.kind, name=m.name, family=m.family, expression=_text(m, target),
+                             cycles=cycles[a][m.name], cycles_predicted=_predicted(m, table),
+                             max_abs_error=errors[m.name]["max_abs_error"], max_rel_error=errors[m.name]["max_rel_error"],
+                             on_front=m.name in fronts[a], source=m.source))
+        verdicts[a] = {m.name: dict(cycles=cycles[a][m.name], error=errors[m.name][error_key],
+                                    **verdict(cycles[a][m.name], errors[m.name][error_key], best, error_key, floor))
+                       for m in anchors if m.name in cycles[a]}
+    elapsed = time.perf_counter() - started
+    log(f"done in {elapsed:.0f} s (estimated {estimate:.0f} s)")
+    return dict(target=dict(name=target.name, expression=target.expression, variable=target.variable,
+                            domain=list(target.domain), metric=target.metric, floor=target.floor,
+                            description=target.description,
+                            anchors=[dict(name=a.name, expression=a.expression, source=a.source) for a in target.anchors]),
+                architectures=architectures, missing=missing, coverage=coverage,
+                families=sorted({m.family for m in found if m.family != "grammar"}),
+                family_members=[m.name for m in found if m.family != "grammar"],
+                fronts=fronts, verdicts=verdicts, rows=rows, error=error_key,
+                constant_error=baseline, rounding_floor=floor, cost_tables=tables, seconds=round(elapsed, 1), estimated_seconds=round(estimate, 1),
+                members={m.name: dict(kind=m.kind, family=m.family, source=m.source, converged=m.converged,
+                                      expression=_text(m, target), **errors[m.name])
+                         for m in everything if m.kind != "found" or any(m.name in fr for fr in fronts.values())},
+                forms=forms_by_name)
+
+
+def _text(m: Form, target) -> str:
+    import sympy as sp
+
+    return sp.sstr(sp.N(m.expression, 9)) if m.kind != "exact" else target.expression
+
+
+def _predicted(m: Form, table) -> float | None:
+    if not table:
+        return None
+    value = predicted_cycles(m.expression, table)
+    return None if value is None else round(value, 2)

@@ -1,0 +1,226 @@
+"""A derived form as a shader and a Python twin print it, and what its operations are predicted to
+cost.
+
+Every form is one sympy expression in the target's variable with its constants as numbers. Before
+printing, exp(a) becomes exp2(a log2(e)) with the factor folded into a's constants (what a GPU
+computes: its transcendental unit has exp2 and log2), and the numbers are evaluated to 17 digits.
+The printers write 2^a as exp2(a), a^(1/2) as sqrt(a), a^(-1/2) as inversesqrt(a) (rsqrt in HLSL),
+a^-1 as 1.0 / a, an integer power up to `SQUARINGS_MAX` by squarings and multiplies (x^5 =
+((x x)(x x)) x: the repeated product is computed once by the compiler), any other power as
+pow(a, b).
+
+`predicted_cycles(expr, table)` sums an architecture's cost table (`symbolic.gpu_costs`: cycles
+of each of the grammar's ten operations) over the form's operations, each repeated subexpression
+counted once: + and - as +, a product of k factors as k - 1 multiplies, exp2 and exp as exp, log2
+and log as log, 1/a as /, squarings as multiplies, max and min as + (a compare and a select), a
+general power as pow. None where the form calls a function the table does not cost (acos, erf).
+"""
+
+from __future__ import annotations
+
+import math
+
+import sympy as sp
+from sympy.printing.c import C99CodePrinter
+from sympy.printing.glsl import GLSLPrinter
+from sympy.printing.pycode import PythonCodePrinter
+
+SQUARINGS_MAX = 64
+DIGITS = 17
+
+
+def gpu_form(expr):
+    """expr with exp(a) written exp2(a log2 e) (the factor folded into a's numbers), evaluated to
+    numbers of 17 digits."""
+    log2e = sp.Float(1 / math.log(2), DIGITS)
+    # (the exponent held unevaluated: sympy would split 2^(a + b) into 2^b 2^a)
+    expr = expr.replace(sp.exp, lambda a: sp.Pow(sp.Integer(2), sp.UnevaluatedExpr(sp.expand_mul(a * log2e)),
+                                                 evaluate=False))
+    return sp.N(expr, DIGITS)
+
+
+def _integer(e) -> int | None:
+    if e.is_Integer or (e.is_Float and float(e).is_integer()):
+        return int(e)
+    return None
+
+
+def _is(value, e) -> bool:
+    return e.is_Number and float(e) == value
+
+
+def _squarings(base: str, k: int) -> str:
+    if k == 1:
+        return base
+    half = _squarings(base, k // 2)
+    square = f"({half} * {half})"
+    return square if k % 2 == 0 else f"({square} * {base})"
+
+
+class _Powers:
+    """The shared printing of powers (module docstring)."""
+
+    exp2 = "exp2({})"
+    rsqrt = "inversesqrt({})"
+    one = "1.0"
+
+    def _print_Pow(self, expr):
+        base, e = expr.base, expr.exp
+        if _is(2, base):
+            return self.exp2.format(self._print(e))
+        b = self.parenthesize(base, 100)
+        if _is(0.5, e):
+            return f"sqrt({self._print(base)})"
+        if _is(-0.5, e):
+            return self.rsqrt.format(self._print(base))
+        k = _integer(e)
+        if k is not None and 1 <= abs(k) <= SQUARINGS_MAX:
+            product = _squarings(b, abs(k))
+            return product if k > 0 else f"({self.one} / {product})"
+        return f"pow({self._print(base)}, {self._print(e)})"
+
+    def _print_Integer(self, expr):
+        return f"{int(expr)}.0"
+
+    def _print_Float(self, expr):
+        return repr(float(expr))
+
+    def _print_Rational(self, expr):
+        return repr(float(expr))
+
+    def _min_max(self, expr, name):
+        args = [self._print(a) for a in expr.args]
+        text = args[0]
+        for a in args[1:]:
+            text = f"{name}({text}, {a})"
+        return text
+
+    def _print_Max(self, expr):
+        return self._min_max(expr, "max")
+
+    def _print_Min(self, expr):
+        return self._min_max(expr, "min")
+
+
+class _GLSL(_Powers, GLSLPrinter):
+    pass
+
+
+class _HLSL(_Powers, C99CodePrinter):
+    rsqrt = "rsqrt({})"
+
+
+class _Python(_Powers, PythonCodePrinter):
+    exp2 = "2.0 ** ({})"
+    rsqrt = "1.0 / math.sqrt({})"
+
+    def _print_Pow(self, expr):
+        base, e = expr.base, expr.exp
+        if _is(0.5, e):
+            return f"math.sqrt({self._print(base)})"
+        return _Powers._print_Pow(self, expr)
+
+    def _min_max(self, expr, name):
+        return f"{name}({', '.join(self._print(a) for a in expr.args)})"
+
+
+def _rename(expr, variable: str):
+    (symbol,) = expr.free_symbols or {sp.Symbol(variable, real=True)}
+    return expr.subs(symbol, sp.Symbol(variable, real=True))
+
+
+def glsl(expr, variable: str = "x") -> str:
+    """The form as a GLSL expression in the float `variable` (module docstring)."""
+    return _GLSL().doprint(gpu_form(_rename(expr, variable)))
+
+
+def hlsl(expr, variable: str = "x") -> str:
+    """The form as an HLSL expression in the float `variable`."""
+    return _HLSL().doprint(gpu_form(_rename(expr, variable)))
+
+
+def python(expr, variable: str = "x") -> str:
+    """The form as a Python expression (the math module) in `variable`."""
+    return _Python().doprint(gpu_form(_rename(expr, variable)))
+
+
+FUNCTION_OPERATIONS = {sp.exp: "exp", sp.log: "log"}
+
+
+def operation_counts(expr) -> dict[str, int] | None:
+    """How many of each of the grammar's ten operations the form computes (module docstring), or
+    None where it calls a function outside them."""
+    counts: dict[str, int] = {}
+    seen: set = set()
+
+    def add(op, k=1):
+        counts[op] = counts.get(op, 0) + k
+
+    def walk(e) -> bool:
+        if e.is_Atom or e in seen:
+            return True
+        seen.add(e)
+        if isinstance(e, sp.UnevaluatedExpr):
+            pass
+        elif isinstance(e, sp.Add):
+            add("+", len(e.args) - 1)
+        elif isinstance(e, sp.Mul):
+            factors = [a for a in e.args if not _is(-1, a)]
+            add("*", len(factors) - 1)
+        elif isinstance(e, (sp.Max, sp.Min)):
+            add("+", len(e.args) - 1)
+        elif isinstance(e, sp.Pow):
+            base, p = e.base, e.exp
+            k = _integer(p)
+            if _is(2, base):
+                add("exp")
+            elif _is(0.5, p):
+                add("sqrt")
+            elif _is(-0.5, p):
+                add("sqrt")
+                add("/")
+            elif k == 2:
+                add("square")
+            elif k == 3:
+                add("cube")
+            elif k == -1:
+                add("/")
+            elif k is not None and 1 <= abs(k) <= SQUARINGS_MAX:
+                add("*", abs(k).bit_length() - 1 + bin(abs(k)).count("1") - 1)
+                if k < 0:
+                    add("/")
+            else:
+                add("pow")
+        elif type(e) in FUNCTION_OPERATIONS:
+            add(FUNCTION_OPERATIONS[type(e)])
+        else:
+            return False
+        return all(walk(a) for a in e.args)
+
+    return counts if walk(gpu_form(expr)) else None
+
+
+def predicted_cycles(expr, table: dict[str, float]) -> float | None:
+    """The form's cycles predicted by an architecture's cost table (module docstring)."""
+    counts = operation_counts(expr)
+    if counts is None:
+        return None
+    return float(sum(table.get(op, math.nan) * k for op, k in counts.items()))
+
+
+import dataclasses
+
+
+@dataclasses.dataclass
+class Form:
+    """One approximation of a target: its `name` (polynomial_3, grammar_7, an anchor's name,
+    exact), `kind` (found, anchor or exact), `family` (polynomial, polynomial_sqrt,
+    exp2_polynomial, rational, grammar, anchor, exact), its sympy `expression` in the target's
+    variable, where it comes from (`source`), and whether its fit converged."""
+
+    name: str
+    kind: str
+    family: str
+    expression: object
+    source: str = ""
+    converged: bool = True

@@ -1,0 +1,222 @@
+"""What `pipeline derive` writes into its folder, all at once (`engine.publishing`: a temporary
+folder renamed into place, so that a failure leaves nothing half written):
+
+- `front.csv`: per architecture, its front's forms (kind `found`), every anchor (`anchor`) and the
+  target itself (`exact`) where it compiles: architecture, kind, name, family, expression,
+  cycles, cycles_predicted, max_abs_error, max_rel_error, on_front, source;
+- `results.json`: the target, the search's coverage, the fronts, each anchor's verdict per
+  architecture, the cost tables, the times (estimated and measured), the members' errors;
+- `report.md`: the same in words and tables, every number a field of results.json;
+- `front.png`: error against compiled cycles, one panel per vendor (its first architecture);
+- `derive.glsl`, `derive.hlsl`, `derive_twin.py`: each front member as a function of the
+  target's variable, and its Python twin.
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import math
+import re
+from pathlib import Path
+
+from .forms import glsl, hlsl, python
+
+COLUMNS = ("architecture", "kind", "name", "family", "expression", "cycles", "cycles_predicted", "max_abs_error",
+           "max_rel_error", "on_front", "source")
+
+
+def function_name(target_name: str, member: str) -> str:
+    return re.sub(r"\W", "_", f"{target_name}_{member}")
+
+
+def exported(results) -> list[str]:
+    """The members exported as shader functions: every front's, in order of first appearance."""
+    names = []
+    for members in results["fronts"].values():
+        names += [m for m in members if m not in names]
+    return names
+
+
+def shader_sources(results) -> dict[str, str]:
+    """derive.glsl, derive.hlsl and derive_twin.py as text."""
+    target = results["target"]
+    v = target["variable"]
+    head = [f"// Forms of {target['expression']} on [{target['domain'][0]:g}, {target['domain'][1]:g}] found by "
+            f"pipeline derive (error {target['metric']}, measured in float64 over the whole domain)", ""]
+    glsl_lines, hlsl_lines = list(head), list(head)
+    py = [f'"""Python twin of derive.glsl: the forms of {target["expression"]}, for tests and plots."""', "",
+          "import math  # noqa: F401", "", ""]
+    for name in exported(results):
+        form = results["forms"][name]
+        m = results["members"][name]
+        doc = f"{m['expression']}: max abs error {m['max_abs_error']:.4g}, max rel error {m['max_rel_error']:.4g}"
+        fn = function_name(target["name"], name)
+        for lines, text in ((glsl_lines, glsl(form.expression, v)), (hlsl_lines, hlsl(form.expression, v))):
+            lines += [f"// {doc}", f"float {fn}(float {v})", "{", f"    return {text};", "}", ""]
+        py += [f"def {fn}({v}):", f'    """{doc}"""', f"    return {python(form.expression, v)}", "", ""]
+    return {"derive.glsl": "\n".join(glsl_lines), "derive.hlsl": "\n".join(hlsl_lines),
+            "derive_twin.py": "\n".join(py).rstrip() + "\n"}
+
+
+def _number(v):
+    if v is None:
+        return ""
+    if isinstance(v, float):
+        return "inf" if math.isinf(v) else f"{v:.6g}"
+    return v
+
+
+def write_csv(path: Path, rows) -> None:
+    with open(path, "w", newline="") as f:
+        writer = csv.writer(f)
+        writer.writerow(COLUMNS)
+        for r in rows:
+            writer.writerow([_number(r[c]) for c in COLUMNS])
+
+
+def _json_value(v):
+    if isinstance(v, float) and not math.isfinite(v):
+        return None if math.isnan(v) else ("inf" if v > 0 else "-inf")
+    if isinstance(v, dict):
+        return {k: _json_value(x) for k, x in v.items()}
+    if isinstance(v, (list, tuple)):
+        return [_json_value(x) for x in v]
+    return v
+
+
+def results_json(results) -> dict:
+    """results.json's content: the results without the sympy forms (their text is in `members`)."""
+    return _json_value({k: v for k, v in results.items() if k != "forms"})
+
+
+def _error_text(v) -> str:
+    return "inf" if v is None or isinstance(v, str) or math.isinf(v) else f"{v:.3g}"
+
+
+def report(results) -> str:
+    """report.md: every number from `results` (results.json's fields)."""
+    from ..isa.architectures import ARCHITECTURES
+    from ..isa.machine_code import backend
+
+    t, c = results["target"], results["coverage"]
+    error = results["error"]
+    measure = "largest absolute error" if error == "max_abs_error" else "largest relative error"
+    lines = [f"# pipeline derive: {t['name']}", "",
+             f"Target: `{t['expression']}` for {t['variable']} in [{t['domain'][0]:g}, {t['domain'][1]:g}]"
+             + (f" ({t['description']})" if t["description"] else "") + f"; ranked by the {measure} over the whole "
+             "domain (float64, grid and refinement), against cycles compiled for each architecture.", "",
+             "## What the search covered", "",
+             f"- Families fitted by minimax on the whole interval: {', '.join(results['families'])} "
+             f"({len(results['family_members'])} members: {', '.join(results['family_members'])}).",
+             f"- The grammar's ten operations ({' '.join(c['operations'])}): every form to complexity "
+             f"{c['exhaustive_complexity']} ({c['exhaustive_forms']} forms, loss {c['loss']} on {c['points']} points)"
+             + (f"; pyoperon to complexity {c['max_complexity']} for {c['operon_seconds']} s ({c['operon_models']} models)"
+                if c["operon_models"] else "; pyoperon did not run (the budget left less than its minimum)")
+             + f"; {c['seconds']} s. Not searched: min, max and saturate, and forms above complexity "
+             f"{c['max_complexity']}.",
+             f"- Time: {results['seconds']} s measured, {results['estimated_seconds']} s estimated before the start.", ""]
+    if results["missing"]:
+        lines += ["Not compiled: " + "; ".join(f"{k}: {v}" for k, v in results["missing"].items()) + ".", ""]
+    lines += ["## The anchors", "", "| architecture | anchor | cycles | error | verdict | by | error ratio |",
+              "|---|---|---|---|---|---|---|"]
+    for a, verdicts in results["verdicts"].items():
+        for name, v in verdicts.items():
+            ratio = "-" if v["ratio"] is None or math.isinf(v["ratio"]) else f"{v['ratio']:.3g}"
+            by = f"{v['by']}: `{results['members'][v['by']]['expression']}`" if v["by"] else "-"
+            lines.append(f"| {a} | {name} | {v['cycles']:g} | {_error_text(v['error'])} | {v['verdict']} | {by} | "
+                         f"{ratio} |")
+    lines += ["", "A verdict compares the anchor with the most accurate found form at no more cycles on that "
+              "architecture: beaten (its error lower by more than 1 %), matched (within 1 %), missed.", ""]
+    for a in results["architectures"]:
+        rows = [r for r in results["rows"] if r["architecture"] == a]
+        unit = backend(a).UNIT
+        lines += [f"## {a} ({ARCHITECTURES[a].title}): {unit}", "",
+                  "| kind | name | cycles | predicted | max abs error | max rel error | expression |",
+                  "|---|---|---|---|---|---|---|"]
+        for r in sorted(rows, key=lambda r: (r["cycles"], r[error])):
+            predicted = "-" if r["cycles_predicted"] is None else f"{r['cycles_predicted']:g}"
+            lines.append(f"| {r['kind']} | {r['name']} | {r['cycles']:g} | {predicted} | "
+                         f"{_error_text(r['max_abs_error'])} | {_error_text(r['max_rel_error'])} | `{r['expression']}` |")
+        lines.append("")
+    lines += ["## Limits", "",
+              "- Errors are those of each expression in float64; a shader computes in float32, whose rounding "
+              "(about 1e-7 relative) is not included; on the fronts and in the verdicts, errors below "
+              f"{results['rounding_floor']:.3g} (float32's rounding of the target's range) count as equal.",
+              "- Cycles are each vendor's cost model of the machine code Mesa's, NVIDIA's or Intel's compilers "
+              "make here, net of a shader returning the variable; `cycles_predicted` sums the architecture's "
+              "cost table over the form's operations.", ""]
+    return "\n".join(lines)
+
+
+def figure(path: Path, results) -> None:
+    """front.png: per vendor (its first architecture), error against cycles, log error axis: the
+    found front joined, each anchor labelled, the exact target as a dashed line at its cycles;
+    errors below float32's rounding (`engine.rounding_floor`) drawn at it."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from ..isa.architectures import vendor_groups
+    from ..isa.machine_code import backend
+
+    error = results["error"]
+    floor = results["rounding_floor"]
+    shown = [names[0] for _, names in vendor_groups(results["architectures"])]
+    columns = min(3, len(shown))
+    lines = math.ceil(len(shown) / columns)
+    fig, axes = plt.subplots(lines, columns, figsize=(5.0 * columns, 3.9 * lines + 0.6), squeeze=False)
+    t = results["target"]
+    for ax in axes.flat[len(shown):]:
+        ax.axis("off")
+    for ax, a in zip(axes.flat, shown):
+        rows = [r for r in results["rows"] if r["architecture"] == a]
+        found = sorted((r for r in rows if r["kind"] == "found" and math.isfinite(r[error])), key=lambda r: r["cycles"])
+        values = [max(r[error], floor) for r in found]
+        ax.step([r["cycles"] for r in found], values, where="post", color="C0", lw=1.2, alpha=0.6)
+        ax.plot([r["cycles"] for r in found], values, "o", color="C0", ms=5, label="found: the front")
+        anchors: dict = {}          # anchors at one point share one label (Lagarde's is Eberly's degree 1)
+        for r in (r for r in rows if r["kind"] == "anchor"):
+            anchors.setdefault((r["cycles"], float(f"{max(r[error], floor):.3g}")), []).append(r["name"])
+        for k, ((cycles, value), names) in enumerate(anchors.items()):
+            ax.plot(cycles, value, "s", color="C3", ms=7, label="anchors: the engines' fits" if k == 0 else None)
+            ax.annotate(" = ".join(names), (cycles, value), textcoords="offset points", xytext=(6, 4), fontsize=8,
+                        color="C3")
+        for r in (r for r in rows if r["kind"] == "exact"):
+            ax.axvline(r["cycles"], color="0.4", ls="--", lw=1, label="the target itself (its cycles)")
+        ax.axhline(floor, color="0.7", lw=0.8, ls=":", label="float32 rounding (smaller errors drawn here)")
+        ax.set_yscale("log")
+        ax.set_xlabel(f"{a}: {backend(a).UNIT}")
+        ax.set_ylabel("largest absolute error" if error == "max_abs_error" else "largest relative error")
+        ax.grid(alpha=0.3, which="major")
+    handles = {}
+    for ax in axes.flat:
+        for h, label in zip(*ax.get_legend_handles_labels()):
+            handles.setdefault(label, h)
+    fig.legend(handles.values(), handles.keys(), loc="lower center", ncol=4, fontsize=9, frameon=False)
+    fig.suptitle(f"{t['expression']} on [{t['domain'][0]:g}, {t['domain'][1]:g}]: error against compiled cycles, "
+                 "one panel per vendor", fontsize=11)
+    fig.tight_layout(rect=(0, 0.06, 1, 1))
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def write(out: Path, results, log=print) -> list[Path]:
+    """Every file of the module docstring into `out`, published whole."""
+    from ..engine.cache import digest
+    from ..engine.publishing import publish
+
+    names = ["front.csv", "results.json", "report.md", "front.png", "derive.glsl", "derive.hlsl", "derive_twin.py"]
+
+    def write_all(tmp: Path) -> str:
+        write_csv(tmp / "front.csv", results["rows"])
+        (tmp / "results.json").write_text(json.dumps(results_json(results), indent=1))
+        (tmp / "report.md").write_text(report(results))
+        figure(tmp / "front.png", results)
+        for name, text in shader_sources(results).items():
+            (tmp / name).write_text(text)
+        return f"{len(results['rows'])} rows"
+
+    publish(out, digest("derive", json.dumps(results_json(results), sort_keys=True)), lambda s: None, write_all)
+    return [out / n for n in names]

@@ -1,0 +1,122 @@
+"""The target registry, a user's target (expression or TOML file) and its faults, and the printing
+of a form as GLSL, HLSL and a Python twin."""
+
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+import sympy as sp
+
+from pipeline.derive import forms, measure, targets
+from pipeline.derive.targets import DeriveError
+
+
+@pytest.mark.parametrize("name", targets.NAMES)
+def test_a_registered_target_is_one_expression_in_numpy_jax_and_sympy(name):
+    target = targets.check(targets.registry()[name])
+    x = np.linspace(*target.domain, 7)
+    numpy_value = target.numpy()(x)
+    jax_value = np.asarray(target.jax()(x))
+    sympy_value = [float(target.sympy().subs(target.symbol(), v)) for v in x]
+    np.testing.assert_allclose(jax_value, numpy_value, rtol=1e-13, atol=1e-300)
+    np.testing.assert_allclose(sympy_value, numpy_value, rtol=1e-13, atol=1e-300)
+    assert target.anchors and all(a.source for a in target.anchors)
+
+
+def test_the_anchors_errors_against_an_independent_grid():
+    """Karis's and Lagarde's published fits, measured by `measure.max_error`, against a 10^6-point
+    grid: Karis's exp2 form errs up to 3.77e-3 on (1 - x)^5, Lagarde's up to 9.01e-3 on acos."""
+    for name, anchor in (("schlick", "Karis"), ("acos", "Lagarde")):
+        target = targets.registry()[name]
+        approx = targets.numpy_function(target.anchor_expressions()[anchor], target.symbol())
+        found = measure.max_error(approx, target.numpy(), *target.domain)["max_abs_error"]
+        x = np.linspace(*target.domain, 1_000_001)
+        assert found == pytest.approx(np.max(np.abs(approx(x) - target.numpy()(x))), rel=1e-6)
+    assert measure.max_error(targets.numpy_function(targets.registry()["schlick"].anchor_expressions()["Karis"],
+                                                    sp.Symbol("x", real=True)),
+                             lambda s: (1 - s) ** 5, 0.0, 1.0)["max_abs_error"] == pytest.approx(3.77e-3, rel=2e-3)
+
+
+@pytest.mark.parametrize("expression, var, message", [
+    ("log(x)", "x=0:1", "not finite at x = 0"),
+    ("atan(x", "x=0:1", "does not parse"),
+    ("y * x", "x=0:1", "unknown name 'y'"),
+    ("foo(x)", "x=0:1", "unknown function 'foo'"),
+    ("x", "x=1:0", "lo < hi"),
+    ("x", "x:0:1", "NAME=LO:HI"),
+    ("x", "c=0:1", "variable 'c'"),
+])
+def test_a_bad_expression_is_one_clear_message(expression, var, message):
+    with pytest.raises(DeriveError, match=message):
+        targets.from_expression(expression, var)
+
+
+def test_a_target_of_any_sympy_function():
+    """erf, which no shader language has, is a target all the same (numpy through scipy)."""
+    target = targets.from_expression("erf(t)", "t=0:2")
+    assert target.numpy()(np.array([1.0]))[0] == pytest.approx(0.8427007929497149, rel=1e-14)
+
+
+def test_a_target_from_a_file(tmp_path):
+    path = tmp_path / "atan.toml"
+    path.write_text('[target]\nname = "atan"\nexpression = "atan(x)"\ndomain = [0, 1]\nmetric = "rel"\nfloor = 0.01\n'
+                    '[[anchor]]\nname = "mine"\nexpression = "x * (0.97 - 0.19 * x * x)"\nsource = "a test"\n')
+    target = targets.named(str(path))
+    assert (target.name, target.metric, target.floor, target.anchors[0].name) == ("atan", "rel", 0.01, "mine")
+    path.write_text('[target]\nexpression = "atan(x)"\ncolour = "red"\n')
+    with pytest.raises(DeriveError, match="unknown key 'colour'"):
+        targets.named(str(path))
+    path.write_text('[target]\nexpression = "x"\n[[anchor]]\nname = "a"\n')
+    with pytest.raises(DeriveError, match="anchor"):
+        targets.named(str(path))
+    with pytest.raises(DeriveError, match="no such file"):
+        targets.named(str(tmp_path / "none.toml"))
+
+
+def test_predicted_operations_of_a_form():
+    x = sp.Symbol("x", real=True)
+    karis = targets.parse("exp2((-5.55473*x - 6.98316)*x)")
+    assert forms.operation_counts(karis) == {"exp": 1, "*": 2, "+": 1}
+    assert forms.operation_counts(x ** 20) == {"*": 5}           # squarings: x2, x4, x8, x16, x16 x4
+    assert forms.operation_counts(sp.exp(2 * x) / (1 + x)) == {"exp": 1, "*": 2, "/": 1, "+": 1}
+    assert forms.operation_counts(sp.acos(x)) is None
+    assert forms.predicted_cycles(karis, {"exp": 4.0, "*": 1.0, "+": 1.0}) == 7.0
+
+
+PRINTED = ["exp2((-5.55473*x - 6.98316)*x)", "(1 - x)**5", "(-0.156583*x + pi/2)*sqrt(1 - x)", "exp(3*x - 1)/(1 + x)",
+           "Max(9.059*x - 8.059, 0)**2", "1/sqrt(1 + x*x)", "x**1.7 + log(1 + x)", "x**-3 + 2"]
+
+
+def _validator():
+    local = Path(sys.executable).parent / "glslangValidator"
+    return str(local) if local.exists() else shutil.which("glslangValidator")
+
+
+def test_a_form_printed_compiles_and_its_twin_is_its_value(tmp_path):
+    """Each form as GLSL (glslang), as HLSL (glslang's HLSL front end) and as Python: the twin's value
+    is the form's own (numpy, 1e-12 relative) at points of its domain."""
+    x = sp.Symbol("x", real=True)
+    points = np.array([0.1, 0.37, 0.5, 0.93])
+    for i, text in enumerate(PRINTED):
+        expr = targets.parse(text)
+        twin = eval(f"lambda x: {forms.python(expr)}", {"math": __import__("math"), "max": max, "min": min})
+        value = targets.numpy_function(expr, x)(points)
+        np.testing.assert_allclose([twin(float(p)) for p in points], value, rtol=1e-12)
+    validator = _validator()
+    if validator is None:
+        pytest.skip("glslangValidator not found: the printed forms were not compiled")
+    glsl = "#version 450\nlayout(location = 0) in float x_in;\nlayout(location = 0) out vec4 color;\n"
+    hlsl = ""
+    for i, text in enumerate(PRINTED):
+        expr = targets.parse(text)
+        glsl += f"float f{i}(float x) {{ return {forms.glsl(expr)}; }}\n"
+        hlsl += f"float f{i}(float x) {{ return {forms.hlsl(expr)}; }}\n"
+    calls = " + ".join(f"f{i}(x_in)" for i in range(len(PRINTED)))
+    (tmp_path / "a.frag").write_text(glsl + f"void main() {{ color = vec4({calls}); }}\n")
+    (tmp_path / "a.hlsl").write_text(hlsl + f"float4 main(float x_in : TEXCOORD0) : SV_Target {{ return {calls}; }}\n")
+    for args in ([str(tmp_path / "a.frag")], ["-D", "-e", "main", "-S", "frag", str(tmp_path / "a.hlsl")]):
+        done = subprocess.run([validator, "-V", "-o", str(tmp_path / "out.spv"), *args], capture_output=True, text=True)
+        assert done.returncode == 0, done.stdout + done.stderr
