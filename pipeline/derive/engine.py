@@ -210,6 +210,8 @@ def _select(trees, losses, tables: dict) -> list[int]:
 
     from ..symbolic import grammar
 
+    if not trees:
+        return []
     counts = np.array([gpu_costs.operation_counts(t) for t in trees], dtype=float)
     variable = np.array([grammar.X in _leaves(t) for t in trees])       # (a constant approximates nothing)
     chosen: set[int] = set()

@@ -1,7 +1,7 @@
 """The families the grammar's enumeration cannot reach in time, fitted by minimax directly
 (`minimax`): polynomials of degree 1 to `POLYNOMIAL_DEGREES` by Remez's exchange, a polynomial
-times sqrt(1 - x) (where the domain ends at or below 1: acos and its kin) by the same exchange on
-that basis, exp2 of a polynomial (a target positive inside its domain), rationals of low degree and
+times sqrt(1 - x), and a constant plus such a product (where the domain ends at or below 1: acos,
+asin and their kin) by the same exchange on those bases, exp2 of a polynomial (a target positive inside its domain), rationals of low degree and
 clamped powers max(0, a + b x)^m (the paper's lobe family; a target never negative) by sequential
 linear programming on the whole interval. Each member's constants are minimax for the
 target's own measure (abs or rel), polynomials in Horner form.
@@ -72,6 +72,32 @@ def polynomials_sqrt(target, f, weight) -> list[Form]:
         out.append(Form(f"polynomial_sqrt_{degree}", "found", "polynomial_sqrt",
                         _horner(fit["coefficients"], x) * sp.sqrt(1 - x),
                         f"Remez exchange on x^k sqrt(1 - x), degree {degree}", fit["converged"]))
+        if fit["exact"]:
+            break
+    return out
+
+
+def offset_polynomials_sqrt(target, f, weight) -> list[Form]:
+    """c + p(x) sqrt(1 - x) (asin, pi/2 - acos, and their kin), degree 0 to SQRT_DEGREES, by Remez's
+    exchange on the basis 1, x^k sqrt(1 - x): with s = sqrt(1 - x) it spans 1 and odd powers of s,
+    a Haar system on [0, 1] (Descartes' rule of signs)."""
+    lo, hi = target.domain
+    if hi > 1:
+        return []
+    x = target.symbol()
+    out = []
+    for degree in range(0, SQRT_DEGREES + 1):
+        basis = [lambda s: np.ones_like(np.asarray(s, dtype=np.float64))]
+        basis += [lambda s, k=k: np.asarray(s, dtype=np.float64) ** k * np.sqrt(1 - np.asarray(s, dtype=np.float64))
+                  for k in range(degree + 1)]
+        try:
+            fit = minimax.remez(basis, f, weight, lo, hi)
+        except minimax.MinimaxFailed:
+            continue
+        c = fit["coefficients"]
+        out.append(Form(f"offset_polynomial_sqrt_{degree}", "found", "offset_polynomial_sqrt",
+                        sp.Float(float(c[0]), 17) + _horner(c[1:], x) * sp.sqrt(1 - x),
+                        f"Remez exchange on 1, x^k sqrt(1 - x), degree {degree}", fit["converged"]))
         if fit["exact"]:
             break
     return out
@@ -186,7 +212,8 @@ def clamped_powers(target, f, weight) -> list[Form]:
     return out
 
 
-FAMILIES = {"clamped_power": clamped_powers, "polynomial": polynomials, "polynomial_sqrt": polynomials_sqrt, "exp2_polynomial": exp2_polynomials,
+FAMILIES = {"clamped_power": clamped_powers, "polynomial": polynomials, "polynomial_sqrt": polynomials_sqrt,
+            "offset_polynomial_sqrt": offset_polynomials_sqrt, "exp2_polynomial": exp2_polynomials,
             "rational": rationals}
 
 

@@ -87,3 +87,16 @@ def test_the_measure_of_a_form_that_is_not_finite_is_inf():
     with np.errstate(invalid="ignore"):
         value, where = measure.largest(lambda s: np.sqrt(0.5 - s), 0.0, 1.0)
     assert value == math.inf and where > 0.5
+
+
+def test_a_constant_beside_the_sqrt_basis_is_still_a_haar_system():
+    """asin on [0, 1] by c + p(x) sqrt(1 - x), degree 2 (1 and odd powers of s = sqrt(1 - x)):
+    equioscillates at 5 points, and beats p(x) sqrt(1 - x) of the same degree on acos."""
+    basis = [lambda s: np.ones_like(np.asarray(s, dtype=np.float64))]
+    basis += [lambda s, k=k: np.asarray(s) ** k * np.sqrt(1 - np.asarray(s)) for k in range(3)]
+    fit = minimax.remez(basis, np.arcsin, _one, 0.0, 1.0)
+    a = fit["coefficients"]
+    approx = lambda s: a[0] + np.polyval(a[1:][::-1], s) * np.sqrt(1 - s)      # noqa: E731
+    _equioscillates(fit, 4, np.arcsin, approx, 0.0, 1.0)
+    plain = minimax.remez(basis[1:], np.arccos, _one, 0.0, 1.0)
+    assert fit["error"] < plain["error"]
