@@ -24,6 +24,8 @@ less than a time. Measured, each in a fresh cache and outputs folder:
   `pipeline regress`'s default engine with the ten operations (a decay to 12 within 60 s, a
   Schlick curve to 16 within 180 s, cos^n over (t, n) to 10 within 120 s; 1.5 GB);
 - `pipeline keys` and a run with a bad config (answered without importing JAX);
+- `pipeline derive` on (1 - x)^5 and acos, three architectures, cold and kept (BENCH_ONLY=derive: the
+  floor and these alone; targets 120 s cold, 30 s kept, the announced time within 2x);
 - `make test` (`python -m pytest -q -n 2 --dist loadfile`) twice, unless BENCH_TESTS=0 (BENCH_ONLY=tests:
   the floor and `make test` alone): first with an empty folder of compiled XLA programs (a fresh
   clone, as CI runs it), then again with the programs the first run compiled (as `make test` keeps
@@ -162,8 +164,9 @@ def main() -> int:
     py = sys.executable
     floor = statistics.median(timed([py, "-c", FLOOR], dict(os.environ))[0] for _ in range(3))
     rows = []
-    # BENCH_ONLY=tests: the floor and `make test` alone (the pipeline's timings take ~10 minutes more).
-    if os.environ.get("BENCH_ONLY") != "tests":
+    # BENCH_ONLY=tests: the floor and `make test` alone (the pipeline's timings take ~10 minutes more);
+    # BENCH_ONLY=derive: the floor and `pipeline derive` alone.
+    if os.environ.get("BENCH_ONLY") not in ("tests", "derive"):
         with tempfile.TemporaryDirectory() as tmp:
             env = dict(os.environ, PIPELINE_CACHE_DIR=os.path.join(tmp, "cache"),
                        PIPELINE_MACHINE_CODE_CACHE=os.path.join(tmp, "machine_code"),
@@ -304,7 +307,8 @@ def main() -> int:
         devices.append(("GPU", jax.devices("gpu")[0]))
     except RuntimeError:
         pass
-    throughput = [(label, lobe_throughput(device)) for label, device in devices]
+    throughput = [(label, lobe_throughput(device)) for label, device in devices
+                  if os.environ.get("BENCH_ONLY") != "derive"]
 
     print(f"import floor ({FLOOR}): {floor:.2f} s\n")
     print(f"{'':<30} {'seconds':>8} {'x floor':>8}  {'target':>8}  note")
@@ -317,7 +321,7 @@ def main() -> int:
               "median [min, max] of 9)")
         for name, median, low, high in rows:
             print(f"  {name:<20} {median / 1e9:7.3f}  [{low / 1e9:.3f}, {high / 1e9:.3f}]")
-    if len(throughput) == 1:
+    if len(throughput) == 1 and len(devices) == 1:
         print("  (JAX sees no GPU here; on a machine where it does, the same table follows for it)")
     return 0
 

@@ -35,7 +35,11 @@ MAX_COMPLEXITY = 12
 CALIBRATION = 200               # forms compiled per architecture to fit its cost table
 PER_ARCHITECTURE = 24           # grammar forms taken from each architecture's predicted front, at most
 MATCH = 0.01                    # an error within 1 % of an anchor's matches it
-FAMILY_SECONDS = 12.0           # the families' fits, measured on this machine (about 10 s per target)
+# Times measured on this 2-core machine, for the time a run announces: the families' fits (about 10 s
+# per target), the forms measured and polished (about 6 s), the command's start (its imports, 6 s).
+FAMILY_SECONDS = 12.0
+MEASURE_SECONDS = 6.0
+START_SECONDS = 6.0
 
 
 def constant_error(target, f) -> float:
@@ -334,16 +338,19 @@ def derive(target, gpu=None, seconds: float = DEFAULT_SECONDS, max_cycles: float
         architectures = list(dict.fromkeys(gpu))
     started = time.perf_counter()
     f = target.numpy()
-    reach = regress.exhaustive_reach(1, SEARCH_POINTS, max_complexity, TEN, EXHAUSTIVE_SHARE * seconds)
-    forms_count = len(grammar.enumerate_forms(reach, TEN, 1)) if reach else 0
-    search_estimate = regress.estimate_seconds(forms_count, SEARCH_POINTS, ops=TEN) if reach else 0.0
-    operon_estimate = max(seconds - search_estimate, 0.0) if reach < max_complexity and \
-        seconds - search_estimate >= OPERON_MIN_SECONDS else 0.0
-    # (the calibration's shaders that no run kept, and the forms, about three architectures' fronts)
+    # The time announced: the families' and the search's (none where an earlier run kept them), the
+    # calibration's shaders that no run kept and about three architectures' fronts compiled, the
+    # forms measured and polished, and the command's start (its imports).
+    search_estimate = 0.0
+    if not _kept_search(target, seconds, max_complexity).is_file():
+        reach = regress.exhaustive_reach(1, SEARCH_POINTS, max_complexity, TEN, EXHAUSTIVE_SHARE * seconds)
+        forms_count = len(grammar.enumerate_forms(reach, TEN, 1)) if reach else 0
+        exhaustive = regress.estimate_seconds(forms_count, SEARCH_POINTS, ops=TEN) if reach else 0.0
+        operon = seconds - exhaustive if reach < max_complexity and seconds - exhaustive >= OPERON_MIN_SECONDS else 0.0
+        search_estimate = FAMILY_SECONDS + exhaustive + operon
     calibration = gpu_costs.not_kept(gpu_costs.calibration_expressions(CALIBRATION)[1], architectures)
     compile_estimate = estimate_seconds(CALIBRATION * calibration + 3 * PER_ARCHITECTURE, architectures)
-    estimate = compile_estimate + (0.0 if _kept_search(target, seconds, max_complexity).is_file() else
-                                   FAMILY_SECONDS + search_estimate + operon_estimate)
+    estimate = START_SECONDS + search_estimate + compile_estimate + MEASURE_SECONDS
     log(f"{target.name}: {target.expression} on [{target.domain[0]:g}, {target.domain[1]:g}], error {target.metric}; "
         f"{len(architectures)} architecture{'s' * (len(architectures) > 1)}; about {estimate:.0f} s")
 
