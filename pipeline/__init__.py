@@ -22,3 +22,14 @@ from .engine import toolchains  # noqa: E402
 toolchains.prepare()
 
 from .engine.config import Config as Config, ConfigError as ConfigError, load_config as load_config  # noqa: E402
+
+
+def derive(target=None, **options):
+    """`pipeline derive` in Python: the cheapest accurate forms of a function a shader approximates,
+    ranked by compiled cycles per GPU architecture (`pipeline.approximate.api.derive`, which says the
+    options: expr, var, gpu, metric, floor, seconds, max_cycles, max_complexity, log). Returns a
+    `Derivation`: its `front` (rows), `rows`, `results`, `glsl(name)`, `hlsl(name)`, `twin(name)`,
+    `plot(path)`, `write(folder)` and `dataframe()` (with pandas)."""
+    from .approximate.api import derive as derive_forms
+
+    return derive_forms(target, **options)

@@ -11,7 +11,6 @@ importing JAX, sympy or pysindy.
 from __future__ import annotations
 
 import argparse
-import dataclasses
 import multiprocessing.util
 import os
 import sys
@@ -25,7 +24,7 @@ from .publish.compare import CompareError
 from .symbolic import grammar
 from .isa.architectures import ARCHITECTURES
 from .symbolic.regress import DEFAULT_OPERATIONS, RegressError
-from .derive.targets import DeriveError
+from .approximate.targets import DeriveError
 
 
 def _print_checks(outcome) -> None:
@@ -152,36 +151,27 @@ def _regress(args) -> int:
 
 
 def _derive(args) -> int:
-    from .derive import publish, targets
-    from .derive.engine import derive
+    from .approximate import api
     from .engine.cache import XLA
     from .isa.machine_code import CompilerMissing
-    from .optics.spirv import ToolMissing
     from .optics.numerics import use_compilation_cache
+    from .optics.spirv import ToolMissing
 
     start = time.perf_counter()
-    if (args.target is None) == (args.expr is None):
-        raise targets.DeriveError("give --target NAME (or FILE.toml) or --expr EXPR, one of them")
-    if args.target is not None:
-        target = targets.named(args.target)
-        if args.metric or args.floor is not None:
-            target = dataclasses.replace(target, metric=args.metric or target.metric,
-                                         floor=target.floor if args.floor is None else args.floor)
-        targets.check(target)
-    else:
-        target = targets.from_expression(args.expr, args.var, args.metric or "abs", args.floor or 0.0)
-    gpu = [g.strip() for g in args.gpu.split(",") if g.strip()] if args.gpu else None
+    target = api.resolve(args.target, args.expr, args.var, args.metric, args.floor)
     out = Path(args.out) if args.out else paths.OUTPUTS / "derive" / target.name
     use_compilation_cache(paths.XLA_CACHE or paths.CACHE / XLA)
     try:
-        results = derive(target, gpu, args.seconds, args.max_cycles, args.max_complexity)
+        found = api.derive(target, gpu=args.gpu, seconds=args.seconds, max_cycles=args.max_cycles,
+                           max_complexity=args.max_complexity)
     except (CompilerMissing, ToolMissing) as e:
         print(f"error: the GPU compilers cannot run here: {e}", file=sys.stderr)
         return faults.EXIT_ENVIRONMENT
-    written = publish.write(out, results)
+    written = found.write(out)
+    results = found.raw
     error = results["error"]
     for a in results["architectures"]:
-        front = sorted((r for r in results["rows"] if r["architecture"] == a and r["on_front"]), key=lambda r: r["cycles"])
+        front = sorted((r for r in found.front if r["architecture"] == a), key=lambda r: r["cycles"])
         print(f"{a}: " + ", ".join(f"{r['cycles']:g} cycles {r[error]:.3g} ({r['name']})" for r in front))
         for name, v in results["verdicts"][a].items():
             print(f"  {name} ({v['cycles']:g} cycles, {v['error']:.3g}): {v['verdict']}"

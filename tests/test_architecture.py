@@ -11,7 +11,7 @@ import pipeline
 
 PACKAGE = Path(pipeline.__file__).parent
 # Layer of each wing: a module may import its own wing and the layers below it.
-LAYER = {"engine": 0, "optics": 1, "isa": 2, "mitsuba": 2, "symbolic": 3, "stages": 4, "publish": 4, "derive": 4, "": 5}
+LAYER = {"engine": 0, "optics": 1, "isa": 2, "mitsuba": 2, "symbolic": 3, "stages": 4, "publish": 4, "approximate": 4, "": 5}
 
 
 def modules() -> dict[str, Path]:

@@ -11,7 +11,7 @@ import sys
 import numpy as np
 import pytest
 
-from pipeline.derive import engine, targets
+from pipeline.approximate import engine, targets
 from tests.helpers import cli_env
 
 
@@ -109,7 +109,7 @@ def test_pipeline_derive_on_schlick(tmp_path):
         value = targets.numpy_function(targets.parse(member["expression"]), targets.parse("x").free_symbols.pop())(x)
         got = [getattr(twin, f"schlick_{name}")(float(v)) for v in x]
         np.testing.assert_allclose(got, value, rtol=1e-6, atol=1e-9)      # (the expression's text: 9 digits)
-    from tests.derive.test_targets_and_forms import _validator
+    from tests.approximate.test_targets_and_forms import _validator
     validator = _validator()
     if validator is None:
         pytest.skip("glslangValidator not found: the exported functions were not compiled")
@@ -121,3 +121,40 @@ def test_pipeline_derive_on_schlick(tmp_path):
     for args in ([str(tmp_path / "a.frag")], ["-D", "-e", "main", "-S", "frag", str(tmp_path / "a.hlsl")]):
         done = subprocess.run([validator, "-V", "-o", str(tmp_path / "o.spv"), *args], capture_output=True, text=True)
         assert done.returncode == 0, done.stdout + done.stderr
+
+
+def test_the_readme_example_of_the_python_api_runs(tmp_path, capsys, monkeypatch):
+    """The README's Python example of `pipeline.derive`, executed as written: the member it picks is
+    on RDNA3's front with an error below 1e-3, its GLSL is printed and its twin is the member's value
+    at 0.5 (the Derivation's own forms, to 1e-12); the figure and the files are written."""
+    import re
+    from pathlib import Path
+
+    import pipeline
+    from pipeline.engine import paths
+
+    if "rdna3" not in engine.available_architectures():
+        pytest.skip("Mesa's RADV does not run here: the example was not run")
+    monkeypatch.setattr(paths, "DERIVE_CACHE", tmp_path / "derive")
+    readme = (Path(pipeline.__file__).parent.parent / "README.md").read_text()
+    section = readme[readme.index("## `pipeline derive`"):]
+    code = re.search(r"```python\n(.*?)```", section, re.S).group(1)
+    scope: dict = {}
+    exec(compile(code, "README.md", "exec"), scope)
+    lines = capsys.readouterr().out.strip().splitlines()[-3:]
+    found, best = scope["found"], scope["best"]
+    assert best in found.front and best["architecture"] == "rdna3" and best["max_abs_error"] < 1e-3
+    assert lines[0].split()[0] == best["name"] and lines[1] == found.glsl(best["name"])
+    x = targets.parse("x").free_symbols.pop()
+    exact_value = targets.numpy_function(found.raw["forms"][best["name"]].expression, x)(np.array([0.5]))[0]
+    assert float(lines[2]) == pytest.approx(exact_value, rel=1e-12)
+    assert found.plot(tmp_path / "front.png").stat().st_size > 0
+    assert {p.name for p in found.write(tmp_path / "out")} >= {"front.csv", "results.json", "report.md"}
+    assert json.loads((tmp_path / "out" / "results.json").read_text())["target"]["name"] == "acos"
+    try:
+        import pandas  # noqa: F401
+    except ImportError:
+        with pytest.raises(ImportError, match="pandas"):
+            found.dataframe()
+    else:
+        assert len(found.dataframe()) == len(found.rows)

@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 import sympy as sp
 
-from pipeline.derive import forms, measure, targets
-from pipeline.derive.targets import DeriveError
+from pipeline.approximate import forms, measure, targets
+from pipeline.approximate.targets import DeriveError
 
 
 @pytest.mark.parametrize("name", targets.NAMES)

@@ -5,7 +5,7 @@ import math
 import numpy as np
 import pytest
 
-from pipeline.derive import measure, minimax
+from pipeline.approximate import measure, minimax
 
 
 def _powers(degree):

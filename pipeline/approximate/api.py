@@ -1,0 +1,107 @@
+"""`pipeline.derive` in Python, as a notebook uses it; the command `pipeline derive` calls the same
+functions:
+
+    from pipeline import derive
+    found = derive("schlick", gpu=["rdna3"])
+    found.front                  # rows: architecture, name, expression, cycles, errors, ...
+    found.glsl("exp2_polynomial_2"), found.twin("exp2_polynomial_2")(0.5)
+    found.plot("front.png"); found.dataframe()     # (pandas, where installed)
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from pathlib import Path
+
+from . import engine, forms, publish, targets
+from .targets import DeriveError, Target
+
+
+def resolve(target=None, expr: str | None = None, var: str = "x=0:1", metric: str | None = None,
+            floor: float | None = None) -> Target:
+    """The checked target: a Target, a registered name, a TOML file's path, or (with `expr`) an
+    expression in `var` (NAME=LO:HI); `metric` and `floor` replace the target's. Raises DeriveError."""
+    if (target is None) == (expr is None):
+        raise DeriveError("give --target NAME (or FILE.toml) or --expr EXPR, one of them")
+    if expr is not None:
+        return targets.from_expression(expr, var, metric or "abs", floor or 0.0)
+    if not isinstance(target, Target):
+        target = targets.named(str(target))
+    if metric is not None or floor is not None:
+        target = dataclasses.replace(target, metric=metric or target.metric,
+                                     floor=target.floor if floor is None else floor)
+    return targets.check(target)
+
+
+@dataclasses.dataclass
+class Derivation:
+    """What `derive` found: `results` (results.json's content), `target`, and per member its
+    shader code, Python twin and figure."""
+
+    target: Target
+    raw: dict
+
+    @property
+    def results(self) -> dict:
+        return publish.results_json(self.raw)
+
+    @property
+    def front(self) -> list[dict]:
+        """Every architecture's front members, as rows of front.csv."""
+        return [r for r in self.raw["rows"] if r["on_front"]]
+
+    @property
+    def rows(self) -> list[dict]:
+        """Every row of front.csv (front members, anchors, the exact target)."""
+        return list(self.raw["rows"])
+
+    def dataframe(self):
+        """The rows as a pandas DataFrame. Raises ImportError naming pandas where it is missing."""
+        try:
+            import pandas
+        except ImportError:
+            raise ImportError("Derivation.dataframe needs pandas (pip install pandas); .rows has the same "
+                              "rows as dicts") from None
+        return pandas.DataFrame(self.rows)
+
+    def _form(self, name: str):
+        if name not in self.raw["forms"]:
+            raise KeyError(f"no member {name!r}; the members are {', '.join(self.raw['members'])}")
+        return self.raw["forms"][name].expression
+
+    def glsl(self, name: str) -> str:
+        """The member as a GLSL expression in the target's variable."""
+        return forms.glsl(self._form(name), self.target.variable)
+
+    def hlsl(self, name: str) -> str:
+        return forms.hlsl(self._form(name), self.target.variable)
+
+    def twin(self, name: str):
+        """The member's Python twin: a function of one float, printed as derive_twin.py prints it."""
+        code = f"def twin({self.target.variable}):\n    return {forms.python(self._form(name), self.target.variable)}\n"
+        scope = {"math": math}
+        exec(compile(code, f"<twin of {name}>", "exec"), scope)
+        return scope["twin"]
+
+    def plot(self, path) -> Path:
+        """front.png's figure, written to `path`."""
+        publish.figure(Path(path), self.raw)
+        return Path(path)
+
+    def write(self, out) -> list[Path]:
+        """Every file `pipeline derive` writes, into `out`."""
+        return publish.write(Path(out), self.raw)
+
+
+def derive(target=None, *, expr: str | None = None, var: str = "x=0:1", gpu=None, metric: str | None = None,
+           floor: float | None = None, seconds: float = engine.DEFAULT_SECONDS, max_cycles: float | None = None,
+           max_complexity: int = engine.MAX_COMPLEXITY, log=print) -> Derivation:
+    """The cheapest accurate forms of `target` (a registered name, a TOML file, a Target) or of `expr`
+    in `var`, ranked by compiled cycles on the architectures `gpu` (names, or one comma-separated
+    string; default every one whose compiler runs here): `engine.derive`. Raises DeriveError for bad
+    input, CompilerMissing where no GPU compiler runs."""
+    chosen = resolve(target, expr, var, metric, floor)
+    if isinstance(gpu, str):
+        gpu = [g.strip() for g in gpu.split(",") if g.strip()]
+    return Derivation(chosen, engine.derive(chosen, gpu, seconds, max_cycles, max_complexity, log=log))
