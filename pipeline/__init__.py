@@ -33,3 +33,49 @@ def derive(target=None, **options):
     from .approximate.api import derive as derive_forms
 
     return derive_forms(target, **options)
+
+
+def _toml(value) -> str:
+    """A Python value as TOML writes it (an override's value)."""
+    import json
+
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, str):
+        return json.dumps(value)
+    if isinstance(value, (list, tuple)):
+        return "[" + ", ".join(_toml(v) for v in value) + "]"
+    return repr(value)
+
+
+def run(config="configs/paper.toml", set=(), only=None, log=print, write_outputs: bool = False,
+        cache_dir=None) -> dict:
+    """A run of the derivation from Python: `config` a TOML file's path (relative paths from the
+    project's folder where not found here) or a `Config`, `set` overrides as `pipeline refit --set`
+    takes them ("key=value" strings, or a dict of key: value), `only` stage names (those and what
+    they read). Returns the run's results as `results.json` holds them; with `write_outputs`, the
+    run's folder `outputs/<run.name>/` is written too. Raises ConfigError for a bad config or
+    override, `optics.roots.SolverError` where a solver does not converge."""
+    from pathlib import Path
+
+    from .engine import paths
+    from .engine.config import Config as _Config
+    from .publish import results as results_mod
+    from .runner import run_derivation
+
+    if isinstance(set, dict):
+        set = tuple(f"{key}={_toml(value)}" for key, value in set.items())
+    elif isinstance(set, str):
+        set = (set,)
+    if isinstance(config, _Config):
+        chosen = load_config(config.source, tuple(set), name=config.name) if set else config
+    else:
+        path = Path(config)
+        if not path.exists() and (paths.ROOT / path).exists():
+            path = paths.ROOT / path
+        chosen = load_config(path, tuple(set))
+    if only is not None:
+        only = (only,) if isinstance(only, str) else tuple(only)
+    outcome = run_derivation(chosen, Path(cache_dir) if cache_dir is not None else paths.CACHE, log=log,
+                             write_outputs=write_outputs, only=only)
+    return results_mod.document(chosen, outcome.keys, outcome.results, outcome.checks)

@@ -64,7 +64,7 @@ def _only(text: str | None) -> tuple[str, ...] | None:
 
 def _explain(config, only=None) -> int:
     from .engine.cache import Cache
-    from .run import explain
+    from .runner import explain
 
     rows = explain(config, Cache(paths.CACHE), only)
     changed = config.changed_from_file(config.values)
@@ -416,7 +416,7 @@ def _main(argv: list[str] | None) -> int:
     faults.check_folder(paths.OUTPUTS, "the outputs folder (PIPELINE_OUTPUTS_DIR)")
 
     from .optics.roots import SolverError
-    from .run import run_derivation
+    from .runner import run_derivation
 
     start = time.perf_counter()
     try:

@@ -162,7 +162,7 @@ def run_point(config, only, cache_dir: str, outputs_dir: str, xla_cache_dir: str
     toolchains.prepare()        # on a cluster started by others: only PATH and HOME may be set
     paths.XLA_CACHE = xla_cache_dir
     from .optics.roots import SolverError
-    from .run import run_derivation
+    from .runner import run_derivation
 
     start = time.perf_counter()
     warnings: list[str] = []
@@ -227,7 +227,7 @@ def _fully_cached(config, only, cache_dir: str) -> bool:
     """Whether every stage the point runs is in the cache (`pipeline explain` says "cached" for each):
     such a point only reads the cache and (re)publishes its folder, and runs here, not on Dask."""
     from .engine.cache import Cache, DamagedEntry
-    from .run import explain
+    from .runner import explain
 
     try:
         return all(what == "cached" for _, what in explain(config, Cache(Path(cache_dir)), only))

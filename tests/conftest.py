@@ -29,7 +29,7 @@ import pipeline  # noqa: E402
 from pipeline.engine import paths
 from pipeline.engine.cache import Cache
 from pipeline.engine.exponents import n_range
-from pipeline.run import run_derivation, run_stages
+from pipeline.runner import run_derivation, run_stages
 
 from .helpers import copy_cache
 

@@ -1,5 +1,5 @@
 """The house: `pipeline/` is wings in folders (engine, optics, symbolic, mitsuba, isa, stages, publish) under
-`cli.py` and `run.py`; imports go down the layers only, never across wings of one layer, never in a
+`cli.py` and `runner.py`; imports go down the layers only, never across wings of one layer, never in a
 cycle; no stage imports another stage; every module name is unique."""
 
 import ast
@@ -65,7 +65,7 @@ def test_imports_go_down_the_layers_and_never_across_wings():
     assert upward == [] and across == []
     # Every wing is a folder of its own, and the top holds only the command line and the runner.
     assert {wing(m) for m in import_graph()} == set(LAYER)
-    assert {m for m in import_graph() if wing(m) == ""} == {"pipeline", "pipeline.__main__", "pipeline.cli", "pipeline.run",
+    assert {m for m in import_graph() if wing(m) == ""} == {"pipeline", "pipeline.__main__", "pipeline.cli", "pipeline.runner",
                                                                   "pipeline.sweep"}
 
 

@@ -14,7 +14,7 @@ import pytest
 from pipeline.engine import paths
 from pipeline.engine.config import load_config
 from pipeline.publish import results as results_file
-from pipeline.run import run_derivation
+from pipeline.runner import run_derivation
 
 from .conftest import LIGHT_CONFIG
 from .helpers import cli_env, copy_cache
@@ -259,3 +259,28 @@ def test_the_cli_started_without_make_finds_llvm_and_renders_with_the_fast_varia
     assert doc["stages"]["mitsuba_render"]["variant"] == "llvm_ad_rgb"
     assert doc["stages"]["mitsuba_render"]["spp"] == load_config(str(LIGHT_CONFIG))["mitsuba.spp"]
     assert doc["toolchains"]["llvm"]["path"] == system.path and doc["toolchains"]["llvm"]["version"] == system.version
+
+
+def test_a_run_from_python_returns_what_results_json_holds(light_cache, light_run, tmp_path):
+    """`pipeline.run(config, set=..., only=...)`: the light config with Q changed, the accuracy stage
+    and what it reads, on a copy of the session's cache; the overrides as a dict or as `--set` text
+    give the same results, which hold the changed Q, the stage's fields and the stages not run; a bad
+    override is a ConfigError naming it."""
+    import json
+
+    import pipeline
+    from tests.conftest import LIGHT_CONFIG
+    from tests.helpers import copy_cache
+
+    copy_cache(light_cache, tmp_path / "cache")
+    results = pipeline.run(LIGHT_CONFIG, set={"derivation.Q": 0.7, "derivation.constants": "fitted"}, only="accuracy",
+                           log=lambda s: None, cache_dir=tmp_path / "cache")
+    again = pipeline.run(str(LIGHT_CONFIG), set=("derivation.Q=0.7", "derivation.constants=fitted"), only=["accuracy"],
+                         log=lambda s: None, cache_dir=tmp_path / "cache")
+    assert json.dumps(results, sort_keys=True) == json.dumps(again, sort_keys=True)
+    assert results["config"]["derivation.Q"] == 0.7 and "accuracy" in results["stages"]
+    assert "render" in results["not_run"] and results["headline"]
+    json.dumps(results, allow_nan=False)            # plain JSON, as results.json
+    with pytest.raises(pipeline.ConfigError, match="derivation.Q"):
+        pipeline.run(LIGHT_CONFIG, set={"derivation.Q": 2.0, "derivation.constants": "fitted"}, only="accuracy",
+                     log=lambda s: None, cache_dir=tmp_path / "cache")

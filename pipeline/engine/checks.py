@@ -70,7 +70,7 @@ def _same(a, b) -> bool:
 
 def evaluate(config, results, file_results=None) -> list[Check]:
     """The checks of `config`'s expectations on the run's results. `file_results`: the results the
-    config file's own settings give, of the stages known (`pipeline.run.file_results`): where a
+    config file's own settings give, of the stages known (`pipeline.runner.file_results`): where a
     check's value is the same there, the settings `--set` changed did not touch it, and it is
     checked."""
     out = []

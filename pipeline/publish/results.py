@@ -61,8 +61,15 @@ def _plain(value):
 
 
 def write(path: Path, config, stage_keys, results, checks) -> dict:
-    """Writes results.json: config, stage keys, the headline fields, every stage's scalars and small
-    arrays, the checks, and (apart) the timings."""
+    """Writes results.json (`document`); returns its content."""
+    doc = document(config, stage_keys, results, checks)
+    path.write_text(json.dumps(doc, indent=1, allow_nan=False))
+    return doc
+
+
+def document(config, stage_keys, results, checks) -> dict:
+    """results.json's content: config, stage keys, the headline fields, every stage's scalars and
+    small arrays, the checks, and (apart) the timings; plain JSON values (NaN and inf as None)."""
     timed = {tuple(path.split(".", 1)) for path in TIMINGS}
     scalars = {stage: {k: v for k, v in r.items()
                        if not (isinstance(v, np.ndarray) and v.size > 16) and (stage, k) not in timed}
@@ -84,6 +91,4 @@ def write(path: Path, config, stage_keys, results, checks) -> dict:
     not_run = [s.name for s in graph.STAGES if s.name not in results]
     if not_run:
         doc["not_run"] = not_run          # a targeted run (`--only`): these stages were not computed
-    doc = _plain(doc)
-    path.write_text(json.dumps(doc, indent=1, allow_nan=False))
-    return doc
+    return _plain(doc)

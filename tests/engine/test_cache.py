@@ -15,7 +15,7 @@ import pipeline
 from pipeline.engine import graph
 from pipeline.engine import paths
 from pipeline.engine.cache import MEMO, Cache, code_modules, digest
-from pipeline.run import run_stages
+from pipeline.runner import run_stages
 
 from ..conftest import LIGHT_CONFIG
 from ..helpers import cli_env, copy_cache

@@ -11,7 +11,7 @@ from pipeline.engine import graph, toolchains
 from pipeline.engine.cache import Memo
 from pipeline.engine.config import load_config
 from pipeline.engine.paths import PAPER_CONFIG
-from pipeline.run import key_of
+from pipeline.runner import key_of
 
 
 def touch(folder, *names, link=None):
@@ -161,7 +161,7 @@ def test_a_run_says_at_its_start_which_tool_its_stages_lack(monkeypatch, tmp_pat
     """The machine-code stage without RADV: the run's first line names the install, once, and the
     stage's result says why AMD was not measured (NVIDIA's rows are there where ptxas is)."""
     from pipeline.engine.cache import Cache
-    from pipeline.run import run_stages
+    from pipeline.runner import run_stages
 
     real = toolchains.locate
     absent = toolchains.find_radv({}, (str(tmp_path),))

@@ -13,7 +13,7 @@ from pipeline.optics.numerics import jax  # noqa: F401  (float64 before any arra
 from pipeline.engine.graph import BY_NAME
 from pipeline.optics import lobes, registry
 from pipeline.publish import plots, report_beyond
-from pipeline.run import run_stages
+from pipeline.runner import run_stages
 
 from ..helpers import copy_cache
 from ..oracles import k_Q_np

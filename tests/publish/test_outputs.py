@@ -16,7 +16,7 @@ import pipeline
 from pipeline.engine import paths
 from pipeline.isa.architectures import VENDORS
 from pipeline.publish.figures import FIGURES
-from pipeline.run import run_derivation
+from pipeline.runner import run_derivation
 
 # A decimal number as the report prints it: 0.448142, 1.2567 %, 6.3e-05, -0.0532 (integers are counts,
 # exponents n, figure and section numbers, and are not checked here).

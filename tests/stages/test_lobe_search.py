@@ -194,7 +194,7 @@ def test_a_second_target_runs_as_a_refit(light_config, light_cache, light_run, t
     from pipeline.engine.cache import Cache
     from pipeline.engine.graph import closure
     from pipeline.optics.distributions import alpha_of_n, beckmann
-    from pipeline.run import run_stages
+    from pipeline.runner import run_stages
     from tests.conftest import LIGHT_CONFIG
     from tests.helpers import copy_cache
     copy_cache(light_cache, tmp_path / "cache")
@@ -235,7 +235,7 @@ def test_the_grammar_s_forms_are_screened_and_measured_like_the_families(light_c
     import pipeline
     from pipeline.engine.cache import Cache
     from pipeline.engine.graph import closure
-    from pipeline.run import run_stages
+    from pipeline.runner import run_stages
     from pipeline.stages.lobe_search import dense_errors, exact_errors
     from pipeline.optics.roots import SolverSettings
     from tests.conftest import LIGHT_CONFIG
@@ -310,7 +310,7 @@ def test_where_a_line_is_not_enough_the_symbolic_regression_corrects_it(light_co
     import pipeline
     from pipeline.engine.cache import Cache
     from pipeline.engine.graph import closure
-    from pipeline.run import run_stages
+    from pipeline.runner import run_stages
     from pipeline.symbolic import grammar
     from tests.conftest import LIGHT_CONFIG
     from tests.helpers import copy_cache

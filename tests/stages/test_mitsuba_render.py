@@ -36,7 +36,7 @@ def test_two_cold_runs_write_identical_results(light_config, light_run, light_ca
     from pipeline.engine import checks
     from pipeline.engine.cache import MEMO, Cache
     from pipeline.publish import results as results_mod
-    from pipeline.run import run_stages
+    from pipeline.runner import run_stages
 
     from ..helpers import copy_cache
     copy_cache(light_cache, tmp_path / "cache")

@@ -11,7 +11,7 @@ from pipeline.engine import paths
 from pipeline.engine.cache import Cache
 from pipeline.engine.checks import NOT_COMPARABLE, PASS
 from pipeline.engine.graph import PAPER_STAGES
-from pipeline.run import run_derivation, run_stages
+from pipeline.runner import run_derivation, run_stages
 
 from ..helpers import copy_cache
 from ..oracles import dense_max_errors, k_Q_np
@@ -144,7 +144,7 @@ def test_refit_writes_its_own_outputs_with_a_comparison(cache, tmp_path, paper_c
 @pytest.mark.slow
 def test_paper_expectations_are_not_comparable_where_a_refit_changes_their_settings(cache, paper_run):
     # Q = 0.5: the symbolic search of test_refit_writes_its_own_outputs_with_a_comparison is reused.
-    from pipeline.run import file_results
+    from pipeline.runner import file_results
     config = pipeline.load_config(paths.PAPER_CONFIG, ("derivation.Q=0.5", "derivation.constants=fitted"))
     results, keys, _ = run_stages(config, cache, log=lambda s: None, stages=PAPER_STAGES)
     from pipeline.engine import checks
@@ -171,7 +171,7 @@ def test_a_figure_only_refit_keeps_every_check_comparable(cache, paper_run):
     documented, as in the paper's run. Without those values (no file results), the same checks would
     be set aside by the settings rule alone."""
     from pipeline.engine import checks
-    from pipeline.run import file_results
+    from pipeline.runner import file_results
     config = pipeline.load_config(paths.PAPER_CONFIG, ("scan.curve_points=180",))
     results, keys, _ = run_stages(config, cache, log=lambda s: None, stages=PAPER_STAGES)
     verdicts = checks.evaluate(config, results, file_results(config, cache, results, keys))
@@ -220,7 +220,7 @@ def test_a_targeted_refit_runs_exactly_what_explain_names(cache, tmp_path):
     and the report say what did not run; only the figures of computed stages are drawn."""
     from pipeline.engine import checks, graph
     from pipeline.publish.figures import FIGURES
-    from pipeline.run import explain
+    from pipeline.runner import explain
     config = pipeline.load_config(paths.PAPER_CONFIG, ("derivation.Q=0.7", "derivation.constants=fitted"),
                                   name="targeted")
     plan = [name for name, _ in explain(config, cache, only=("accuracy",))]
