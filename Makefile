@@ -1,15 +1,18 @@
 # The two commands a user needs: `make reproduce` and `make test`. The first run of either creates
 # .venv and installs the project with the pinned versions of constraints.txt; `make test` adds the
-# test dependencies (pytest, and pytest-xdist: the tests run in two processes). Mitsuba's fast variant (llvm_ad_rgb) needs a shared LLVM >= 15, and
-# the LLVM 15 of Debian 12 aborts every render: as root on Debian, Debian's libllvm19 is installed;
-# elsewhere, or if that fails, the pipeline uses scalar_rgb. The Makefile only installs: the
-# pipeline finds its tools itself (`pipeline.engine.toolchains`: LLVM, Mesa's RADV) and sets JAX's
-# float64 and CPU platform itself, so a command run here is the command a user runs without `make`.
+# test dependencies (pytest, and pytest-xdist: the tests run in two processes; MkDocs, whose strict
+# build of the documentation is a test); `make docs` writes the generated pages and builds the site.
+# Mitsuba's fast variant (llvm_ad_rgb) needs a shared LLVM >= 15, and the LLVM 15 of Debian 12
+# aborts every render: as root on Debian, Debian's libllvm19 is installed; elsewhere, or if that
+# fails, the pipeline uses scalar_rgb. The Makefile only installs: the pipeline finds its tools
+# itself (`pipeline.engine.toolchains`: LLVM, Mesa's RADV) and sets JAX's float64 and CPU platform
+# itself, so a command run here is the command a user runs without `make`.
 PYTHON ?= python3
 VENV := .venv
 BIN := $(VENV)/bin
 INSTALLED := $(VENV)/.installed
 TEST_INSTALLED := $(VENV)/.installed-test
+DOCS_INSTALLED := $(VENV)/.installed-docs
 PIP := $(BIN)/pip install --quiet --disable-pip-version-check -c constraints.txt
 LLVM_READY := $(VENV)/.llvm
 RADV_READY := $(VENV)/.radv
@@ -21,7 +24,7 @@ CONFIG ?= configs/paper.toml
 SET ?=
 ONLY ?=
 
-.PHONY: reproduce test test-isa bench refit clean keys graph
+.PHONY: reproduce test test-isa bench refit clean keys graph docs
 
 $(INSTALLED): pyproject.toml constraints.txt
 	$(PYTHON) -m venv $(VENV)
@@ -29,8 +32,12 @@ $(INSTALLED): pyproject.toml constraints.txt
 	touch $(INSTALLED)
 
 $(TEST_INSTALLED): $(INSTALLED)
-	$(PIP) -e ".[test]"
+	$(PIP) -e ".[test,docs]"
 	touch $(TEST_INSTALLED)
+
+$(DOCS_INSTALLED): $(INSTALLED)
+	$(PIP) -e ".[docs]"
+	touch $(DOCS_INSTALLED)
 
 # Best effort: a missing libllvm19 only means the slower scalar_rgb variant.
 $(LLVM_READY): $(INSTALLED)
@@ -138,6 +145,12 @@ keys: $(INSTALLED)
 
 graph: $(INSTALLED)
 	$(BIN)/pipeline graph
+
+# The generated pages (config keys, results.json keys, command help, the README's results table and
+# the numbers marked in docs/, from outputs/paper/results.json where it exists), then the site in
+# strict mode into docs/_build/.
+docs: $(DOCS_INSTALLED)
+	$(BIN)/python scripts/docs.py
 
 clean:
 	rm -rf .cache

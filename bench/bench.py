@@ -21,8 +21,10 @@ less than a time. Measured, each in a fresh cache and outputs folder:
   complexity 12);
 - the symbolic search and pyoperon side by side (`bench/symbolic.py`: 5,000 points to complexity 12,
   200 points to 14, two variables to 10; time, peak memory and best RMS of each), and
-  `pipeline regress`'s default engine with the ten operations (a decay to 12 within 60 s, a
-  Schlick curve to 16 within 180 s, cos^n over (t, n) to 10 within 120 s; 1.5 GB);
+  `pipeline regress`'s default engine with the ten operations (BENCH_ONLY=regress: the floor and
+  these alone; a decay to 12 within 60 s, a Schlick curve to 16 within 180 s, cos^n over (t, n) to
+  10 within 120 s, Schlick's rational over (t, n) to 10 exactly within 120 s; 1.5 GB; each within
+  2x of the time it announced before its search);
 - `pipeline keys` and a run with a bad config (answered without importing JAX);
 - `pipeline derive` on (1 - x)^5 and acos, three architectures, cold and kept (BENCH_ONLY=derive: the
   floor and these alone; targets 120 s cold, 30 s kept, the announced time within 2x);
@@ -159,14 +161,33 @@ def derive_rows(py) -> list:
     return rows
 
 
+def regress_rows(py, env) -> list:
+    """`pipeline regress`'s default engine with the ten operations, one process per case
+    (`bench/symbolic.py`): time, peak memory, best RMS and the time announced before the search."""
+    from symbolic import OPERATOR_CASES
+
+    rows = []
+    for case, (depth, allowed) in OPERATOR_CASES.items():
+        _, out = timed([py, str(ROOT / "bench" / "symbolic.py"), case, "default"], env)
+        seconds, peak, best, estimate = [float(v) for v in out.split()[-4:]]
+        exact = "rational" not in case or best < 1e-9
+        ok = seconds <= allowed and peak <= 1.5 and exact and estimate / 2 <= seconds <= 2 * estimate
+        rows.append((f"regress {case}", seconds, None,
+                     f"peak {peak:.2f} GB, best RMS {best:.3g}; announced {estimate:.0f} s; target <= "
+                     f"{allowed:.0f} s, 1.5 GB, within 2x of the announced time"
+                     + (", RMS < 1e-9" if "rational" in case else "") + (" ok" if ok else " MISSED")))
+    return rows
+
+
 def main() -> int:
     sys.path.insert(0, str(ROOT / "bench"))
     py = sys.executable
     floor = statistics.median(timed([py, "-c", FLOOR], dict(os.environ))[0] for _ in range(3))
     rows = []
     # BENCH_ONLY=tests: the floor and `make test` alone (the pipeline's timings take ~10 minutes more);
-    # BENCH_ONLY=derive: the floor and `pipeline derive` alone.
-    if os.environ.get("BENCH_ONLY") not in ("tests", "derive"):
+    # BENCH_ONLY=derive: the floor and `pipeline derive` alone; BENCH_ONLY=regress: the floor and
+    # `pipeline regress`'s default engine alone.
+    if os.environ.get("BENCH_ONLY") not in ("tests", "derive", "regress"):
         with tempfile.TemporaryDirectory() as tmp:
             env = dict(os.environ, PIPELINE_CACHE_DIR=os.path.join(tmp, "cache"),
                        PIPELINE_MACHINE_CODE_CACHE=os.path.join(tmp, "machine_code"),
@@ -268,22 +289,14 @@ def main() -> int:
                 measured = {}
                 for engine in ("exhaustive", "operon"):
                     _, out = timed([py, str(ROOT / "bench" / "symbolic.py"), case, engine], env)
-                    measured[engine] = [float(v) for v in out.split()[-3:]]
+                    measured[engine] = [float(v) for v in out.split()[-4:-1]]
                 (seconds, peak, best), (o_seconds, o_peak, o_best) = measured["exhaustive"], measured["operon"]
                 memory = " and 1 GB" if case.startswith("5000") else ""
                 ok = seconds <= 60 and (peak <= 1.0 or not memory)
                 rows.append((f"regress {case}", seconds, None,
                              f"peak {peak:.2f} GB, best RMS {best:.3g}; pyoperon {o_seconds:.1f} s, {o_peak:.2f} GB, best RMS "
                              f"{o_best:.3g}; target <= 60 s{memory} " + ("ok" if ok else "MISSED")))
-            # `pipeline regress`'s default engine with the ten operations (one process per case).
-            from symbolic import OPERATOR_CASES
-            for case, (depth, allowed) in OPERATOR_CASES.items():
-                _, out = timed([py, str(ROOT / "bench" / "symbolic.py"), case, "default"], env)
-                seconds, peak, best = [float(v) for v in out.split()[-3:]]
-                ok = seconds <= allowed and peak <= 1.5
-                rows.append((f"regress {case}", seconds, None,
-                             f"peak {peak:.2f} GB, best RMS {best:.3g}; target <= {allowed:.0f} s and 1.5 GB "
-                             + ("ok" if ok else "MISSED")))
+            rows += regress_rows(py, env)
             seconds, _ = timed([py, "-m", "pipeline", "keys"], env)
             rows.append(("pipeline keys", seconds, None, "target < 1 s"))
             seconds, _ = timed([py, "-m", "pipeline", "refit", "--config", "configs/paper.toml", "--set",
@@ -291,7 +304,9 @@ def main() -> int:
             rows.append(("bad config (exit 2)", seconds, None, "target < 1 s"))
     if os.environ.get("BENCH_ONLY") in (None, "derive"):
         rows += derive_rows(py)
-    if os.environ.get("BENCH_TESTS", "1") != "0" and os.environ.get("BENCH_ONLY") != "derive":
+    if os.environ.get("BENCH_ONLY") == "regress":
+        rows += regress_rows(py, dict(os.environ, JAX_ENABLE_X64="1", JAX_PLATFORMS="cpu"))
+    if os.environ.get("BENCH_TESTS", "1") != "0" and os.environ.get("BENCH_ONLY") not in ("derive", "regress"):
         # Twice, on one folder of compiled XLA programs: empty at first (a fresh clone, as CI runs
         # it), then holding the first session's programs (`make test` keeps them between runs).
         with tempfile.TemporaryDirectory() as xla:
@@ -308,7 +323,7 @@ def main() -> int:
     except RuntimeError:
         pass
     throughput = [(label, lobe_throughput(device)) for label, device in devices
-                  if os.environ.get("BENCH_ONLY") != "derive"]
+                  if os.environ.get("BENCH_ONLY") not in ("derive", "regress")]
 
     print(f"import floor ({FLOOR}): {floor:.2f} s\n")
     print(f"{'':<30} {'seconds':>8} {'x floor':>8}  {'target':>8}  note")

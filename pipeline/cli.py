@@ -23,7 +23,7 @@ from .engine.config import ConfigError, key_table, load_config
 from .publish.compare import CompareError
 from .symbolic import grammar
 from .isa.architectures import ARCHITECTURES
-from .symbolic.regress import DEFAULT_OPERATIONS, RegressError
+from .symbolic.regress import BUDGET_SECONDS, DEFAULT_OPERATIONS, MAX_COMPLEXITY, RegressError
 from .approximate.targets import DeriveError
 
 
@@ -136,7 +136,8 @@ def _regress(args) -> int:
     use_compilation_cache(paths.XLA_CACHE or paths.CACHE / XLA)
     out = Path(args.out) if args.out else paths.OUTPUTS / "regress" / Path(args.file).stem
     front = regress(Path(args.file), args.x, args.y, out, args.max_complexity, parse_operations(args.ops),
-                    seed=args.seed, noise=args.noise, engine=args.engine, loss=args.loss, cost=args.cost, gpu=args.gpu)
+                    seed=args.seed, noise=args.noise, engine=args.engine, loss=args.loss, cost=args.cost, gpu=args.gpu,
+                    seconds=args.seconds)
     engines = len({m["engine"] for m in front}) > 1 or front[0]["engine"] != "exhaustive"
     cycles = args.gpu is not None
     print(f"complexity  {'loss: ' + args.loss:<12} DL (nats)  " + ("cycles  " if cycles else "")
@@ -284,7 +285,8 @@ def main(argv: list[str] | None = None) -> int:
     return faults.EXIT_ENVIRONMENT
 
 
-def _main(argv: list[str] | None) -> int:
+def build_parser() -> argparse.ArgumentParser:
+    """Every command's arguments: `pipeline --help`, and the command reference that `make docs` writes."""
     parser = argparse.ArgumentParser(prog="pipeline", description=__doc__.splitlines()[0])
     sub = parser.add_subparsers(dest="command", required=True)
     rep = sub.add_parser("reproduce", help="run the paper's derivation (configs/paper.toml)")
@@ -324,9 +326,15 @@ def _main(argv: list[str] | None) -> int:
                      help="a cost per operation ([cost] table: exp = 4, ...) to rank by instead of the default count")
     reg.add_argument("--seed", type=int, default=0, help="seed of the random starts and of pyoperon (default 0)")
     reg.add_argument("--engine", default="auto", choices=["auto", "exhaustive", "operon", "both"],
-                     help="exhaustive: every expression up to --max-complexity; operon: pyoperon's genetic "
-                          "programming; both: exhaustive as far as it reaches in a minute, pyoperon beyond, one "
-                          "merged front; auto (default): exhaustive where it reaches, else both")
+                     help="auto (default): within --seconds, the exhaustive search of + - * / first and deepest, "
+                          "then of --ops and of the operations the data suggest, then pyoperon, one merged front "
+                          "(--ops searched whole where they reach --max-complexity); both: the same, pyoperon always; "
+                          "exhaustive: every expression up to --max-complexity, however long; operon: pyoperon alone")
+    reg.add_argument("--seconds", type=float, default=None, metavar="S",
+                     help=f"time budget of --engine auto, both and operon (default, up to complexity 12 and beyond: "
+                          f"{BUDGET_SECONDS[(1, 12)]:.0f} and {BUDGET_SECONDS[(1, MAX_COMPLEXITY)]:.0f} s for one "
+                          f"variable, {BUDGET_SECONDS[(2, 12)]:.0f} and {BUDGET_SECONDS[(2, MAX_COMPLEXITY)]:.0f} s for "
+                          "two or three)")
     reg.add_argument("--noise", type=float, default=None, metavar="SIGMA",
                      help="the data's noise level, for model selection (default: the rounding floor of y where y "
                           "is rounded, else unknown)")
@@ -373,7 +381,11 @@ def _main(argv: list[str] | None) -> int:
     cch.add_argument("--prune", action="store_true")
     cch.add_argument("--older-than", type=float, default=14.0, metavar="DAYS",
                      help="with --prune: remove entries no run has used for this many days (default 14)")
-    args = parser.parse_args(argv)
+    return parser
+
+
+def _main(argv: list[str] | None) -> int:
+    args = build_parser().parse_args(argv)
     try:
         if args.command == "keys":
             print(key_table())

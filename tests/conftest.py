@@ -25,6 +25,11 @@ if os.environ.get("PYTEST_XDIST_WORKER"):
     os.environ["XLA_FLAGS"] = " ".join(filter(None, (os.environ.get("XLA_FLAGS"), WORKER_ENV["XLA_FLAGS"])))
     os.environ["OMP_NUM_THREADS"] = WORKER_ENV["OMP_NUM_THREADS"]
 
+# The search rates the tests measure (two workers on two cores) are kept apart from the rates a
+# user's searches keep in the checkout (`pipeline.symbolic.rates`).
+os.environ.setdefault("PIPELINE_RATES", os.path.join(os.environ.get("TMPDIR", "/tmp"),
+                                                      f"pipeline-test-rates-{os.getppid()}.json"))
+
 import pipeline  # noqa: E402
 from pipeline.engine import paths
 from pipeline.engine.cache import Cache

@@ -2,10 +2,10 @@
 architecture.
 
 1. Families fitted by minimax directly (`families`).
-2. The grammar's forms (`symbolic.grammar`, the ten operations): enumerated and fitted exhaustively
-   (`symbolic.search`, loss max or max-relative on `SEARCH_POINTS` Chebyshev points) as deep as
-   `EXHAUSTIVE_SHARE` of the budget reaches (`symbolic.regress.exhaustive_reach`), pyoperon to
-   `max_complexity` in the rest (`symbolic.operon`). Each architecture's cost table
+2. The grammar's forms (`symbolic.grammar`, the ten operations), by the ladder of grammars within
+   the budget (`symbolic.ladder`: every form of + - * / as deep as it reaches, then of the ten
+   operations and of those the target suggests, by `symbolic.search`, loss max or max-relative on
+   `SEARCH_POINTS` Chebyshev points; pyoperon to `max_complexity` in the rest). Each architecture's cost table
    (`symbolic.gpu_costs`, fitted to `CALIBRATION` compiled forms) predicts every form's cycles;
    the forms on some architecture's front of predicted cycles against error go on.
 3. Every form, and each anchor and the exact target, measured over the whole domain
@@ -29,8 +29,6 @@ from .targets import DeriveError, check, numpy_function
 
 SEARCH_POINTS = 129
 DEFAULT_SECONDS = 60.0
-EXHAUSTIVE_SHARE = 0.5
-OPERON_MIN_SECONDS = 10.0       # pyoperon runs where at least this much of the budget is left
 MAX_COMPLEXITY = 12
 CALIBRATION = 200               # forms compiled per architecture to fit its cost table
 PER_ARCHITECTURE = 24           # grammar forms taken from each architecture's predicted front, at most
@@ -107,42 +105,32 @@ def verdict(anchor_cycles: float, anchor_error: float, found: list[dict], error:
     return dict(verdict=word, ratio=float(ratio), by=best["name"])
 
 
-def _grammar_search(target, f, seconds: float, max_complexity: int, log) -> tuple[list[Form], dict, dict]:
-    """The grammar's forms (module docstring, step 2): (candidates with their search loss, the
-    search's coverage, {form name: (tree, constants)})."""
-    from ..symbolic import grammar, regress, search
+def _grammar_search(target, f, seconds: float, max_complexity: int, log) -> tuple[list, list, np.ndarray, dict]:
+    """The grammar's forms (module docstring, step 2): (trees, constants, search losses, the
+    search's coverage)."""
+    from ..symbolic import grammar, ladder
 
     lo, hi = target.domain
     x = minimax.chebyshev_points(lo, hi, SEARCH_POINTS)
     y = f(x)
     loss = "max-relative" if target.metric == "rel" and target.floor == 0 else "max"
     ops = grammar.TEN
-    reach = regress.exhaustive_reach(1, y.size, max_complexity, ops, EXHAUSTIVE_SHARE * seconds)
     started = time.perf_counter()
-    trees, fitted, losses = [], [], []
-    coverage = dict(operations=list(ops), loss=loss, points=int(y.size), exhaustive_complexity=int(reach),
-                    exhaustive_forms=0, operon_seconds=0.0, operon_models=0, max_complexity=int(max_complexity))
-    if reach:
-        forms = grammar.enumerate_forms(reach, ops, 1)
-        log(f"grammar: every form of the ten operations to complexity {reach} ({len(forms)} forms), loss {loss}")
-        found = search.search(x, y, reach, ops, loss=loss, forms=forms, progress=lambda s: log("  " + s))
-        coverage["exhaustive_forms"] = len(forms)
-        trees = list(found["forms"])
-        fitted = [found["constants"][i][:found["constant_count"][i]] for i in range(len(trees))]
-        losses = list(found["loss"])
-    left = seconds - (time.perf_counter() - started)
-    if reach < max_complexity and left >= OPERON_MIN_SECONDS:
-        from ..symbolic import operon
-
-        log(f"grammar: pyoperon to complexity {max_complexity} for {left:.0f} s")
-        models = operon.operon_models(x, y, max_complexity, ops, 0, seconds=left, generations=operon.GENERATIONS_TIMED)
-        for tree, c, value, _ in operon.polished(models, x, y, 0, loss=loss):
-            trees.append(tree)
-            fitted.append(np.asarray(c))
-            losses.append(value)
-        coverage.update(operon_seconds=round(left, 1), operon_models=len(models))
-    coverage["seconds"] = round(time.perf_counter() - started, 1)
-    return trees, fitted, np.array(losses, dtype=float), coverage
+    candidates, rungs, fitted = ladder.run(x[None], y, max_complexity, ops, seconds, loss,
+                                           log=lambda s: log("grammar: " + s))
+    whole = [r.complexity for r in rungs if r.engine == "exhaustive" and set(r.operations) == set(ops)]
+    operon = [r for r in rungs if r.engine == "operon"]
+    coverage = dict(operations=list(ops), loss=loss, points=int(y.size), exhaustive_complexity=int(max(whole, default=0)),
+                    exhaustive_forms=int(sum(r.forms for r in rungs if r.engine == "exhaustive")),
+                    operon_seconds=round(operon[0].seconds, 1) if operon else 0.0,
+                    operon_models=int(operon[0].forms) if operon else 0, max_complexity=int(max_complexity),
+                    rungs=[r.row() for r in rungs], seconds=round(time.perf_counter() - started, 1))
+    # every form the exhaustive rungs fitted (a form off the complexity front may be cheap in cycles)
+    # and pyoperon's
+    others = [c for c in candidates if c[4] == "operon"]
+    trees = list(fitted["forms"]) + [c[0] for c in others]
+    constants = [np.asarray(c, dtype=float) for c in fitted["constants"]] + [np.asarray(c[1], dtype=float) for c in others]
+    return trees, constants, np.array(list(fitted["loss"]) + [c[2] for c in others], dtype=float), coverage
 
 
 def _code_version() -> str:
@@ -317,7 +305,7 @@ def derive(target, gpu=None, seconds: float = DEFAULT_SECONDS, max_cycles: float
     content) with the forms' rows."""
     from ..isa.architectures import ARCHITECTURES
     from ..isa.machine_code import CompilerMissing, estimate_seconds
-    from ..symbolic import gpu_costs, grammar, regress
+    from ..symbolic import gpu_costs, grammar, ladder, regress
     from ..symbolic.grammar import TEN
 
     check(target)
@@ -343,11 +331,8 @@ def derive(target, gpu=None, seconds: float = DEFAULT_SECONDS, max_cycles: float
     # forms measured and polished, and the command's start (its imports).
     search_estimate = 0.0
     if not _kept_search(target, seconds, max_complexity).is_file():
-        reach = regress.exhaustive_reach(1, SEARCH_POINTS, max_complexity, TEN, EXHAUSTIVE_SHARE * seconds)
-        forms_count = len(grammar.enumerate_forms(reach, TEN, 1)) if reach else 0
-        exhaustive = regress.estimate_seconds(forms_count, SEARCH_POINTS, ops=TEN) if reach else 0.0
-        operon = seconds - exhaustive if reach < max_complexity and seconds - exhaustive >= OPERON_MIN_SECONDS else 0.0
-        search_estimate = FAMILY_SECONDS + exhaustive + operon
+        loss = "max-relative" if target.metric == "rel" and target.floor == 0 else "max"
+        search_estimate = FAMILY_SECONDS + ladder.plan_seconds(1, SEARCH_POINTS, max_complexity, TEN, seconds, loss)
     calibration = gpu_costs.not_kept(gpu_costs.calibration_expressions(CALIBRATION)[1], architectures)
     compile_estimate = estimate_seconds(CALIBRATION * calibration + 3 * PER_ARCHITECTURE, architectures)
     estimate = START_SECONDS + search_estimate + compile_estimate + MEASURE_SECONDS

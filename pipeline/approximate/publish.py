@@ -109,12 +109,14 @@ def report(results) -> str:
              "## What the search covered", "",
              f"- Families fitted by minimax on the whole interval: {', '.join(results['families'])} "
              f"({len(results['family_members'])} members: {', '.join(results['family_members'])}).",
-             f"- The grammar's ten operations ({' '.join(c['operations'])}): "
-             + (f"every form to complexity {c['exhaustive_complexity']} ({c['exhaustive_forms']} forms, loss "
-                f"{c['loss']} on {c['points']} points)" if c["exhaustive_complexity"] else
-                "no exhaustive search (the budget, --seconds, reaches no complexity)")
-             + (f"; pyoperon to complexity {c['max_complexity']} for {c['operon_seconds']} s ({c['operon_models']} models)"
-                if c["operon_models"] else "; pyoperon did not run (the budget left less than its minimum)")
+             f"- The grammar's ten operations ({' '.join(c['operations'])}), loss {c['loss']} on {c['points']} points, "
+             "by the ladder of grammars: " + "; ".join(
+                 (f"{r['name']} ({r['operations']}): every form to complexity {r['complexity']} not fitted before "
+                  f"({r['forms']} forms)" if r["engine"] == "exhaustive" else
+                  f"pyoperon to complexity {r['complexity']} ({r['forms']} models)") + f", {r['seconds']} s"
+                 for r in c["rungs"])
+             + ("" if any(r["engine"] == "operon" for r in c["rungs"]) or c["exhaustive_complexity"] >= c["max_complexity"]
+                else "; pyoperon did not run (the budget left less than its minimum)")
              + f"; {c['seconds']} s. Not searched: min, max and saturate, and forms above complexity "
              f"{c['max_complexity']}.",
              f"- Time: {results['seconds']} s measured, {results['estimated_seconds']} s estimated before the start.", ""]

@@ -1,8 +1,9 @@
 """The run's configuration: one TOML file, validated in full before anything is computed.
 
 Every key, its type, its allowed range and its default are declared once, in `SCHEMA`; the
-README's key table is generated from the same list (`python -m pipeline keys`). The paper's
-reported values live in `[expectations.*]` as checks, never as inputs to a stage.
+documentation's key table (docs/reference/config.md) is generated from the same list (`python -m
+pipeline keys`). The paper's reported values live in `[expectations.*]` as checks, never as inputs to
+a stage.
 """
 
 from __future__ import annotations
@@ -525,7 +526,7 @@ def load_config(path: str | Path, overrides: tuple[str, ...] = (), name: str | N
 
 
 def key_table() -> str:
-    """Markdown table of every key with its default and allowed values (for the README)."""
+    """Markdown table of every key with its default and allowed values (`pipeline keys`; docs/reference/config.md)."""
     rows = ["| key | default | allowed | meaning |", "|---|---|---|---|"]
     for k in SCHEMA:
         default = f"`{k.default!r}`".replace("'", '"')

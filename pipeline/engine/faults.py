@@ -1,4 +1,4 @@
-"""What a run that cannot finish says, and the exit code it ends with (the README's table).
+"""What a run that cannot finish says, and the exit code it ends with (the table of docs/engine.md).
 
 0 done; 1 a check failed or a solver did not converge; 2 bad input (config, arguments, a CSV);
 3 an environment fault (a full disk, a file size limit, a path that is a file, no permission);

@@ -11,7 +11,7 @@ import numpy as np
 
 from ..engine import graph, toolchains
 
-# The headline: the stage fields users script against (the README lists them), each by its one
+# The headline: the stage fields users script against (docs/reference/results.md lists them), each by its one
 # name, `stage.field` as `pipeline graph` declares it. Fractions, not percent.
 HEADLINE = (
     "zone.level", "q_scan.Q_scan_best", "q_scan.Q_continuous_best", "q_choice.Q_used",

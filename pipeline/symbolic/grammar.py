@@ -443,6 +443,12 @@ def opcodes(forms) -> tuple:
     return tuple(sorted({VAR, CONST} | {OPCODE[op] for op in used}))
 
 
+def operation_codes(ops) -> tuple:
+    """The sorted opcodes of every program over these operations (searches over narrower ones
+    compiled for them share one compiled fit)."""
+    return tuple(sorted({VAR, CONST} | {OPCODE[op] for op in operations(ops)}))
+
+
 _TOKEN = re.compile(r"\s*(\d+\.?\d*(?:[eE][-+]?\d+)?|\.\d+(?:[eE][-+]?\d+)?|[A-Za-z_][A-Za-z0-9_]*|\*\*|[-+*/^(),])")
 
 

@@ -6,6 +6,17 @@ each model's text parsed (its numbers as constants), constant-only subtrees fold
 (`fold_constants`: pyoperon writes scale and offset terms and products of constants), its complexity
 recomputed TuringBot's way, and its constants polished in float64 by the pipeline's own fit from
 pyoperon's values (pyoperon 0.6.2 fits in float32: its `fit` fails on float64 input).
+
+pyoperon weighs every variable (0.58 * X1) and wraps every model in a scale and an offset, so that a
+model of its length 9 reads back at complexity 24: most of its front lies beyond the complexity
+asked for. Each model is therefore also read back with some of these constants dropped (fewest
+first, `variants`; the float64 polish refits the rest): on 400 points of (1 - x)^5, x1 x2 / (x1 +
+x3) and 0.7 sqrt(x1^2 + x2^2), measured in 10-20 s runs, 2-3 models within complexity 10 came back
+and none exact; with the variants, 33-100 and all three exact. Its settings otherwise are its
+own (population 1000, Levenberg-Marquardt on the constants of every offspring): population 500 or
+2000, 1 to 50 optimizer iterations, the offspring generator 'os' and the objective r2 did no
+better on those laws and on t / (n - n t + t). That law came back exactly from one seed of four
+(with + - * /): where the budget allows, several seeds run (`SEED_SECONDS` each at least).
 """
 
 from __future__ import annotations
@@ -21,6 +32,10 @@ GENERATIONS_TIMED = 100_000     # generations when a time budget is what stops i
 POPULATION = 1000
 SECONDS = 60            # pyoperon stops here if its generations are not done (many points)
 OPTIMIZER_ITERATIONS = 10
+SEED_SECONDS = 20.0     # a budget runs one seed per this many seconds (at most MAX_SEEDS)
+MAX_SEEDS = 4
+VARIANTS = 16           # forms read back from one model with constants dropped, at most
+POLISH_STARTS = 4
 # pyoperon's symbol of each operation; it has no cube (pow reaches it where pow is given) nor inv
 # (div reaches it where / is given), and writes square(a) as a ^ 2, read back as square (and a ^ 3
 # as cube).
@@ -87,24 +102,120 @@ def operon_models(x, y, max_complexity: int, ops="+-*/", seed: int = 0, threads:
         except ValueError:
             continue            # a symbol outside the grammar
         tree, values = grammar.fold_constants(*_integer_powers(tree, values, ops))
-        if not grammar.operations_of(tree) <= set(ops):
+        if not grammar.operations_of(tree) <= set(ops) or not np.all(np.isfinite(values)):
             continue            # (pyoperon's a ^ 2 where square is given but not pow)
-        if grammar.complexity(tree) <= max_complexity and repr(tree) not in seen and np.all(np.isfinite(values)):
-            seen.add(repr(tree))
-            out.append((tree, np.array(values)))
+        for form, c in variants(tree, values, max_complexity):
+            if repr(form) not in seen:
+                seen.add(repr(form))
+                out.append((form, np.array(c)))
     return out
 
 
-def polished(models, x, y, seed: int = 0, loss: str = "rms"):
+def _droppable(e) -> list[tuple]:
+    """Paths of the nodes whose constant pyoperon adds and a law may not need: its variables' weights
+    (c * x), the offset at the top (c + a) and the scale under it (c * a)."""
+    out = []
+
+    def walk(node, path):
+        if len(node) == 1:
+            return
+        if node[0] == "*" and node[1] == grammar.C and grammar.is_variable(node[2]):
+            out.append(path)
+            return
+        for i, a in enumerate(node[1:], 1):
+            walk(a, path + (i,))
+
+    walk(e, ())
+    if len(e) == 3 and e[0] == "+" and e[1] == grammar.C:
+        out.append(())
+        if len(e[2]) == 3 and e[2][0] == "*" and e[2][1] == grammar.C:
+            out.append((2,))
+    return out
+
+
+def _dropped(e, values, drops):
+    """(e, values) with the constants at the paths `drops` (of `_droppable`) removed: c * a and c + a
+    become a."""
+    remaining, out = iter(values), []
+
+    def build(node, path):
+        if node == grammar.C:
+            out.append(next(remaining))
+            return node
+        if len(node) == 1:
+            return node
+        if path in drops:
+            next(remaining)     # (the constant is node[1], the first in order of appearance)
+            return build(node[2], path + (2,))
+        return (node[0],) + tuple(build(a, path + (i,)) for i, a in enumerate(node[1:], 1))
+
+    return build(e, ()), out
+
+
+def variants(e, values, max_complexity: int, cap: int = VARIANTS) -> list[tuple]:
+    """e and its forms with some of pyoperon's own constants dropped (`_droppable`), fewest drops
+    first, those within `max_complexity`, at most `cap`: (tree, values) each."""
+    import itertools
+
+    slots = _droppable(e)
+    # (a drop saves at least 2: the constant and its operation)
+    fewest = max(0, -(-(int(grammar.complexity(e)) - max_complexity) // 2))
+    out = []
+    for k in range(fewest, len(slots) + 1):
+        for drops in itertools.combinations(slots, k):
+            tree, c = grammar.fold_constants(*_dropped(e, list(values), set(drops)))
+            if grammar.complexity(tree) <= max_complexity:
+                out.append((tree, c))
+            if len(out) >= cap:
+                return out
+    return out
+
+
+def seeded_models(x, y, max_complexity: int, ops, seed: int, seconds: float, log=lambda s: None) -> list[tuple]:
+    """`operon_models` within `seconds`: one run per SEED_SECONDS (seeds seed, seed + 1, ..., at most
+    MAX_SEEDS), each evolving until its share of the time is up; their models together."""
+    seeds = int(min(MAX_SEEDS, max(1, seconds // SEED_SECONDS)))   # (`ladder.pyoperon_seeds`)
+    out, seen = [], set()
+    for k in range(seeds):
+        for tree, c in operon_models(x, y, max_complexity, ops, seed + k, seconds=seconds / seeds,
+                                     generations=GENERATIONS_TIMED):
+            if repr(tree) not in seen:
+                seen.add(repr(tree))
+                out.append((tree, c))
+        if seeds > 1:
+            log(f"pyoperon seed {seed + k}: {len(out)} models so far")
+    return out
+
+
+def polished(models, x, y, seed: int = 0, loss: str = "rms", codes=None):
     """(tree, constants, loss, converged) of each model, its constants refitted in float64 by the
-    pipeline's fit under `loss` from pyoperon's values and from 3 more starts (`search.fit_forms`);
-    pyoperon's values themselves where they fit better (converged then False: not the fit's)."""
-    from . import search
+    pipeline's fit under `loss` from pyoperon's values and from POLISH_STARTS - 1 more starts
+    (`search.fit_forms`; beyond `search.SCREEN_POINTS` points, on the search's spanning subsample,
+    then once more on every point from there), its time kept among the rates of this machine
+    (`rates`);
+    pyoperon's values themselves where they fit better (converged then False: not the fit's).
+    `codes`: the opcodes to compile the fit for (`search.fit_forms`)."""
+    from . import rates, search
 
     if not models:
         return []
-    fits = search.fit_forms([tree for tree, _ in models], x, y, starts=4, seed=seed,
-                            initial=[values for _, values in models], loss=loss)
+    watch = rates.Stopwatch()
+    forms = [tree for tree, _ in models]
+    x = np.atleast_2d(np.asarray(x, dtype=np.float64))
+    initial = [values for _, values in models]
+    if y.size > search.SCREEN_POINTS:
+        # on the search's spanning subsample from every start, then once more on every point from the
+        # subsample's fit (the search's own way with many points)
+        sub = search.spanning_subsample(x, search.SCREEN_POINTS)
+        first = search.fit_forms(forms, x[:, sub], y[sub], starts=POLISH_STARTS, seed=seed, initial=initial,
+                                 loss=loss, codes=codes)
+        fits = search.fit_forms(forms, x, y, starts=1, seed=seed, initial=[c for c, _, _ in first], loss=loss,
+                                codes=codes)
+    else:
+        fits = search.fit_forms(forms, x, y, starts=POLISH_STARTS, seed=seed, initial=initial, loss=loss, codes=codes)
+    seconds, compiling = watch.elapsed()
+    rates.record(rates.kind(search.opcodes(forms) if codes is None else codes, loss),
+                 polish=(search.polish_units(len(models), np.size(y)), seconds - compiling))
     weights = search.loss_weights(y, loss)
     out = []
     for (tree, values), (c, value, ok) in zip(models, fits):

@@ -1,5 +1,7 @@
-"""`pipeline regress`: the exhaustive symbolic regression of `pipeline.symbolic.search` on a researcher's
-own two-column data, read from a CSV file with a header row.
+"""`pipeline regress`: symbolic regression of a researcher's own data, a CSV file with a header row:
+one column against up to three others, within a time budget (`--seconds`): the ladder of grammars
+(`pipeline.symbolic.ladder`: the exhaustive search of `pipeline.symbolic.search` on + - * / first
+and deepest, then on the operations asked for and those the data suggest, then pyoperon), one front.
 
 Writes `front.csv` (one front member per row) and `front.png` into the output folder, both at once
 (nothing is written if anything fails, and no lock file is left beside it). Bad input raises
@@ -37,17 +39,13 @@ from . import grammar
 MAX_COMPLEXITY = 16
 ENGINES = ("auto", "exhaustive", "operon", "both")
 DEFAULT_OPERATIONS = grammar.TEN
-# The time `--engine auto|both` plans for, by the largest complexity asked (at most 12, more), and
-# the exhaustive search's share of it (the complexity it completes in that time); pyoperon has
-# the rest.
-BUDGET_SECONDS = {12: 50.0, MAX_COMPLEXITY: 160.0}
-EXHAUSTIVE_SHARE = 0.4
-OPERON_SLACK_S = 8.0        # pyoperon's start, the float64 polish and the figure, within the budget
-# The screening's rate on the 2-core machine the project is measured on (form x point per second,
-# compile excluded), for the estimate printed before a search starts; and the compile time.
-SCREEN_RATE, COMPILE_S = 70_000.0, 5.0
-# ... and with functions or powers among the operations (each step evaluates them too).
-SCREEN_RATE_FUNCTIONS = 60_000.0
+# The time budget `--engine auto|both|operon` plans for by default, by the number of variables (one,
+# more) and the largest complexity asked (at most 12, more): the ladder of grammars shares it
+# (`ladder`). Two variables reach + - * / to complexity 10 in about 30 s here, three to 9.
+BUDGET_SECONDS = {(1, 12): 45.0, (1, MAX_COMPLEXITY): 100.0, (2, 12): 90.0, (2, MAX_COMPLEXITY): 200.0}
+MIN_SECONDS, MAX_SECONDS = 10.0, 86_400.0
+# Up to this complexity every form is enumerated before a search, to refuse too few points at once.
+SHALLOW = 7
 # Squares of values beyond this overflow float64 sums (1e308) over any realistic number of points.
 LARGEST_VALUE = 1e150
 ROUNDING_DECIMALS_MAX = 8
@@ -66,9 +64,9 @@ def parse_operations(text: str) -> tuple:
                            f"comma-separated (\"+,-,*,/,exp\")") from None
 
 
-def budget_seconds(max_complexity: int) -> float:
-    """The time `--engine auto|both` plans for at this largest complexity."""
-    return BUDGET_SECONDS[12] if max_complexity <= 12 else BUDGET_SECONDS[MAX_COMPLEXITY]
+def budget_seconds(max_complexity: int, variables: int = 1) -> float:
+    """The default budget of `--engine auto|both|operon` at this largest complexity."""
+    return BUDGET_SECONDS[(min(variables, 2), 12 if max_complexity <= 12 else MAX_COMPLEXITY)]
 
 
 def read_table(path: Path, columns: list[str], options: list[str]) -> list[np.ndarray]:
@@ -167,32 +165,6 @@ def variable_names(columns: list[str]) -> list[str]:
     return list(columns) if ok else ["x"] + [f"x{k}" for k in range(1, len(columns))]
 
 
-def estimate_seconds(forms: int, points: int, starts: int = 2, iterations: int = 7, ops=grammar.ARITHMETIC) -> float:
-    """About how long the exhaustive search of `forms` forms takes on the 2-core machine measured."""
-    from .search import SCREEN_POINTS
-
-    rate = SCREEN_RATE if set(ops) <= set(grammar.ARITHMETIC) else SCREEN_RATE_FUNCTIONS
-    return COMPILE_S + forms * (starts / 2) * min(points, SCREEN_POINTS) * (iterations / 10) / rate
-
-
-def exhaustive_reach(variables: int, points: int, max_complexity: int, ops, seconds: float) -> int:
-    """The largest complexity up to `max_complexity` whose exhaustive search is estimated to take at
-    most `seconds` (0 if none). A complexity is not enumerated where the growth of the last two
-    predicts that it is out of reach (enumerating it alone would take long)."""
-    ops = grammar.operations(ops)
-    reach, forms, counts = 0, 0, [0]
-    for k in range(1, max_complexity + 1):
-        if k > 4 and counts[-2] and estimate_seconds(forms + counts[-1] * counts[-1] / counts[-2], points,
-                                                     ops=ops) > 2 * seconds:
-            break
-        counts.append(len(grammar.forms_of(k, ops, variables)))
-        forms += counts[-1]
-        if estimate_seconds(forms, points, ops=ops) > seconds:
-            break
-        reach = k
-    return reach
-
-
 def _member(tree, c, value, converged, names, engine, x, y, cost=None):
     import sympy as sp
 
@@ -209,15 +181,16 @@ def _member(tree, c, value, converged, names, engine, x, y, cost=None):
 def regress(path: Path, x_column, y_column: str, out: Path, max_complexity: int = 12, ops=DEFAULT_OPERATIONS,
             starts: int = 2, iterations: int = 7, refine: int = 8, polish_starts: int = 4, seed: int = 0,
             log=print, noise: float | None = None, engine: str = "auto", loss: str = "rms", cost=None,
-            gpu: str | None = None) -> list[dict]:
+            gpu: str | None = None, seconds: float | None = None) -> list[dict]:
     """Runs the search of y on the file's x column(s) (a name, or a list of up to 3); writes
     out/front.csv and out/front.png; returns the front, its selected member marked (`select`;
     `noise` the data's standard deviation if known).
 
-    `engine`: "exhaustive" (every form up to max_complexity), "operon" (pyoperon alone), "both"
-    (exhaustive as far as it reaches in EXHAUSTIVE_SHARE of `budget_seconds`, pyoperon to
-    max_complexity in the rest, one merged front) or "auto" (exhaustive where it reaches
-    max_complexity, else both). `loss` ranks (`search.LOSSES`); `cost`, a TOML file of costs per
+    `engine`: "exhaustive" (every form up to max_complexity, however long), "operon" (pyoperon alone,
+    for `seconds`), "auto" (the ladder of grammars within `seconds`, `ladder`: narrower grammars first
+    and deeper, then the operations the data suggest, then pyoperon; the operations `ops` searched
+    whole and alone where they reach max_complexity) or "both" (the ladder, pyoperon always).
+    `seconds`: the budget (default `budget_seconds`). `loss` ranks (`search.LOSSES`); `cost`, a TOML file of costs per
     operation (`grammar.read_cost_table`), ranks by its complexity instead of the default count.
     `gpu` (an architecture of `isa.architectures`: rdna3, ..., sm_120; one variable only): every front
     member compiled for that architecture, its cycles in the member's `cycles`
@@ -234,6 +207,8 @@ def regress(path: Path, x_column, y_column: str, out: Path, max_complexity: int 
         raise RegressError(f"--loss {loss!r}: give one of {', '.join(LOSSES)}")
     if not 1 <= max_complexity <= MAX_COMPLEXITY:
         raise RegressError(f"--max-complexity {max_complexity}: give an integer in [1, {MAX_COMPLEXITY}]")
+    if seconds is not None and not (math.isfinite(seconds) and MIN_SECONDS <= seconds <= MAX_SECONDS):
+        raise RegressError(f"--seconds {seconds:g}: give a time budget in [{MIN_SECONDS:g}, {MAX_SECONDS:g}] seconds")
     if noise is not None and not (math.isfinite(noise) and noise > 0):
         raise RegressError(f"--noise {noise}: give the data's noise level, a number > 0")
     if y_column in x_columns:
@@ -257,48 +232,59 @@ def regress(path: Path, x_column, y_column: str, out: Path, max_complexity: int 
         raise RegressError(f"{path}: --loss {loss}: {e}") from None
     x = np.stack(xs)
     names = variable_names(x_columns)
-    budget = budget_seconds(max_complexity)
-    reach = exhaustive_reach(len(names), y.size, max_complexity, ops, EXHAUSTIVE_SHARE * budget)
-    if engine == "auto":
-        engine = "exhaustive" if reach >= max_complexity else "both"
-    depth = max_complexity if engine == "exhaustive" else reach if engine == "both" else 0
-    if engine == "both" and depth == 0:
-        engine = "operon"
-    candidates = []         # (tree, constants, loss, converged, engine)
-    found = None
-    started = time.perf_counter()
-    if depth:
-        forms = grammar.enumerate_forms(depth, ops, len(names))
-        if not forms:
-            raise RegressError(f"no expression of complexity <= {depth} uses only the operations {' '.join(ops)}")
-        most = max(grammar.constants(e) for e in forms)
-        if y.size <= most:
-            raise RegressError(f"{path}: {y.size} data points, but expressions up to complexity {depth} have up "
-                               f"to {most} constants; give at least {most + 1} points or a lower --max-complexity")
-        log(f"{path}: {y.size} points, {len(names)} variable{'s' * (len(names) > 1)}; searching {len(forms)} "
-            f"expressions up to complexity {depth} with operations {' '.join(ops)}, loss {loss}: about "
-            f"{estimate_seconds(len(forms), y.size, starts, iterations, ops):.0f} s on a 2-core machine")
-        from . import search
+    budget = budget_seconds(max_complexity, len(names)) if seconds is None else seconds
+    shallow = min(max_complexity, SHALLOW)
+    forms = grammar.enumerate_forms(shallow, ops, len(names))
+    if not forms:
+        raise RegressError(f"no expression of complexity <= {shallow} uses only the operations {' '.join(ops)}")
+    most = max(grammar.constants(e) for e in forms)
+    if engine != "operon" and y.size <= most:
+        raise RegressError(f"{path}: {y.size} data points, but expressions up to complexity {shallow} have up "
+                           f"to {most} constants; give at least {most + 1} points or a lower --max-complexity")
+    from . import ladder, rates, search
 
+    candidates, rungs = [], []
+    fitted = dict(forms=[], complexity=[], loss=[])
+    started = time.perf_counter()
+    if engine == "exhaustive":
+        # (deeper forms with as many constants as points cannot be fitted: left out)
+        forms = [e for e in grammar.enumerate_forms(max_complexity, ops, len(names)) if grammar.constants(e) < y.size]
+        kind = rates.kind(grammar.opcodes(forms), loss)
+        estimate = ladder.estimate_seconds(len(forms), max_complexity, y.size, kind)
+        log(f"{path}: {y.size} points, {len(names)} variable{'s' * (len(names) > 1)}; searching {len(forms)} "
+            f"expressions up to complexity {max_complexity} with operations {' '.join(ops)}, loss {loss}: about "
+            f"{estimate:.0f} s here (the rates measured on this machine)")
         log(f"fitting on JAX's default device: {search.jax.devices()[0].platform.upper()}")
-        found = search.search(x, y, depth, ops, starts, iterations, refine, polish_starts, seed, progress=log,
+        found = search.search(x, y, max_complexity, ops, starts, iterations, refine, polish_starts, seed, progress=log,
                               forms=forms, loss=loss, cost=table)
+        rates.learn(found["timing"])
         for i in found["front"]:
-            candidates.append((found["forms"][i], found["constants"][i][:found["constant_count"][i]], found["loss"][i],
-                               found["converged"].get(i, False), "exhaustive"))
-    if engine in ("operon", "both"):
+            candidates.append((found["forms"][i], found["constants"][i][:found["constant_count"][i]], float(found["loss"][i]),
+                               found["converged"].get(i, False), "exhaustive", "exhaustive"))
+        fitted = dict(forms=list(found["forms"]), complexity=list(found["complexity"]), loss=list(found["loss"]))
+        rungs.append(ladder.Rung("exhaustive", ops, max_complexity, len(forms), estimate,
+                                 time.perf_counter() - started))
+    elif engine == "operon":
         from . import operon
 
-        seconds = max(budget - (time.perf_counter() - started) - OPERON_SLACK_S, 10.0) if engine == "both" else operon.SECONDS
-        how = f"for {seconds:.0f} s" if engine == "both" else f"{operon.GENERATIONS} generations, at most {seconds:.0f} s"
-        log(f"pyoperon to complexity {max_complexity} (populations of {operon.POPULATION}, {how})"
-            + (f": the exhaustive search reaches {depth}" if depth else ""))
-        # (within the budget pyoperon evolves until its time is up, not for a fixed count of generations)
-        models = operon.operon_models(x, y, max_complexity, ops, seed, seconds=seconds,
-                                      generations=operon.GENERATIONS_TIMED if engine == "both" else None)
+        log(f"{path}: {y.size} points, {len(names)} variable{'s' * (len(names) > 1)}; pyoperon to complexity "
+            f"{max_complexity} with operations {' '.join(ops)} for {budget:.0f} s")
+        models = operon.seeded_models(x, y, max_complexity, ops, seed, budget, log)
         for tree, c, value, ok in operon.polished(models, x, y, seed, loss=loss):
-            candidates.append((tree, c, value, ok, "operon"))
-        log(f"pyoperon: {len(models)} models on its front within complexity {max_complexity}, polished in float64")
+            candidates.append((tree, c, value, ok, "operon", "pyoperon"))
+        rungs.append(ladder.Rung("pyoperon", ops, max_complexity, len(models), budget, time.perf_counter() - started,
+                                 "operon"))
+    else:
+        plan = ladder.plan_seconds(len(names), y.size, max_complexity, ops, budget, loss)
+        log(f"{path}: {y.size} points, {len(names)} variable{'s' * (len(names) > 1)}; searching expressions up to "
+            f"complexity {max_complexity} with operations {' '.join(ops)}, loss {loss}, within {budget:.0f} s: about "
+            f"{plan:.0f} s here (narrower grammars first, then wider, then pyoperon)")
+        log(f"fitting on JAX's default device: {search.jax.devices()[0].platform.upper()}")
+        candidates, rungs, fitted = ladder.run(x, y, max_complexity, ops, budget, loss, table, seed, starts, iterations,
+                                               refine, polish_starts, "always" if engine == "both" else "auto", log)
+    log("covered: " + "; ".join(f"{r.name} ({' '.join(r.operations)}) to complexity {r.complexity}, "
+                                 f"{r.forms} {'models' if r.engine == 'operon' else 'forms'}, {r.seconds:.0f} s "
+                                 f"(estimated {r.estimated_seconds:.0f} s)" for r in rungs))
     front, fits = _merged_front(candidates, names, x, y, weights, table)
     rows, share = dominating_rows(fits, x, y)
     if rows:
@@ -312,17 +298,18 @@ def regress(path: Path, x_column, y_column: str, out: Path, max_complexity: int 
            f"noise {sigma:.3g}, the rounding floor of y" if sigma else "noise unknown")
     log(f"selected by description length ({how}, loss {loss}): complexity {front[best]['complexity']}, "
         f"{front[best]['expression']}")
-    # every expression fitted, for the figure: the exhaustive search's and pyoperon's polished models
+    # every expression fitted, for the figure: the exhaustive rungs' forms and pyoperon's polished models
     others = [m for m in candidates if m[4] != "exhaustive"]
-    everything = dict(complexity=np.array([grammar.complexity(t, table) for t, *_ in others], dtype=float),
-                      rms=np.array([r for _, _, r, _, _ in others], dtype=float), forms=[t for t, *_ in others])
-    if found is not None:
-        everything = dict(complexity=np.concatenate([found["complexity"], everything["complexity"]]),
-                          rms=np.concatenate([found["loss"], everything["rms"]]), forms=found["forms"] + everything["forms"])
+    everything = dict(complexity=np.array(list(fitted["complexity"]) + [grammar.complexity(t, table) for t, *_ in others],
+                                          dtype=float),
+                      rms=np.array(list(fitted["loss"]) + [m[2] for m in others], dtype=float),
+                      forms=list(fitted["forms"]) + [t for t, *_ in others])
     if gpu is not None:
         compiled_cycles(front, fits, gpu, log)
-    _write(Path(out), front, f"{Path(path).name}: {y_column} against {', '.join(x_columns)}", x, y, everything, loss,
-           table is not None)
+    covered = "; ".join(f"{r.name}: {' '.join(r.operations) if len(r.operations) < 10 else 'the ten operations'} to "
+                        f"{r.complexity}" for r in rungs)
+    _write(Path(out), front, f"{Path(path).name}: {y_column} against {', '.join(x_columns)}\n({covered})", x, y,
+           everything, loss, table is not None)
     return front
 
 
@@ -399,18 +386,20 @@ def _merged_front(candidates, names, x, y, weights, cost=None):
     from .search import pareto_front
 
     size = np.array([grammar.complexity(t, cost) for t, *_ in candidates])
-    value = np.array([r if np.isfinite(r) else np.inf for _, _, r, _, _ in candidates])
-    # the exhaustive search's candidates first, so that a tie is its member
+    value = np.array([r if np.isfinite(r) else np.inf for _, _, r, *_ in candidates])
+    # the exhaustive rungs' candidates first, in the ladder's order (narrower first), so that a tie
+    # is the narrower grammar's member
     order = np.array(sorted(range(len(candidates)), key=lambda k: candidates[k][4] != "exhaustive"))
     front, fits = [], []
     scaled = y * weights
     for i in pareto_front(size[order], value[order], 1e-12 * (np.std(scaled) + np.max(np.abs(scaled)))):
         k = order[i]
-        tree, c, r, ok, engine = candidates[k]
+        tree, c, r, ok, engine, _ = candidates[k]
         both = any(candidates[j][4] != engine and size[j] <= size[k] and value[j] <= r * (1 + 1e-6) + 1e-300
                    for j in range(len(candidates)))
         member = _member(tree, c, r, ok, names, "both" if both else engine, x, y, cost)
         member["structure"] = int(grammar.complexity(tree))
+        member["rung"] = candidates[k][5]
         front.append(member)
         fits.append((tree, c))
     return front, fits
@@ -431,7 +420,8 @@ def _write(out: Path, front, title, x, y, found, loss="rms", costed=False) -> No
 
 
 FRONT_COLUMNS = ("complexity", "cycles", "structure", "loss", "rms", "form", "expression", "canonical", "max_rel_to_exact",
-                 "max_energy_excess", "equivalent_to_exact", "constants", "description_length", "selected", "engine")
+                 "max_energy_excess", "equivalent_to_exact", "constants", "description_length", "selected", "engine",
+                 "rung")
 
 
 def write_front_csv(path, front) -> None:

@@ -29,6 +29,7 @@ so that no block holds more than about `BLOCK_VALUES` values.
 
 from __future__ import annotations
 
+import time
 from functools import partial
 
 import numpy as np
@@ -37,6 +38,7 @@ from .grammar import (ADD, CONST, COST, CUBE, DIV, EXP, LOG, MUL, NOP, OPCODE, P
                       apply, canonical, complexity, constants, enumerate_forms, evaluate_numpy, linear_constants,
                       opcodes, operations, operations_of, parse, programs, show, to_sympy)
 from ..optics.numerics import jax
+from . import rates
 import jax.numpy as jnp  # noqa: E402
 
 # Screening and polishing run on fixed block shapes, so that a search compiles a handful of
@@ -53,6 +55,7 @@ MIN_WIDTH = 5       # ... and fits have at least this many constants: searches u
 AGREE = 1e-3            # starts within this relative sum of squares of the best reached the same optimum;
 SECOND_PASS = 2         # where only one did, SECOND_PASS x starts more starts
 SCREEN_POINTS = 64      # screening subsample beyond this many points
+PROGRESS_SECONDS = 10.0  # the screening says how far it is at most this often
 BLOCK_VALUES = 2**22    # rows x points x program steps of one block, at most (about)
 
 
@@ -230,11 +233,11 @@ def _pad_points(x, y, w):
     return copies(x), copies(y), np.concatenate([w, np.zeros(w.shape[:-1] + (extra,))], axis=-1)
 
 
-def _fit(block, linear, starts, x, y, rows, iterations, tail, w=None, codes=ARITHMETIC_OPCODES):
+def _fit(block, linear, starts, x, y, rows, iterations, tail, w=None, codes=ARITHMETIC_OPCODES, tick=None):
     # the screening (no tail) tracks the linear solve's residual; refits evaluate it afresh
     """`fit_block` over fixed-size blocks of (programs, linear masks, starts); unpadded numpy
     results. x (variables, points), y and w (points; w default 1) are shared by every row, or given
-    per row."""
+    per row. `tick(rows)` is called after each block with the rows it fitted."""
     w = np.ones(y.shape[-1]) if w is None else w
     w = np.broadcast_to(w, y.shape)
     # The rows in order of their programs' length, so that each block holds programs of about one
@@ -248,6 +251,8 @@ def _fit(block, linear, starts, x, y, rows, iterations, tail, w=None, codes=ARIT
                            *_pad_points(*data),
                            iterations, tail, tail > 0, codes=codes, first=first_step(block[part]))
         out.append([np.asarray(r)[:count] for r in result])
+        if tick:
+            tick(count)
     unsorted = np.empty_like(order)
     unsorted[order] = np.arange(order.size)
     return [np.concatenate(parts)[unsorted] for parts in zip(*out)]
@@ -361,6 +366,7 @@ def search(x, y, max_complexity: int, ops="+-*/", starts: int = 2, iterations: i
     refitted where refitted; the relative error's for the relative losses), loss (the ranking
     loss), constants, converged (refitted forms: the objective no longer improving), and front
     (indices of the forms on the Pareto front of complexity against loss, by complexity)."""
+    watch = rates.Stopwatch()
     x, y = np.asarray(x, dtype=np.float64), np.asarray(y, dtype=np.float64)
     x = x[None] if x.ndim == 1 else x
     forms = enumerate_forms(max_complexity, ops, x.shape[0]) if forms is None else list(forms)
@@ -387,9 +393,21 @@ def search(x, y, max_complexity: int, ops="+-*/", starts: int = 2, iterations: i
     sum_sq = np.full(len(forms), np.inf)
     fitted = np.ones((len(forms), width))
 
-    def screen(index, first_start, count_):
+    def screen(index, first_start, count_, label):
         """Screens the forms `index` from starts first_start .. first_start + count_ - 1 (one start for a form
-        whose constants are all linear); keeps each form's best."""
+        whose constants are all linear); keeps each form's best. Says every PROGRESS_SECONDS how far
+        it is and how long the rest takes at the rate so far."""
+        total = int(np.where(nonlinear_count[index] > 0, count_, 1).sum())
+        done, began, said = [0], rates.Stopwatch(), [time.perf_counter()]
+
+        def tick(rows_):
+            done[0] += rows_
+            now = time.perf_counter()
+            if progress and now - said[0] >= PROGRESS_SECONDS and done[0] < total:
+                said[0] = now
+                seconds, compiling = began.elapsed()
+                progress(f"{label}: {done[0]} of {total} fits, about "
+                         f"{(seconds - compiling) / done[0] * (total - done[0]):.0f} s left at the rate so far")
         out = []
         small = count[index] <= SMALL_CONSTANTS
         for group, w, steps in ((index[small & ~curved[index]], SMALL_CONSTANTS, iterations),
@@ -406,7 +424,7 @@ def search(x, y, max_complexity: int, ops="+-*/", starts: int = 2, iterations: i
             # (data per row, as in the refits, so that the widest screening and the refits share one
             # compiled program)
             c, s, _ = _fit(program[rows], linear[rows, :w], start[k, :w], np.broadcast_to(x_s, (rows.size,) + x_s.shape),
-                           np.broadcast_to(y_s, (rows.size,) + y_s.shape), POLISH_ROWS, steps, 0, w_s, codes)
+                           np.broadcast_to(y_s, (rows.size,) + y_s.shape), POLISH_ROWS, steps, 0, w_s, codes, tick)
             s = np.where(np.isfinite(s), s, np.inf)
             best = _best_per_form(rows, s, len(forms))[group]
             better = s[best] < sum_sq[group]
@@ -415,22 +433,24 @@ def search(x, y, max_complexity: int, ops="+-*/", starts: int = 2, iterations: i
             out.append((rows, s))
         return np.concatenate([r for r, _ in out]), np.concatenate([s for _, s in out])
 
-    rows, s = screen(np.arange(len(forms)), 0, starts)
+    rows, s = screen(np.arange(len(forms)), 0, starts, f"screening {len(forms)} forms")
     # a form whose best was reached from one start only has several optima: more starts
-    near = s <= sum_sq[rows] * (1 + AGREE) + 1e-300
+    with np.errstate(over="ignore"):        # (a sum of squares near the largest float64)
+        near = s <= sum_sq[rows] * (1 + AGREE) + 1e-300
     agree = np.bincount(rows, near, len(forms)) > 1
     agree |= nonlinear_count == 0
     if progress:
         progress(f"screened {len(forms)} forms" + (f" on {sub.size} of the {y.size} points" if sub.size < y.size else ""))
     if starts > 1 and not agree.all():
         again = np.flatnonzero(~agree)
-        screen(again, starts, SECOND_PASS * starts)
+        screen(again, starts, SECOND_PASS * starts, f"screening {again.size} forms again")
         if progress:
             progress(f"screened {again.size} forms with several optima from {SECOND_PASS * starts} more starts")
     subsampled = sub.size < y.size
     if subsampled:              # every form's screened constants on every point
         sum_sq = sums_of_squares(program, fitted, x, y, base, codes)
         sum_sq = np.where(np.isfinite(sum_sq), sum_sq, np.inf)
+    screened = watch.lap()
     chosen = np.concatenate([np.flatnonzero(structure == k)[np.argsort(sum_sq[structure == k], kind="stable")[:refine]]
                              for k in np.unique(structure)])
     rows = np.repeat(chosen, polish_starts)
@@ -470,10 +490,46 @@ def search(x, y, max_complexity: int, ops="+-*/", starts: int = 2, iterations: i
         converged |= {int(i): bool(good and np.isfinite(v)) for i, v, good in zip(chosen, value[chosen], done)}
         if progress:
             progress(f"refitted {chosen.size} forms by minimax ({LAWSON_ROUNDS} rounds of Lawson's reweighting)")
+    refitted = watch.lap()
     floor = 1e-12 * (np.std(y * base) + np.max(np.abs(y * base)))
+    timing = dict(kind=rates.kind(codes, loss), screen_units=screen_units(len(forms), y.size),
+                  refit_units=refit_units(np.unique(structure).size, y.size, refine, polish_starts),
+                  screen_seconds=screened[0] - screened[1], refit_seconds=refitted[0] - refitted[1],
+                  compile_seconds=screened[1] + refitted[1])
     return dict(forms=forms, complexity=size, constant_count=count, rms=rms, loss=value, loss_name=loss,
                 constants=fitted, converged=converged, front=pareto_front(size, value, floor),
-                width=width, linear_count=count - nonlinear_count)
+                width=width, linear_count=count - nonlinear_count, timing=timing)
+
+
+def screen_units(forms: int, points: int) -> float:
+    """Screened form-points of a search of `forms` forms on `points` points (`rates`): every form on the
+    screened points (padded), and once on every point where the screening is subsampled."""
+    units = forms * padded_points(min(points, SCREEN_POINTS))
+    if points > SCREEN_POINTS:
+        units += forms * padded_points(points) / 16     # every form once on every point
+    return float(units)
+
+
+def refit_units(complexities: int, points: int, refine: int = 8, polish_starts: int = 4) -> float:
+    """Refitted row-points of a search whose forms span `complexities` complexities: the refits of the
+    best `refine` forms of each from `polish_starts` starts, in blocks of `search.POLISH_ROWS` rows
+    (a block costs its rows whether filled or not), and where the screening was subsampled, each
+    complexity's best on every point (one block)."""
+    rows = -(-complexities * refine * polish_starts // POLISH_ROWS) * POLISH_ROWS
+    units = rows * padded_points(min(points, SCREEN_POINTS))
+    if points > SCREEN_POINTS:
+        units += _rows_for(POLISH_ROWS, padded_points(points), 48) * padded_points(points)
+    return float(units)
+
+
+def polish_units(models: int, points: int, starts: int = 4) -> float:
+    """Polished row-points of pyoperon's `models` (`operon.polished`): from `starts` starts each on
+    the points, or beyond SCREEN_POINTS on the subsample, then from one start on every point (rows
+    in blocks of `POLISH_ROWS`)."""
+    blocks = lambda rows: -(-rows // POLISH_ROWS) * POLISH_ROWS
+    if points <= SCREEN_POINTS:
+        return float(blocks(starts * models) * padded_points(points))
+    return float(blocks(starts * models) * padded_points(SCREEN_POINTS) + blocks(models) * padded_points(points))
 
 
 @partial(jax.jit, static_argnames="codes")
@@ -596,7 +652,7 @@ def fit_forms(forms, x, y, starts: int = 8, seed: int = 0, steps: int = MIN_STEP
     fits on many points, run faster in a smaller block of their own)."""
     x, y = np.asarray(x, dtype=np.float64), np.asarray(y, dtype=np.float64)
     if loss != "rms":
-        return _fit_forms_for_loss(forms, x, y, starts, seed, iterations, initial, loss, block_rows)
+        return _fit_forms_for_loss(forms, x, y, starts, seed, iterations, initial, loss, block_rows, codes)
     if y.ndim == 1:
         return fit_forms(forms, x[None], y[None], starts, seed, steps, width, iterations, initial, codes=codes,
                          block_rows=block_rows)[0]
@@ -628,14 +684,15 @@ def fit_forms(forms, x, y, starts: int = 8, seed: int = 0, steps: int = MIN_STEP
     return out
 
 
-def _fit_forms_for_loss(forms, x, y, starts, seed, iterations, initial, loss, block_rows=None):
+def _fit_forms_for_loss(forms, x, y, starts, seed, iterations, initial, loss, block_rows=None, codes=None):
     """`fit_forms` of one sample under a loss other than "rms": least squares of the weighted
     residuals from every start (the best kept), then minimax (`minimax`) for the max losses."""
     base = loss_weights(y, loss)
     x = x[None] if x.ndim == 1 else x
     width = max([MIN_WIDTH] + [constants(e) for e in forms])
     steps = max([MIN_STEPS] + [complexity(e) for e in forms])
-    program, linear, codes = programs(forms, steps), linear_masks(forms, width), opcodes(forms)
+    program, linear = programs(forms, steps), linear_masks(forms, width)
+    codes = opcodes(forms) if codes is None else tuple(codes)
     c0 = np.tile(start_constants(starts, width, x, seed), (len(forms), 1))
     if initial is not None:
         for i, values in enumerate(initial):

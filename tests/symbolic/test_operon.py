@@ -99,13 +99,15 @@ def test_pyoperon_s_members_fill_the_front_beyond_the_exhaustive_reach(tmp_path,
     only be pyoperon's: there are some, front.csv names their engine "operon", and they fit better
     than the exhaustive front's best. (pyoperon 0.6.2 with + - * / returns one model within 10 on
     these data, the line in t at complexity 7 with a redundant weight: RMS 0.082 against 0.256.)"""
-    from pipeline.symbolic import regress as regress_module
+    from pipeline.symbolic import ladder
 
     data, x, v = noisy_two_column_data(tmp_path)
     monkeypatch.setattr(operon, "GENERATIONS", 60)
     monkeypatch.setattr(operon, "GENERATIONS_TIMED", 60)
     monkeypatch.setattr(operon, "POPULATION", 500)
-    monkeypatch.setattr(regress_module, "exhaustive_reach", lambda *a, **k: 3)
+    reach = ladder.reach
+    monkeypatch.setattr(ladder, "reach", lambda ops, variables, points, max_complexity, *a: reach(
+        ops, variables, points, min(max_complexity, 3), *a))
     front = regress(data, "t,q", "v", tmp_path / "out", max_complexity=10, engine="both", noise=0.002, ops="+-*/",
                     log=lambda s: None)
     above = [m for m in front if m["complexity"] > 3]

@@ -139,4 +139,4 @@ def test_regress_takes_complexity_up_to_16_and_says_how_long_first(tmp_path):
         regress(data, "t", "v", tmp_path / "out", max_complexity=17, log=lambda s: None)
     said = []
     regress(data, "t", "v", tmp_path / "out", max_complexity=5, log=said.append)
-    assert "searching" in said[0] and "expressions up to complexity 5" in said[0] and "s on a 2-core machine" in said[0]
+    assert "searching expressions up to complexity 5" in said[0] and "s here" in said[0]

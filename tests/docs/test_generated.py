@@ -1,0 +1,78 @@
+"""The generated parts of the documentation are up to date: the reference pages (config keys, results.json
+keys, command help) and the numbers of the paper's run in the README and docs/ (its results table and every
+marked number), each regenerated in memory and compared with the committed text (`make docs` writes them)."""
+
+import copy
+
+import pytest
+
+from .helpers import docs
+
+
+def test_the_reference_pages_are_generated_from_the_cli_the_config_and_the_graph():
+    for path, content in docs.reference_pages().items():
+        assert path.exists(), f"{path.name} is missing: run `make docs`"
+        assert path.read_text() == content, f"{path.relative_to(docs.ROOT)} is stale: run `make docs`"
+
+
+def test_the_reference_pages_follow_a_renamed_flag_key_and_field(monkeypatch):
+    """A flag, a config key and a stage field renamed in the code change the generated pages."""
+    from pipeline.engine import config, graph
+
+    before = docs.reference_pages()
+    monkeypatch.setattr(config, "key_table", lambda: "| key |\n|---|\n| `zone.renamed` |")
+    stage = graph.STAGES[0]
+    monkeypatch.setattr(graph, "STAGES", (type(stage)(stage.name, stage.paper, stage.reads, stage.inputs,
+                                                      {"renamed_field": "x"}),) + graph.STAGES[1:])
+    from pipeline import cli
+    original = cli.build_parser
+
+    def renamed():
+        parser = original()
+        docs.subparsers(parser)["keys"].add_argument("--renamed-flag")
+        return parser
+    monkeypatch.setattr(cli, "build_parser", renamed)
+    after = docs.reference_pages()
+    assert "zone.renamed" in after[docs.REFERENCE / "config.md"] != before[docs.REFERENCE / "config.md"]
+    assert "renamed_field" in after[docs.REFERENCE / "results.md"]
+    assert "--renamed-flag" in after[docs.REFERENCE / "commands.md"]
+
+
+@pytest.fixture(scope="module")
+def paper_document(paper_run, paper_cache):
+    """The paper's run as results.json holds it, from the session's cache (every stage is there)."""
+    import pipeline
+    from pipeline.engine import paths
+
+    return pipeline.run(paths.PAPER_CONFIG, log=lambda s: None, cache_dir=paper_cache)
+
+
+def test_the_readme_table_and_the_marked_numbers_are_the_paper_runs(paper_document):
+    stale = []
+    for page in docs.prose_pages():
+        text = page.read_text()
+        expected = docs.fill_readme(text, paper_document) if page == docs.README else \
+            docs.fill_numbers(text, paper_document, page.name)
+        if expected != text:
+            lines = [f"  {a!r}\n  -> {b!r}" for a, b in zip(text.splitlines(), expected.splitlines())
+                     if a != b]
+            stale.append(f"{page.name}:\n" + "\n".join(lines[:5]))
+    assert not stale, ("numbers differ from the paper's run (run `make reproduce`, then `make docs`):\n"
+                       + "\n".join(stale))
+
+
+def test_a_moved_number_or_a_renamed_field_fails(paper_document):
+    """Planted: a number of the run that moves changes the README's table and a marked number; a marked
+    path that names no field is an error naming it."""
+    moved = copy.deepcopy(paper_document)
+    moved["stages"]["accuracy"]["d_f_Q2"] *= 1.01
+    readme = docs.README.read_text()
+    assert docs.fill_readme(readme, moved) != readme
+    page = docs.DOCS / "choices.md"
+    assert docs.fill_numbers(page.read_text(), moved) != page.read_text()
+    marked = "1.2 %<!--r accuracy.d_f_Q2 %.1f-->"
+    assert docs.fill_numbers(marked, moved) == "1.3 %<!--r accuracy.d_f_Q2 %.1f-->"
+    with pytest.raises(docs.MissingField, match="d_f_Q9"):
+        docs.fill_numbers("1.2 %<!--r accuracy.d_f_Q9 %.1f-->", paper_document, "page.md")
+    with pytest.raises(docs.MissingField, match="no row with architecture=rdna9"):
+        docs.fill_numbers("4<!--r decision.table[architecture=rdna9].winner_cycles d-->", paper_document)
