@@ -117,13 +117,6 @@ def polish_estimate(models: int, points: int, kind: str) -> float:
     return 0.5 * kept["compile_s"] + search.polish_units(models, points, operon.POLISH_STARTS) * kept["polish_s"]
 
 
-def pyoperon_seeds(seconds: float) -> int:
-    """The seeds pyoperon runs in `seconds` (`operon.seeded_models`)."""
-    from . import operon
-
-    return int(min(operon.MAX_SEEDS, max(1, seconds // operon.SEED_SECONDS)))
-
-
 def compile_estimate(kind: str) -> float:
     """The compilation a search of this kind is expected to need in this process (none once one ran)."""
     return 0.0 if rates.compiled(kind) else rates.load()[kind]["compile_s"]
@@ -216,14 +209,14 @@ def run(x, y, max_complexity: int, ops, seconds: float, loss: str = "rms", cost=
         exhaustive("suggested" if suggested != ops else "wide, deeper", suggested, forms, depth, estimate)
         whole = any(set(o) == set(ops) and d >= max_complexity for o, d in searched)
     # pyoperon's time: what is left, less its models' polish (about MODELS_PER_SEED per seed) and the rest
-    seeds = pyoperon_seeds(seconds - (time.perf_counter() - started))
+    from . import operon as pyoperon
+
+    seeds = pyoperon.seeds_in(seconds - (time.perf_counter() - started))
     polish = polish_estimate(seeds * MODELS_PER_SEED, points, kind)
     budget = seconds - (time.perf_counter() - started) - polish - OPERON_SLACK_S
     if operon == "auto" and not whole and budget < OPERON_MIN_SECONDS:
         log(f"pyoperon: not run, {max(budget, 0):.0f} s of the budget left (less than {OPERON_MIN_SECONDS:.0f} s)")
     elif operon == "always" or operon == "auto" and not whole:
-        from . import operon as pyoperon
-
         budget = max(budget, OPERON_MIN_SECONDS)
         log(f"pyoperon: {' '.join(ops)} to complexity {max_complexity} for {budget:.0f} s")
         rung = Rung("pyoperon", ops, max_complexity, 0, budget + polish, engine="operon")

@@ -171,10 +171,15 @@ def variants(e, values, max_complexity: int, cap: int = VARIANTS) -> list[tuple]
     return out
 
 
+def seeds_in(seconds: float) -> int:
+    """The seeds `seeded_models` runs in `seconds`: one per SEED_SECONDS, at least 1, at most MAX_SEEDS."""
+    return int(min(MAX_SEEDS, max(1, seconds // SEED_SECONDS)))
+
+
 def seeded_models(x, y, max_complexity: int, ops, seed: int, seconds: float, log=lambda s: None) -> list[tuple]:
     """`operon_models` within `seconds`: one run per SEED_SECONDS (seeds seed, seed + 1, ..., at most
     MAX_SEEDS), each evolving until its share of the time is up; their models together."""
-    seeds = int(min(MAX_SEEDS, max(1, seconds // SEED_SECONDS)))   # (`ladder.pyoperon_seeds`)
+    seeds = seeds_in(seconds)
     out, seen = [], set()
     for k in range(seeds):
         for tree, c in operon_models(x, y, max_complexity, ops, seed + k, seconds=seconds / seeds,
