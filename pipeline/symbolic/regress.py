@@ -28,6 +28,7 @@ from __future__ import annotations
 import csv
 import math
 import re
+import textwrap
 import time
 from pathlib import Path
 
@@ -46,6 +47,7 @@ BUDGET_SECONDS = {(1, 12): 45.0, (1, MAX_COMPLEXITY): 100.0, (2, 12): 90.0, (2, 
 MIN_SECONDS, MAX_SECONDS = 10.0, 86_400.0
 # Up to this complexity every form is enumerated before a search, to refuse too few points at once.
 SHALLOW = 7
+TITLE_WIDTH = 120       # characters of a line of the figure's title (what the rungs covered, wrapped)
 # Squares of values beyond this overflow float64 sums (1e308) over any realistic number of points.
 LARGEST_VALUE = 1e150
 ROUNDING_DECIMALS_MAX = 8
@@ -308,8 +310,8 @@ def regress(path: Path, x_column, y_column: str, out: Path, max_complexity: int 
         compiled_cycles(front, fits, gpu, log)
     covered = "; ".join(f"{r.name}: {' '.join(r.operations) if len(r.operations) < 10 else 'the ten operations'} to "
                         f"{r.complexity}" for r in rungs)
-    _write(Path(out), front, f"{Path(path).name}: {y_column} against {', '.join(x_columns)}\n({covered})", x, y,
-           everything, loss, table is not None)
+    _write(Path(out), front, f"{Path(path).name}: {y_column} against {', '.join(x_columns)}\n"
+           + textwrap.fill(f"({covered})", TITLE_WIDTH), x, y, everything, loss, table is not None)
     return front
 
 
@@ -473,8 +475,9 @@ def symbolic_front_figure(path, front, found, title, loss="rms", costed=False) -
     ax.set(yscale="log" if positive and max(positive) / min(positive) > 20 else "linear",
            xlabel=("complexity (the cost table given)" if costed else
                    "complexity (constants, variables, +, -, x, square, cube count 1; /, exp, log, sqrt, pow 2)"),
-           ylabel=LOSS_LABELS[loss], title=title,
+           ylabel=LOSS_LABELS[loss],
            xlim=(0, sizes[-1] + 1.5))
+    ax.set_title(title, fontsize=10)
     ax.legend(fontsize=8, loc="lower left")
     ax.grid(alpha=0.3, which="both")
     fig.tight_layout()
