@@ -39,68 +39,57 @@ def _horner(coefficients, x):
         if len(coefficients) > 1 else sp.Float(float(coefficients[0]), 17)
 
 
-def polynomials(target, f, weight) -> list[Form]:
-    lo, hi = target.domain
-    x = target.symbol()
+def _remez_family(name, degrees, basis_of, expression_of, source, f, weight, lo, hi) -> list[Form]:
+    """The members `name`_d of a linear family for d in `degrees`, each by Remez's exchange on
+    basis_of(d) (functions of x), its form expression_of(coefficients): until one is exact."""
     out = []
-    for degree in range(1, POLYNOMIAL_DEGREES + 1):
+    for degree in degrees:
         try:
-            fit = minimax.remez([lambda s, k=k: np.asarray(s, dtype=np.float64) ** k for k in range(degree + 1)],
-                                f, weight, lo, hi)
+            fit = minimax.remez(basis_of(degree), f, weight, lo, hi)
         except minimax.MinimaxFailed:
             continue
-        out.append(Form(f"polynomial_{degree}", "found", "polynomial", _horner(fit["coefficients"], x),
-                        f"Remez exchange, degree {degree}", fit["converged"]))
+        out.append(Form(f"{name}_{degree}", "found", name, expression_of(fit["coefficients"]),
+                        f"Remez exchange{source}, degree {degree}", fit["converged"]))
         if fit["exact"]:
             break
     return out
+
+
+def _power(k):
+    return lambda s: np.asarray(s, dtype=np.float64) ** k
+
+
+def _power_sqrt(k):
+    return lambda s: np.asarray(s, dtype=np.float64) ** k * np.sqrt(1 - np.asarray(s, dtype=np.float64))
+
+
+def polynomials(target, f, weight) -> list[Form]:
+    x = target.symbol()
+    return _remez_family("polynomial", range(1, POLYNOMIAL_DEGREES + 1),
+                         lambda d: [_power(k) for k in range(d + 1)], lambda c: _horner(c, x), "", f, weight,
+                         *target.domain)
 
 
 def polynomials_sqrt(target, f, weight) -> list[Form]:
-    lo, hi = target.domain
-    if hi > 1:
+    if target.domain[1] > 1:
         return []
     x = target.symbol()
-    out = []
-    for degree in range(0, SQRT_DEGREES + 1):
-        basis = [lambda s, k=k: np.asarray(s, dtype=np.float64) ** k * np.sqrt(1 - np.asarray(s, dtype=np.float64))
-                 for k in range(degree + 1)]
-        try:
-            fit = minimax.remez(basis, f, weight, lo, hi)
-        except minimax.MinimaxFailed:
-            continue
-        out.append(Form(f"polynomial_sqrt_{degree}", "found", "polynomial_sqrt",
-                        _horner(fit["coefficients"], x) * sp.sqrt(1 - x),
-                        f"Remez exchange on x^k sqrt(1 - x), degree {degree}", fit["converged"]))
-        if fit["exact"]:
-            break
-    return out
+    return _remez_family("polynomial_sqrt", range(SQRT_DEGREES + 1),
+                         lambda d: [_power_sqrt(k) for k in range(d + 1)], lambda c: _horner(c, x) * sp.sqrt(1 - x),
+                         " on x^k sqrt(1 - x)", f, weight, *target.domain)
 
 
 def offset_polynomials_sqrt(target, f, weight) -> list[Form]:
     """c + p(x) sqrt(1 - x) (asin, pi/2 - acos, and their kin), degree 0 to SQRT_DEGREES, by Remez's
     exchange on the basis 1, x^k sqrt(1 - x): with s = sqrt(1 - x) it spans 1 and odd powers of s,
     a Haar system on [0, 1] (Descartes' rule of signs)."""
-    lo, hi = target.domain
-    if hi > 1:
+    if target.domain[1] > 1:
         return []
     x = target.symbol()
-    out = []
-    for degree in range(0, SQRT_DEGREES + 1):
-        basis = [lambda s: np.ones_like(np.asarray(s, dtype=np.float64))]
-        basis += [lambda s, k=k: np.asarray(s, dtype=np.float64) ** k * np.sqrt(1 - np.asarray(s, dtype=np.float64))
-                  for k in range(degree + 1)]
-        try:
-            fit = minimax.remez(basis, f, weight, lo, hi)
-        except minimax.MinimaxFailed:
-            continue
-        c = fit["coefficients"]
-        out.append(Form(f"offset_polynomial_sqrt_{degree}", "found", "offset_polynomial_sqrt",
-                        sp.Float(float(c[0]), 17) + _horner(c[1:], x) * sp.sqrt(1 - x),
-                        f"Remez exchange on 1, x^k sqrt(1 - x), degree {degree}", fit["converged"]))
-        if fit["exact"]:
-            break
-    return out
+    return _remez_family("offset_polynomial_sqrt", range(SQRT_DEGREES + 1),
+                         lambda d: [_power(0)] + [_power_sqrt(k) for k in range(d + 1)],
+                         lambda c: sp.Float(float(c[0]), 17) + _horner(c[1:], x) * sp.sqrt(1 - x),
+                         " on 1, x^k sqrt(1 - x)", f, weight, *target.domain)
 
 
 def exp2_polynomials(target, f, weight) -> list[Form]:
