@@ -172,8 +172,11 @@ def _derive(args) -> int:
     results = found.raw
     error = results["error"]
     for a in results["architectures"]:
-        front = sorted((r for r in found.front if r["architecture"] == a), key=lambda r: r["cycles"])
-        print(f"{a}: " + ", ".join(f"{r['cycles']:g} cycles {r[error]:.3g} ({r['name']})" for r in front))
+        for per in sorted({r["parameter_per"] for r in found.front if r["architecture"] == a}):
+            front = sorted((r for r in found.front if r["architecture"] == a and r["parameter_per"] == per),
+                           key=lambda r: r["cycles"])
+            print(f"{a}{f' (parameter per {per})' if per else ''}: "
+                  + ", ".join(f"{r['cycles']:g} cycles {r[error]:.3g} ({r['name']})" for r in front))
         for name, v in results["verdicts"][a].items():
             print(f"  {name} ({v['cycles']:g} cycles, {v['error']:.3g}): {v['verdict']}"
                   + (f" by {v['by']} ({v['ratio']:.3g} of its error)" if v["by"] else ""))
@@ -364,7 +367,7 @@ def build_parser() -> argparse.ArgumentParser:
     der = sub.add_parser("derive", help="the cheapest accurate forms of a function a shader approximates, ranked by "
                                         "compiled cycles per GPU architecture")
     der.add_argument("--target", default=None, metavar="NAME|FILE.toml",
-                     help="a registered target (schlick, acos, cos_n20) or a TOML file")
+                     help="a registered target (schlick, acos, cos_n20, smith_ggx_visibility) or a TOML file")
     der.add_argument("--expr", default=None, metavar="EXPR", help="the target as an expression (sympy), e.g. 'atan(x)'")
     der.add_argument("--var", default="x=0:1", metavar="NAME=LO:HI", help="with --expr: its variable and domain")
     der.add_argument("--metric", default=None, choices=("abs", "rel"), help="the error measured (default the target's)")

@@ -14,7 +14,7 @@ import dataclasses
 import math
 from pathlib import Path
 
-from . import engine, forms, publish, targets
+from . import engine, parametric, publish, targets
 from .targets import DeriveError, Target
 
 
@@ -26,12 +26,12 @@ def resolve(target=None, expr: str | None = None, var: str = "x=0:1", metric: st
         raise DeriveError("give --target NAME (or FILE.toml) or --expr EXPR, one of them")
     if expr is not None:
         return targets.from_expression(expr, var, metric or "abs", floor or 0.0)
-    if not isinstance(target, Target):
+    if not isinstance(target, (Target, parametric.ParametricTarget)):
         target = targets.named(str(target))
     if metric is not None or floor is not None:
         target = dataclasses.replace(target, metric=metric or target.metric,
                                      floor=target.floor if floor is None else floor)
-    return targets.check(target)
+    return parametric.check(target) if isinstance(target, parametric.ParametricTarget) else targets.check(target)
 
 
 @dataclasses.dataclass
@@ -70,16 +70,26 @@ class Derivation:
             raise KeyError(f"no member {name!r}; the members are {', '.join(self.raw['members'])}")
         return self.raw["forms"][name].expression
 
+    def _arguments(self, name: str) -> str:
+        """The member's arguments: the target's variable, or a parametric target's variables and
+        parameter (a material member: its variables and constants c0, c1, ...)."""
+        member = self.raw["members"].get(name, {})
+        if member.get("parameter_per") == "material":
+            return ", ".join([v.name for v in self.target.variables] + [f"c{i}" for i in range(len(member["constants"]))])
+        return self.target.variable
+
     def glsl(self, name: str) -> str:
-        """The member as a GLSL expression in the target's variable."""
-        return forms.glsl(self._form(name), self.target.variable)
+        """The member as a GLSL expression in the target's variables (and its parameter)."""
+        return publish.shader_text(self._form(name), self._arguments(name), "glsl")
 
     def hlsl(self, name: str) -> str:
-        return forms.hlsl(self._form(name), self.target.variable)
+        return publish.shader_text(self._form(name), self._arguments(name), "hlsl")
 
     def twin(self, name: str):
-        """The member's Python twin: a function of one float, printed as derive_twin.py prints it."""
-        code = f"def twin({self.target.variable}):\n    return {forms.python(self._form(name), self.target.variable)}\n"
+        """The member's Python twin: a function of the target's variables (and its parameter), floats,
+        printed as derive_twin.py prints it."""
+        arguments = self._arguments(name)
+        code = f"def twin({arguments}):\n    return {publish.shader_text(self._form(name), arguments, 'python')}\n"
         scope = {"math": math}
         exec(compile(code, f"<twin of {name}>", "exec"), scope)
         return scope["twin"]
@@ -104,4 +114,5 @@ def derive(target=None, *, expr: str | None = None, var: str = "x=0:1", gpu=None
     chosen = resolve(target, expr, var, metric, floor)
     if isinstance(gpu, str):
         gpu = [g.strip() for g in gpu.split(",") if g.strip()]
-    return Derivation(chosen, engine.derive(chosen, gpu, seconds, max_cycles, max_complexity, log=log))
+    run = parametric.derive if isinstance(chosen, parametric.ParametricTarget) else engine.derive
+    return Derivation(chosen, run(chosen, gpu, seconds, max_cycles, max_complexity, log=log))

@@ -402,7 +402,7 @@ def derive(target, gpu=None, seconds: float = DEFAULT_SECONDS, max_cycles: float
             rows.append(dict(architecture=a, kind=m.kind, name=m.name, family=m.family, expression=_text(m, target),
                              cycles=cycles[a][m.name], cycles_predicted=_predicted(m, table),
                              max_abs_error=errors[m.name]["max_abs_error"], max_rel_error=errors[m.name]["max_rel_error"],
-                             on_front=m.name in fronts[a], source=m.source))
+                             on_front=m.name in fronts[a], source=m.source, range="", parameter_per=""))
         verdicts[a] = {m.name: dict(cycles=cycles[a][m.name], error=errors[m.name][error_key],
                                     **verdict(cycles[a][m.name], errors[m.name][error_key], best, error_key, floor))
                        for m in anchors if m.name in cycles[a]}

@@ -124,6 +124,54 @@ def remez(basis, target, weight, lo: float, hi: float) -> dict:
     return best | dict(exact=False, converged=False)
 
 
+def slp_points(model, jacobian, c0, target_values, weights, x, steps: int = SLP_STEPS) -> tuple[np.ndarray, float]:
+    """Minimax constants of `model(c, x)` on fixed points `x` (an array of points of one variable, or
+    (variables, points)): sequential linear programs (module docstring) from c0, each step minimizing
+    the largest linearized weighted error within a trust region, kept where the true error falls.
+    Returns (constants, the largest weighted error on the points; inf where never finite)."""
+    c = np.asarray(c0, dtype=np.float64)
+    y = np.asarray(target_values, dtype=np.float64)
+    w = np.asarray(weights, dtype=np.float64)
+    count = y.size
+
+    def residual(c_):
+        with np.errstate(all="ignore"):
+            return w * (model(c_, x) - y)
+
+    def on_points(c_):
+        r = residual(c_)
+        return float(np.max(np.abs(r))) if np.all(np.isfinite(r)) else np.inf
+
+    value = on_points(c)
+    radius = 0.1 * (np.abs(c) + 1e-3)
+    for _ in range(steps):
+        r = residual(c)
+        with np.errstate(all="ignore"):
+            J = w[:, None] * jacobian(c, x)
+        if not (np.all(np.isfinite(r)) and np.all(np.isfinite(J))):
+            break
+        k = c.size
+        A = np.block([[J, -np.ones((count, 1))], [-J, -np.ones((count, 1))]])
+        b = np.concatenate([-r, r])
+        lp = linprog(np.r_[np.zeros(k), 1.0], A_ub=A, b_ub=b,
+                     bounds=[(-radius[j], radius[j]) for j in range(k)] + [(0, None)], method="highs")
+        if lp.status != 0:
+            break
+        trial = c + lp.x[:k]
+        trial_value = on_points(trial)
+        if trial_value < value:
+            gained = value - trial_value
+            c, value = trial, trial_value
+            radius *= 2.0
+            if gained <= 1e-13 * value:
+                break
+        else:
+            radius *= 0.25
+        if np.all(radius <= 1e-13 * (np.abs(c) + 1e-13)):
+            break
+    return c, value
+
+
 def slp(model, jacobian, c0, target, weight, lo: float, hi: float, steps: int = SLP_STEPS,
         exchanges: int = EXCHANGES, points=None):
     """Minimax constants of `model(c, x)` (numpy; `jacobian(c, x)`: (points, constants)) for
@@ -139,39 +187,11 @@ def slp(model, jacobian, c0, target, weight, lo: float, hi: float, steps: int = 
     def whole(c_):
         return measure.largest(lambda s: residual(c_, s), lo, hi)
 
-    def on_points(c_):
-        r = residual(c_, x)
-        return float(np.max(np.abs(r))) if np.all(np.isfinite(r)) else np.inf
-
     best_value, _ = whole(c)
     best_c = c
     for _ in range(exchanges + 1):
-        value = on_points(c)
-        radius = 0.1 * (np.abs(c) + 1e-3)
-        for _ in range(steps):
-            r = residual(c, x)
-            J = weight(x)[:, None] * jacobian(c, x)
-            if not (np.all(np.isfinite(r)) and np.all(np.isfinite(J))):
-                break
-            k = c.size
-            A = np.block([[J, -np.ones((x.size, 1))], [-J, -np.ones((x.size, 1))]])
-            b = np.concatenate([-r, r])
-            lp = linprog(np.r_[np.zeros(k), 1.0], A_ub=A, b_ub=b,
-                         bounds=[(-radius[j], radius[j]) for j in range(k)] + [(0, None)], method="highs")
-            if lp.status != 0:
-                break
-            trial = c + lp.x[:k]
-            trial_value = on_points(trial)
-            if trial_value < value:
-                gained = value - trial_value
-                c, value = trial, trial_value
-                radius *= 2.0
-                if gained <= 1e-13 * value:
-                    break
-            else:
-                radius *= 0.25
-            if np.all(radius <= 1e-13 * (np.abs(c) + 1e-13)):
-                break
+        with np.errstate(all="ignore"):
+            c, value = slp_points(model, jacobian, c, target(x), weight(x), x, steps)
         measured, where = whole(c)
         if measured < best_value:
             best_value, best_c = measured, c

@@ -3,13 +3,17 @@ folder renamed into place, so that a failure leaves nothing half written):
 
 - `front.csv`: per architecture, its front's forms (kind `found`), every anchor (`anchor`) and the
   target itself (`exact`) where it compiles: architecture, kind, name, family, expression,
-  cycles, cycles_predicted, max_abs_error, max_rel_error, on_front, source;
+  cycles, cycles_predicted, max_abs_error, max_rel_error, on_front, source, range (a parametric
+  target's parameter and its range) and parameter_per (`material`: the constants' formulas, in the
+  expression, computed once per material on the CPU; `pixel`: compiled into the shader);
 - `results.json`: the target, the search's coverage, the fronts, each anchor's verdict per
   architecture, the cost tables, the times (estimated and measured), the members' errors;
 - `report.md`: the same in words and tables, every number a field of results.json;
 - `front.png`: error against compiled cycles, one panel per vendor (its first architecture);
 - `derive.glsl`, `derive.hlsl`, `derive_twin.py`: each front member as a function of the
-  target's variable, and its Python twin.
+  target's variables (a parametric target's pixel members of its parameter too, its material members
+  of their constants c0, c1, ..., whose formulas the twin's `..._constants` computes), and its
+  Python twin.
 """
 
 from __future__ import annotations
@@ -23,7 +27,26 @@ from pathlib import Path
 from .forms import glsl, hlsl, python
 
 COLUMNS = ("architecture", "kind", "name", "family", "expression", "cycles", "cycles_predicted", "max_abs_error",
-           "max_rel_error", "on_front", "source")
+           "max_rel_error", "on_front", "source", "range", "parameter_per")
+
+
+def domain_text(target: dict) -> str:
+    """"x in [0, 1]", or each variable's and the parameter's range."""
+    if target.get("variables"):
+        axes = target["variables"] + ([target["parameter"]] if target.get("parameter") else [])
+        return ", ".join(f"{a['name']} in [{a['lo']:g}, {a['hi']:g}]" for a in axes)
+    return f"{target['variable']} in [{target['domain'][0]:g}, {target['domain'][1]:g}]"
+
+
+def shader_text(expr, arguments: str, language: str) -> str:
+    """A form as a GLSL, HLSL or Python expression: in the one variable `arguments` (renamed to it),
+    or in its symbols' own names where `arguments` names several (comma-separated)."""
+    from . import forms
+
+    if "," not in arguments:
+        return {"glsl": glsl, "hlsl": hlsl, "python": python}[language](expr, arguments.strip())
+    printer = {"glsl": forms._GLSL, "hlsl": forms._HLSL, "python": forms._Python}[language]
+    return printer().doprint(forms.gpu_form(expr))
 
 
 def function_name(target_name: str, member: str) -> str:
@@ -40,9 +63,11 @@ def exported(results) -> list[str]:
 
 def shader_sources(results) -> dict[str, str]:
     """derive.glsl, derive.hlsl and derive_twin.py as text."""
+    import sympy as sp
+
     target = results["target"]
-    v = target["variable"]
-    head = [f"// Forms of {target['expression']} on [{target['domain'][0]:g}, {target['domain'][1]:g}] found by "
+    arguments = target["variable"]
+    head = [f"// Forms of {target['expression']} for {domain_text(target)} found by "
             f"pipeline derive (error {target['metric']}, measured in float64 over the whole domain)", ""]
     glsl_lines, hlsl_lines = list(head), list(head)
     py = [f'"""Python twin of derive.glsl: the forms of {target["expression"]}, for tests and plots."""', "",
@@ -52,9 +77,21 @@ def shader_sources(results) -> dict[str, str]:
         m = results["members"][name]
         doc = f"{m['expression']}: max abs error {m['max_abs_error']:.4g}, max rel error {m['max_rel_error']:.4g}"
         fn = function_name(target["name"], name)
-        for lines, text in ((glsl_lines, glsl(form.expression, v)), (hlsl_lines, hlsl(form.expression, v))):
-            lines += [f"// {doc}", f"float {fn}(float {v})", "{", f"    return {text};", "}", ""]
-        py += [f"def {fn}({v}):", f'    """{doc}"""', f"    return {python(form.expression, v)}", "", ""]
+        expression, names = form.expression, arguments
+        if m.get("parameter_per") == "material":
+            # the constants are the function's arguments; the twin computes them from the formulas
+            count = len(m["constants"])
+            names = ", ".join([a["name"] for a in target["variables"]] + [f"c{i}" for i in range(count)])
+            parameter = target["parameter"]["name"]
+            values = ", ".join(python(sp.sympify(c, locals={parameter: sp.Symbol(parameter, real=True)}), parameter)
+                               for c in m["constants"])
+            py += [f"def {fn}_constants({parameter}):", f'    """c0, c1, ... of {fn}, once per material."""',
+                   f"    return [{values}]", "", ""]
+        signature = ", ".join(f"float {n.strip()}" for n in names.split(","))
+        for lines, language in ((glsl_lines, "glsl"), (hlsl_lines, "hlsl")):
+            lines += [f"// {doc}", f"float {fn}({signature})", "{",
+                      f"    return {shader_text(expression, names, language)};", "}", ""]
+        py += [f"def {fn}({names}):", f'    """{doc}"""', f"    return {shader_text(expression, names, 'python')}", "", ""]
     return {"derive.glsl": "\n".join(glsl_lines), "derive.hlsl": "\n".join(hlsl_lines),
             "derive_twin.py": "\n".join(py).rstrip() + "\n"}
 
@@ -94,6 +131,33 @@ def _error_text(v) -> str:
     return "inf" if v is None or isinstance(v, str) or math.isinf(v) else f"{v:.3g}"
 
 
+def _rungs_text(rungs) -> str:
+    return "; ".join((f"{r['name']} ({r['operations']}): every form to complexity {r['complexity']} not fitted before "
+                      f"({r['forms']} forms)" if r["engine"] == "exhaustive" else
+                      f"pyoperon to complexity {r['complexity']} ({r['forms']} models)") + f", {r['seconds']} s"
+                     for r in rungs)
+
+
+def _parametric_coverage(results) -> list[str]:
+    """The coverage lines of a parametric target (`parametric`)."""
+    t, c = results["target"], results["coverage"]
+    lines = []
+    if t.get("parameter"):
+        p = t["parameter"]["name"]
+        lines += [f"- Templates, their constants fitted by minimax at {c['parameter_values']} values of {p} (a grid and "
+                  f"the values halfway), then each constant a formula of {p}, all polished together over the whole box: "
+                  f"{', '.join(results['families'])}"
+                  + (" (in symmetric monomials: the target is symmetric in its two variables)" if c.get("symmetric") else "")
+                  + f"; {c['templates']['count']} templates, {c['templates']['seconds']} s.",
+                  f"- The grammar's templates, at {p} = {c['templates']['at']:g} on {c['templates']['points']} points, "
+                  f"loss {c['templates']['loss']}: " + _rungs_text(c["templates"]["rungs"]) + "."]
+    s = c["pixel_search"]
+    lines += [f"- The grammar over every variable{' and the parameter' if t.get('parameter') else ''} "
+              f"(per pixel), on {s['points']} points, loss {s['loss']}: " + _rungs_text(s["rungs"])
+              + f". Not searched: min, max and saturate, and forms above complexity {c['max_complexity']}."]
+    return lines
+
+
 def report(results) -> str:
     """report.md: every number from `results` (results.json's fields)."""
     from ..isa.architectures import ARCHITECTURES
@@ -103,23 +167,22 @@ def report(results) -> str:
     error = results["error"]
     measure = "largest absolute error" if error == "max_abs_error" else "largest relative error"
     lines = [f"# pipeline derive: {t['name']}", "",
-             f"Target: `{t['expression']}` for {t['variable']} in [{t['domain'][0]:g}, {t['domain'][1]:g}]"
+             f"Target: `{t['expression']}` for {domain_text(t)}"
              + (f" ({t['description']})" if t["description"] else "") + f"; ranked by the {measure} over the whole "
              "domain (float64, grid and refinement), against cycles compiled for each architecture.", "",
-             "## What the search covered", "",
+             "## What the search covered", ""]
+    lines += _parametric_coverage(results) if t.get("variables") else [
              f"- Families fitted by minimax on the whole interval: {', '.join(results['families'])} "
              f"({len(results['family_members'])} members: {', '.join(results['family_members'])}).",
              f"- The grammar's ten operations ({' '.join(c['operations'])}), loss {c['loss']} on {c['points']} points, "
-             "by the ladder of grammars: " + "; ".join(
-                 (f"{r['name']} ({r['operations']}): every form to complexity {r['complexity']} not fitted before "
-                  f"({r['forms']} forms)" if r["engine"] == "exhaustive" else
-                  f"pyoperon to complexity {r['complexity']} ({r['forms']} models)") + f", {r['seconds']} s"
-                 for r in c["rungs"])
+             "by the ladder of grammars: " + _rungs_text(c["rungs"])
              + ("" if any(r["engine"] == "operon" for r in c["rungs"]) or c["exhaustive_complexity"] >= c["max_complexity"]
                 else "; pyoperon did not run (the budget left less than its minimum)")
              + f"; {c['seconds']} s. Not searched: min, max and saturate, and forms above complexity "
-             f"{c['max_complexity']}.",
-             f"- Time: {results['seconds']} s measured, {results['estimated_seconds']} s estimated before the start.", ""]
+             f"{c['max_complexity']}."]
+    lines += [f"- Time: {results['seconds']} s measured"
+              + (f", {results['estimated_seconds']} s estimated before the start." if results["estimated_seconds"]
+                 else "."), ""]
     if results["missing"]:
         lines += ["Not compiled: " + "; ".join(f"{k}: {v}" for k, v in results["missing"].items()) + ".", ""]
     lines += ["## The anchors", "", "| architecture | anchor | cycles | error | verdict | by | error ratio |",
@@ -130,15 +193,33 @@ def report(results) -> str:
             by = f"{v['by']}: `{results['members'][v['by']]['expression']}`" if v["by"] else "-"
             lines.append(f"| {a} | {name} | {v['cycles']:g} | {_error_text(v['error'])} | {v['verdict']} | {by} | "
                          f"{ratio} |")
+    parametric = bool(t.get("parameter"))
     lines += ["", "A verdict compares the anchor with the most accurate found form at no more cycles on that "
-              "architecture: beaten (its error lower by more than 1 %), matched (within 1 %), missed.", ""]
+              "architecture" + (" among the forms with the parameter per pixel (as engines evaluate the anchors)"
+                                if parametric else "")
+              + ": beaten (its error lower by more than 1 %), matched (within 1 %), missed.", ""]
+    if parametric:
+        lines += [f"With `parameter_per` material, the constants c0, c1, ... are push constants the CPU computes once "
+                  f"per material from their formulas in {t['parameter']['name']}; with pixel, the formulas are "
+                  "compiled into the shader. The per-value optimum is the template's error with its constants fitted "
+                  "at each value alone: no formula does better.", ""]
     for a in results["architectures"]:
         rows = [r for r in results["rows"] if r["architecture"] == a]
         unit = backend(a).UNIT
-        lines += [f"## {a} ({ARCHITECTURES[a].title}): {unit}", "",
-                  "| kind | name | cycles | predicted | max abs error | max rel error | expression |",
-                  "|---|---|---|---|---|---|---|"]
+        lines += [f"## {a} ({ARCHITECTURES[a].title}): {unit}", ""]
+        if parametric:
+            lines += ["| kind | per | name | cycles | max abs error | max rel error | per-value optimum | expression |",
+                      "|---|---|---|---|---|---|---|---|"]
+        else:
+            lines += ["| kind | name | cycles | predicted | max abs error | max rel error | expression |",
+                      "|---|---|---|---|---|---|---|"]
         for r in sorted(rows, key=lambda r: (r["cycles"], r[error])):
+            if parametric:
+                optimum = results["members"].get(r["name"], {}).get("per_value_error")
+                lines.append(f"| {r['kind']} | {r['parameter_per']} | {r['name']} | {r['cycles']:g} | "
+                             f"{_error_text(r['max_abs_error'])} | {_error_text(r['max_rel_error'])} | "
+                             f"{'-' if optimum is None else _error_text(optimum)} | `{r['expression']}` |")
+                continue
             predicted = "-" if r["cycles_predicted"] is None else f"{r['cycles_predicted']:g}"
             lines.append(f"| {r['kind']} | {r['name']} | {r['cycles']:g} | {predicted} | "
                          f"{_error_text(r['max_abs_error'])} | {_error_text(r['max_rel_error'])} | `{r['expression']}` |")
@@ -176,10 +257,15 @@ def figure(path: Path, results) -> None:
         ax.axis("off")
     for ax, a in zip(axes.flat, shown):
         rows = [r for r in results["rows"] if r["architecture"] == a]
-        found = sorted((r for r in rows if r["kind"] == "found" and math.isfinite(r[error])), key=lambda r: r["cycles"])
-        values = [max(r[error], floor) for r in found]
-        ax.step([r["cycles"] for r in found], values, where="post", color="C0", lw=1.2, alpha=0.6)
-        ax.plot([r["cycles"] for r in found], values, "o", color="C0", ms=5, label="found: the front")
+        fronts = (("pixel", "C0", "found, parameter per pixel: the front"),
+                  ("material", "C2", "found, parameter per material: the front")) if t.get("parameter") else \
+            (("", "C0", "found: the front"),)
+        for per, colour, label in fronts:
+            found = sorted((r for r in rows if r["kind"] == "found" and r.get("parameter_per", "") == per
+                            and math.isfinite(r[error])), key=lambda r: r["cycles"])
+            values = [max(r[error], floor) for r in found]
+            ax.step([r["cycles"] for r in found], values, where="post", color=colour, lw=1.2, alpha=0.6)
+            ax.plot([r["cycles"] for r in found], values, "o", color=colour, ms=5, label=label)
         anchors: dict = {}          # anchors at one point share one label (Lagarde's is Eberly's degree 1)
         for r in (r for r in rows if r["kind"] == "anchor"):
             anchors.setdefault((r["cycles"], float(f"{max(r[error], floor):.3g}")), []).append(r["name"])
@@ -189,7 +275,10 @@ def figure(path: Path, results) -> None:
                         color="C3")
         for r in (r for r in rows if r["kind"] == "exact"):
             ax.axvline(r["cycles"], color="0.4", ls="--", lw=1, label="the target itself (its cycles)")
-        ax.axhline(floor, color="0.7", lw=0.8, ls=":", label="float32 rounding (smaller errors drawn here)")
+        smallest = min((max(r[error], floor) for r in rows if r[error] is not None and math.isfinite(r[error])),
+                       default=floor)
+        if smallest < 100 * floor:      # (drawn where an error comes near it; otherwise it only squeezes the axis)
+            ax.axhline(floor, color="0.7", lw=0.8, ls=":", label="float32 rounding (smaller errors drawn here)")
         ax.set_yscale("log")
         ax.set_xlabel(f"{a}: {backend(a).UNIT}")
         ax.set_ylabel("largest absolute error" if error == "max_abs_error" else "largest relative error")
@@ -199,7 +288,7 @@ def figure(path: Path, results) -> None:
         for h, label in zip(*ax.get_legend_handles_labels()):
             handles.setdefault(label, h)
     fig.legend(handles.values(), handles.keys(), loc="lower center", ncol=4, fontsize=9, frameon=False)
-    fig.suptitle(f"{t['expression']} on [{t['domain'][0]:g}, {t['domain'][1]:g}]: error against compiled cycles, "
+    fig.suptitle(f"{t['name']} for {domain_text(t)}: error against compiled cycles, "
                  "one panel per vendor", fontsize=11)
     fig.tight_layout(rect=(0, 0.06, 1, 1))
     fig.savefig(path, dpi=110)

@@ -102,23 +102,26 @@ def _shader_functions():
             "max": sp.Max, "min": sp.Min, "pow": sp.Pow, "mix": lambda a, b, s: a + (b - a) * s}
 
 
-def parse(text: str, variable: str = "x"):
-    """The sympy expression of `text` in the real symbol `variable`. Raises DeriveError naming what
-    is wrong: text sympy cannot read, a name that is neither the variable nor a function."""
+def parse(text: str, variable="x"):
+    """The sympy expression of `text` in the real symbol `variable` (or in several, given as a tuple of
+    names). Raises DeriveError naming what is wrong: text sympy cannot read, a name that is neither a
+    variable nor a function."""
     import sympy as sp
 
     if not isinstance(text, str) or not text.strip():
         raise DeriveError("an empty expression")
-    symbol = sp.Symbol(variable, real=True)
+    names = [variable] if isinstance(variable, str) else list(variable)
+    symbols = {name: sp.Symbol(name, real=True) for name in names}
     try:
-        expr = sp.sympify(text, locals={variable: symbol, **_shader_functions()}, convert_xor=True)
+        expr = sp.sympify(text, locals={**symbols, **_shader_functions()}, convert_xor=True)
     except (sp.SympifyError, SyntaxError, TypeError, AttributeError, ValueError) as e:
-        raise DeriveError(f"{text!r} does not parse as an expression in {variable} ({type(e).__name__})") from None
+        raise DeriveError(f"{text!r} does not parse as an expression in {', '.join(names)} ({type(e).__name__})") from None
     if not isinstance(expr, sp.Expr):
-        raise DeriveError(f"{text!r} is not an expression in {variable}")
-    others = sorted(str(s) for s in expr.free_symbols if s != symbol)
+        raise DeriveError(f"{text!r} is not an expression in {', '.join(names)}")
+    others = sorted(str(s) for s in expr.free_symbols if s not in symbols.values())
     if others:
-        raise DeriveError(f"{text!r}: unknown name {others[0]!r} (the variable is {variable})")
+        raise DeriveError(f"{text!r}: unknown name {others[0]!r} (the variable{'s are' if len(names) > 1 else ' is'} "
+                          f"{', '.join(names)})")
     undefined = sorted({type(f).__name__ for f in expr.atoms(sp.core.function.AppliedUndef)})
     if undefined:
         raise DeriveError(f"{text!r}: unknown function {undefined[0]!r}")
@@ -217,11 +220,14 @@ def registry() -> dict[str, Target]:
 NAMES = ("schlick", "acos", "cos_n20")
 
 
-def named(name: str) -> Target:
-    """A registered target, or a TOML file's (a path ending in .toml). Raises DeriveError."""
+def named(name: str):
+    """A registered target (a `Target`, or a `parametric.ParametricTarget` of several variables or a
+    parameter), or a TOML file's (a path ending in .toml). Raises DeriveError."""
+    from . import parametric
+
     if name.endswith(".toml"):
         return from_file(Path(name))
-    targets = registry()
+    targets = registry() | parametric.registry()
     if name not in targets:
         raise DeriveError(f"--target {name!r}: give one of {', '.join(targets)}, or a .toml file")
     return targets[name]

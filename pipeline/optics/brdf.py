@@ -359,9 +359,10 @@ def largest(e, lo, hi, cells: int = GRID, chebyshev: int = CHEBYSHEV, peaks: int
             steps = np.where(x0 + size * scale <= np.array([b for _, b in bounds]), 1.0, -1.0) * size * scale
             simplex = np.vstack([x0, x0 + np.diag(steps)])
             # stops when the simplex spans 1e-8 of the box's size and its values 1e-12 of the peak's
-            found = minimize(objective, x0, method="Nelder-Mead", bounds=bounds,
-                             options={"initial_simplex": simplex, "xatol": 1e-8 * float(np.max(hi - lo)),
-                                      "fatol": 1e-12 * float(v.flat[flat]), "maxfev": 1000})
+            with np.errstate(invalid="ignore"):        # (a simplex corner where e is not finite)
+                found = minimize(objective, x0, method="Nelder-Mead", bounds=bounds,
+                                 options={"initial_simplex": simplex, "xatol": 1e-8 * float(np.max(hi - lo)),
+                                          "fatol": 1e-12 * float(v.flat[flat]), "maxfev": 1000})
             x0 = np.clip(found.x, [a for a, _ in bounds], [b for _, b in bounds])
         found_value = -objective(x0)
         if np.isfinite(found_value) and found_value > value:

@@ -1,0 +1,883 @@
+"""`derive` for targets of several variables and a per-material parameter: the height-correlated
+Smith-GGX visibility V(NoV, NoL; alpha) (`registry`), or any `ParametricTarget` of up to three
+variables and parameter (in Python: `pipeline.derive(ParametricTarget(...))`).
+
+A target (`ParametricTarget`) has variables computed per pixel (NoV, NoL), each with its range, and
+at most one parameter with its range (alpha, roughness, n), which a material sets, or a texture per
+pixel. Its error is the largest over the whole box, variables and parameter
+(`optics.brdf.largest_error`: a grid, refined where the error peaks).
+
+1. Templates: forms in the variables whose constants are left free:
+   - the families linear in their constants under an outer function: a polynomial and the
+     reciprocal of a polynomial, of total degree 1 and 2 and bilinear, each with and without its
+     constant term, in symmetric monomials (x + y, x y, x^2 + y^2) where the target is symmetric in
+     its two variables (checked on the fitting grid);
+   - the grammar's forms in the variables, found by the ladder of grammars (`symbolic.ladder`) at the
+     parameter's middle value.
+2. Per value: each template's constants fitted by minimax (`minimax.slp_points`) at every value of
+   the parameter's grid (`PARAMETER_VALUES` Chebyshev values and the values halfway between them,
+   where the worst value is checked), each start from the neighbour's constants. The largest of
+   these errors is the template's per-value optimum: no formula of the parameter does better.
+3. Formulas: each constant as a line and as a quadratic in the parameter (least squares on the grid's
+   values), then all the formulas' coefficients polished together by minimax on the points of every
+   value, the box's worst point added and polished again (`EXCHANGES` times); the error measured
+   over the whole box.
+4. Per pixel: the grammar's forms in the variables and the parameter together, by the ladder.
+5. Costs: every form compiled for each architecture, a fragment shader with one input per variable
+   and the parameter (`shader`): `parameter_per = "material"`, the constants push constants that
+   the CPU computes once per material from the formulas; `pixel`, the formulas compiled into the
+   shader with the parameter per pixel (textured roughness). The fronts are read off per
+   architecture and per `parameter_per`; the anchors, which engines evaluate with the parameter per
+   pixel, are pixel rows, held against the pixel front (`engine.verdict`).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import itertools
+import math
+import time
+
+import numpy as np
+
+from . import minimax
+from .forms import Form, gpu_form
+from .targets import METRICS, Anchor, DeriveError, parse
+
+AXIS_POINTS = 13            # Chebyshev-Lobatto points per variable: the fits' grid
+SEARCH_AXIS_POINTS = 9      # ... and the searches' (times PARAMETER_VALUES for the pixel search)
+PARAMETER_VALUES = 9        # the parameter's grid (Chebyshev-Lobatto), and the 8 values halfway
+EXCHANGES = 2               # the box's worst point joins the polish's points, and it polishes again
+SEARCH_TEMPLATES = 8        # grammar forms (the ladder's front) taken as templates, the most accurate
+PIXEL_SHARE = 0.5           # of the budget: the pixel search (the rest, the templates' search)
+MAX_AXES = 3                # a shader's inputs, variables and the parameter (written with the form: a vec4)
+MAX_CONSTANTS = 8           # push constants of a material form
+SYMMETRY = 1e-12            # f(x, y) and f(y, x) agree to this (relative) on the grid: symmetric
+MEASURE_GRID = dict(cells=24, chebyshev=13)     # the box's measuring grid per axis (`brdf.largest`)
+CHECK_POINTS = 33           # per axis: the grid on which a target must be finite
+
+
+@dataclasses.dataclass(frozen=True)
+class Axis:
+    """A variable or the parameter: its name and range."""
+
+    name: str
+    lo: float
+    hi: float
+
+    def text(self) -> str:
+        return f"{self.name} in [{self.lo:g}, {self.hi:g}]"
+
+
+@dataclasses.dataclass(frozen=True)
+class ParametricTarget:
+    """A function of `variables` (per pixel) and at most one `parameter` (per material), the
+    expression sympy text in their names (module docstring)."""
+
+    name: str
+    expression: str
+    variables: tuple[Axis, ...]
+    parameter: Axis | None = None
+    metric: str = "rel"
+    floor: float = 0.0
+    anchors: tuple[Anchor, ...] = ()
+    description: str = ""
+
+    @property
+    def axes(self) -> tuple[Axis, ...]:
+        return self.variables + ((self.parameter,) if self.parameter else ())
+
+    @property
+    def names(self) -> tuple[str, ...]:
+        return tuple(a.name for a in self.axes)
+
+    @property
+    def variable(self) -> str:          # (what the one-variable engine's pages name)
+        return ", ".join(self.names)
+
+    @property
+    def domain(self):
+        return [[a.lo, a.hi] for a in self.axes]
+
+    def symbols(self) -> list:
+        import sympy as sp
+
+        return [sp.Symbol(n, real=True) for n in self.names]
+
+    def sympy(self):
+        return parse(self.expression, self.names)
+
+    def numpy(self):
+        """The exact function as a numpy callable of one array per axis (variables, then the parameter)."""
+        return _numpy_of(self.sympy(), self.symbols())
+
+    def range_text(self) -> str:
+        return self.parameter.text() if self.parameter else ""
+
+    def anchor_expressions(self) -> dict:
+        return {a.name: parse(a.expression, self.names) for a in self.anchors}
+
+
+def _numpy_of(expr, symbols):
+    import sympy as sp
+
+    function = sp.lambdify(symbols, expr, modules=["numpy", "scipy"])
+
+    def value(*columns):
+        columns = [np.asarray(c, dtype=np.float64) for c in columns]
+        shape = np.broadcast_shapes(*(c.shape for c in columns))
+        with np.errstate(all="ignore"):
+            return np.broadcast_to(np.asarray(function(*columns), dtype=np.float64), shape).copy()
+
+    return value
+
+
+def check(target: ParametricTarget) -> ParametricTarget:
+    """The target itself, checked: a known metric, finite ranges lo < hi, distinct names, an expression
+    finite (and, for `rel` with floor 0, nonzero) on a grid of the box, anchors that parse. Raises
+    DeriveError naming the first fault."""
+    if target.metric not in METRICS:
+        raise DeriveError(f"--metric {target.metric!r}: give one of {', '.join(METRICS)}")
+    if not target.variables:
+        raise DeriveError(f"{target.name}: give at least one variable")
+    if len(target.axes) > MAX_AXES:
+        raise DeriveError(f"{target.name}: {len(target.axes)} variables and parameter; at most {MAX_AXES}")
+    names = target.names
+    if len(set(names)) != len(names):
+        raise DeriveError(f"{target.name}: the names {', '.join(names)} repeat one")
+    for a in target.axes:
+        if not a.name.isidentifier() or a.name in ("c", "pi", "E") or a.name.startswith("k_"):
+            raise DeriveError(f"variable {a.name!r}: give a name (letters, digits, _), not c, pi, E or k_...")
+        if not (math.isfinite(a.lo) and math.isfinite(a.hi) and a.lo < a.hi):
+            raise DeriveError(f"{a.name} in [{a.lo}, {a.hi}]: give finite numbers lo < hi")
+    if not (math.isfinite(target.floor) and target.floor >= 0):
+        raise DeriveError(f"floor {target.floor}: give a number >= 0")
+    mesh = np.meshgrid(*(np.linspace(a.lo, a.hi, CHECK_POINTS) for a in target.axes), indexing="ij")
+    f = target.numpy()(*mesh)
+    for bad, why in ((~np.isfinite(f), "is not finite"),
+                     ((f == 0) if target.metric == "rel" and target.floor == 0 else np.zeros(f.shape, bool),
+                      "is 0 (the relative error divides by it; give a floor or metric abs)")):
+        if bad.any():
+            at = ", ".join(f"{a.name} = {m[bad][0]:.6g}" for a, m in zip(target.axes, mesh))
+            raise DeriveError(f"{target.expression} {why} at {at}: narrow the ranges")
+    for anchor in target.anchors:
+        parse(anchor.expression, names)
+    return target
+
+
+# ---- templates ----------------------------------------------------------------------------------
+
+@dataclasses.dataclass
+class Template:
+    """A form in the variables with free constants k_0 ... k_{m-1} (sympy), its family, and the
+    constants it starts from at the parameter's middle value (None: a linear start)."""
+
+    name: str
+    family: str
+    expression: object
+    count: int
+    source: str
+    start: np.ndarray | None = None
+    outer: str = "identity"          # the families' outer function: identity or reciprocal
+    basis: tuple = ()                # ... and their monomials, for the linear start
+
+
+def constant_symbols(count: int) -> list:
+    import sympy as sp
+
+    return [sp.Symbol(f"k_{i}", real=True) for i in range(count)]
+
+
+def _monomials(symbols, degree: int, bilinear: bool, symmetric: bool) -> list:
+    """The monomials of total degree <= degree (or, `bilinear`, of degree <= 1 in each variable), the
+    constant 1 first; in two symmetric variables, their symmetric sums (x + y, x y, x^2 + y^2)."""
+    import sympy as sp
+
+    powers = [p for p in itertools.product(range(degree + 1), repeat=len(symbols))
+              if (max(p) <= 1 if bilinear else sum(p) <= degree)]
+    powers.sort(key=lambda p: (sum(p), p[::-1]))
+    out = []
+    for p in powers:
+        term = sp.Mul(*(s ** k for s, k in zip(symbols, p)))
+        if symmetric:
+            term = sp.expand(term + term.subs({symbols[0]: symbols[1], symbols[1]: symbols[0]}, simultaneous=True))
+            term = term.as_coeff_Mul()[1]          # (2 x y is x y, 2 is 1)
+        if term not in out:
+            out.append(term)
+    return out
+
+
+BASES = (("degree1", 1, False), ("bilinear", 1, True), ("degree2", 2, False))
+
+
+def family_templates(target: ParametricTarget, symmetric: bool) -> list[Template]:
+    """The linear families of the module docstring, step 1."""
+    import sympy as sp
+
+    symbols = target.symbols()[:len(target.variables)]
+    out, seen = [], set()
+    for outer in ("identity", "reciprocal"):
+        for label, degree, bilinear in BASES:
+            if bilinear and len(symbols) < 2:
+                continue
+            full = _monomials(symbols, degree, bilinear, symmetric)
+            for basis, constant in ((full, True), (full[1:], False)):
+                key = (outer, tuple(basis))
+                if key in seen or len(basis) < 1 or len(basis) > MAX_CONSTANTS:
+                    continue
+                seen.add(key)
+                k = constant_symbols(len(basis))
+                inner = sum((ki * b for ki, b in zip(k, basis)), sp.Integer(0))
+                expression = inner if outer == "identity" else 1 / inner
+                family = ("polynomial" if outer == "identity" else "reciprocal_polynomial")
+                name = f"{family}_{label}" + ("" if constant else "_no_constant") + ("_symmetric" if symmetric else "")
+                out.append(Template(name, family, expression, len(basis),
+                                    f"{'1 / ' if outer == 'reciprocal' else ''}a sum of "
+                                    f"{', '.join(str(b) for b in basis)} with constants per value",
+                                    outer=outer, basis=tuple(basis)))
+    return out
+
+
+def grammar_templates(target: ParametricTarget, f, seconds: float, max_complexity: int, log) -> tuple[list, dict]:
+    """The grammar's forms in the variables at the parameter's middle value (the ladder's front, the
+    SEARCH_TEMPLATES most accurate), as templates; and the search's coverage."""
+    from ..symbolic import grammar, ladder
+
+    value = _middle(target.parameter)
+    x = _mesh(target.variables, SEARCH_AXIS_POINTS)
+    y = f(*x, value)
+    loss = _loss(target)
+    candidates, rungs, _ = ladder.run(np.stack(x), y, max_complexity, grammar.TEN, seconds, loss,
+                                      log=lambda s: log("templates: " + s))
+    symbols = target.symbols()[:len(target.variables)]
+    chosen = sorted((c for c in candidates if 1 <= grammar.constants(c[0]) <= MAX_CONSTANTS and np.isfinite(c[2])),
+                    key=lambda c: c[2])[:SEARCH_TEMPLATES]
+    out = []
+    for i, (tree, c, _, _, engine, _) in enumerate(chosen):
+        k = constant_symbols(grammar.constants(tree))
+        out.append(Template(f"grammar_{i + 1}", "grammar", grammar.substitute(tree, k, symbols, _SYMPY_FUNCTIONS()),
+                            len(k), f"grammar ({engine}): {grammar.show(tree, [s.name for s in symbols])}",
+                            start=np.asarray(c, dtype=float)))
+    return out, dict(rungs=[r.row() for r in rungs], points=int(y.size), loss=loss)
+
+
+def _SYMPY_FUNCTIONS():
+    import sympy as sp
+
+    return {"exp": sp.exp, "log": sp.log, "sqrt": sp.sqrt, "sin": sp.sin, "cos": sp.cos, "abs": sp.Abs}
+
+
+def _loss(target) -> str:
+    return "max-relative" if target.metric == "rel" and target.floor == 0 else "max"
+
+
+def _middle(parameter: Axis | None) -> float:
+    return 0.5 * (parameter.lo + parameter.hi)
+
+
+def _chebyshev(lo: float, hi: float, count: int) -> np.ndarray:
+    return minimax.chebyshev_points(lo, hi, count)
+
+
+def _mesh(axes, count: int) -> list[np.ndarray]:
+    """The flattened Chebyshev mesh of `axes`, one array per axis."""
+    grids = np.meshgrid(*(_chebyshev(a.lo, a.hi, count) for a in axes), indexing="ij")
+    return [g.ravel() for g in grids]
+
+
+def parameter_values(parameter: Axis) -> tuple[np.ndarray, np.ndarray]:
+    """(the grid's PARAMETER_VALUES Chebyshev values, the values halfway between them)."""
+    grid = _chebyshev(parameter.lo, parameter.hi, PARAMETER_VALUES)
+    return grid, 0.5 * (grid[1:] + grid[:-1])
+
+
+def is_symmetric(target: ParametricTarget, f) -> bool:
+    """Whether f(x, y, ...) = f(y, x, ...) on the fitting grid (two variables of one range)."""
+    if len(target.variables) != 2 or (target.variables[0].lo, target.variables[0].hi) != (target.variables[1].lo, target.variables[1].hi):
+        return False
+    x = _mesh(target.axes, 7)
+    a, b = f(*x), f(x[1], x[0], *x[2:])
+    return bool(np.all(np.abs(a - b) <= SYMMETRY * np.maximum(np.abs(a), 1e-300)))
+
+
+def weight_of(target):
+    """The weight of the target's measure for values y: 1 (abs), 1 / max(|y|, floor) (rel)."""
+    if target.metric == "abs":
+        return lambda y: np.ones_like(y)
+    return lambda y: 1.0 / np.maximum(np.abs(y), target.floor)
+
+
+class Model:
+    """A template's value and its Jacobian in its constants, as numpy callables of (c, points)."""
+
+    def __init__(self, expression, variables, constants):
+        import sympy as sp
+
+        self.value_of = sp.lambdify(variables + constants, expression, modules=["numpy", "scipy"])
+        self.derivatives = [sp.lambdify(variables + constants, sp.diff(expression, k), modules=["numpy", "scipy"])
+                            for k in constants]
+
+    def __call__(self, c, x):
+        with np.errstate(all="ignore"):
+            return np.broadcast_to(np.asarray(self.value_of(*x, *c), dtype=np.float64), x[0].shape)
+
+    def jacobian(self, c, x):
+        with np.errstate(all="ignore"):
+            return np.stack([np.broadcast_to(np.asarray(d(*x, *c), dtype=np.float64), x[0].shape)
+                             for d in self.derivatives], axis=1)
+
+
+def _linear_start(template: Template, x, y, w, symbols) -> np.ndarray:
+    """The families' start: least squares of the inner sum to the outer function's inverse of y,
+    weighted by the measure and the outer function's slope there."""
+    import sympy as sp
+
+    B = np.stack([np.broadcast_to(np.asarray(sp.lambdify(symbols, b, "numpy")(*x), dtype=np.float64), x[0].shape)
+                  for b in template.basis], axis=1)
+    if template.outer == "identity":
+        u, slope = y, np.ones_like(y)
+    else:
+        u, slope = 1.0 / y, y * y
+    weights = w * slope
+    c, *_ = np.linalg.lstsq(B * weights[:, None], u * weights, rcond=None)
+    return c
+
+
+@dataclasses.dataclass
+class PerValue:
+    """A template fitted at every value: the values, their constants and errors on the points."""
+
+    values: np.ndarray
+    constants: np.ndarray           # (values, count)
+    errors: np.ndarray
+    on_grid: np.ndarray             # which values are the grid's (the others are halfway)
+
+
+def fit_per_value(template: Template, target: ParametricTarget, f) -> PerValue | None:
+    """Step 2 of the module docstring: None where the template has no finite fit at some value."""
+    symbols = target.symbols()[:len(target.variables)]
+    model = Model(template.expression, symbols, constant_symbols(template.count))
+    x = _mesh(target.variables, AXIS_POINTS)
+    weight = weight_of(target)
+    grid, halfway = parameter_values(target.parameter)
+    values = np.r_[grid, halfway]
+    on_grid = np.r_[np.ones(grid.size, bool), np.zeros(halfway.size, bool)]
+    # from the middle value outward, each start its neighbour's constants (the halfway values start
+    # from the grid value below them)
+    middle = grid.size // 2
+    order = list(range(middle, grid.size)) + list(range(middle - 1, -1, -1))
+    constants = np.full((values.size, template.count), np.nan)
+    errors = np.full(values.size, np.inf)
+
+    def fit(j, start):
+        y = f(*x, values[j])
+        w = weight(y)
+        if start is None:
+            start = _linear_start(template, x, y, w, symbols) if template.basis else template.start
+        c, e = minimax.slp_points(model, model.jacobian, start, y, w, x)
+        constants[j], errors[j] = c, e
+
+    for j in order:
+        fit(j, None if j == middle else constants[j - 1] if j > middle else constants[j + 1])
+        if j == middle and not np.isfinite(errors[j]) and template.start is not None and template.basis:
+            fit(j, template.start)
+    for i in range(halfway.size):
+        fit(grid.size + i, constants[i])
+    if not np.all(np.isfinite(errors)):
+        return None
+    return PerValue(values, constants, errors, on_grid)
+
+
+@dataclasses.dataclass
+class Fitted:
+    """A template with its constants as formulas (coefficients, lowest power first) of the
+    parameter, polished on the whole box, and its errors."""
+
+    template: Template
+    formula: str
+    coefficients: np.ndarray        # (count, degree + 1)
+    per_value: PerValue
+    errors: dict                    # max_abs_error, max_rel_error over the box
+    pixel: object                   # sympy: the formulas substituted (the parameter per pixel)
+    material: object                # sympy: the constants as push constants c0, c1, ...
+
+    @property
+    def name(self) -> str:
+        return f"{self.template.name}_{self.formula}"
+
+
+# Each constant's formula in the parameter p: its powers of p.
+KINDS = {"constant": (0,), "proportional": (1,), "line": (0, 1), "quadratic": (0, 1, 2)}
+TAGS = {"constant": "c", "proportional": "p", "line": "l", "quadratic": "q"}
+DEGREE = 2                  # the highest power of a formula
+
+
+def formula_name(kinds) -> str:
+    """`line` or `quadratic` where every constant has that formula, else one letter per constant
+    (c constant, p proportional, l line, q quadratic): `formulas_pl`."""
+    if len(set(kinds)) == 1 and kinds[0] in ("line", "quadratic"):
+        return kinds[0]
+    return "formulas_" + "".join(TAGS[k] for k in kinds)
+
+
+def formula_variants(count: int, reduce: bool) -> list[tuple]:
+    """The formulas tried for a template of `count` constants: every constant a line, every one a
+    quadratic; with `reduce`, also each constant alone a proportion or a constant (the others lines),
+    and every constant a proportion or a constant, whichever fits its values (`None` there: chosen
+    by `_cheapest`)."""
+    out = [("line",) * count, ("quadratic",) * count]
+    if reduce:
+        for i in range(count):
+            for kind in ("proportional", "constant"):
+                out.append(tuple(kind if j == i else "line" for j in range(count)))
+        if count > 1:
+            out.append(None)
+    return out
+
+
+def formula_expressions(coefficients, parameter) -> list:
+    """Each constant's formula as sympy (Horner form) in the parameter's symbol, from its
+    coefficients of p^0, p^1, p^2 (zero where the formula has no such term)."""
+    import sympy as sp
+
+    out = []
+    for row in coefficients:
+        terms = sum((sp.Float(float(a), 17) * parameter ** j for j, a in enumerate(row) if a != 0), sp.Integer(0))
+        out.append(sp.horner(terms, parameter) if terms.is_Add else terms)
+    return out
+
+
+def _start_coefficients(per_value: PerValue, kinds) -> np.ndarray:
+    """(count, DEGREE + 1): each constant's formula fitted by least squares to its values on the grid."""
+    grid = per_value.on_grid
+    p = per_value.values[grid]
+    out = np.zeros((len(kinds), DEGREE + 1))
+    for i, kind in enumerate(kinds):
+        powers = KINDS[kind]
+        A = np.power.outer(p, np.array(powers))
+        solution, *_ = np.linalg.lstsq(A, per_value.constants[grid, i], rcond=None)
+        out[i, list(powers)] = solution
+    return out
+
+
+def _cheapest(per_value: PerValue, count: int) -> tuple:
+    """Per constant, a proportion or a constant, whichever fits its values on the grid better (least
+    squares)."""
+    grid = per_value.on_grid
+    p = per_value.values[grid]
+    kinds = []
+    for i in range(count):
+        v = per_value.constants[grid, i]
+        spread = {kind: float(np.sum((np.power.outer(p, np.array(KINDS[kind]))
+                                       @ np.linalg.lstsq(np.power.outer(p, np.array(KINDS[kind])), v, rcond=None)[0]
+                                       - v) ** 2)) for kind in ("proportional", "constant")}
+        kinds.append(min(spread, key=spread.get))
+    return tuple(kinds)
+
+
+def polish_formulas(template: Template, per_value: PerValue, kinds, target: ParametricTarget, f):
+    """Step 3: (coefficients (count, DEGREE + 1), error over the box) of the template's constants as
+    the formulas `kinds` (one of KINDS per constant) of the parameter."""
+    from ..optics import brdf
+
+    coefficients = _start_coefficients(per_value, kinds)
+    mask = np.zeros(coefficients.shape, dtype=bool)
+    for i, kind in enumerate(kinds):
+        mask[i, list(KINDS[kind])] = True
+    symbols = target.symbols()
+    variables = symbols[:len(target.variables)]
+    model = Model(template.expression, variables, constant_symbols(template.count))
+    powers = np.arange(DEGREE + 1)
+
+    def full(a):
+        A = np.zeros(coefficients.shape)
+        A[mask] = a
+        return A
+
+    def joint(a, x):
+        shape = np.shape(x[0])
+        x = [np.ravel(c) for c in x]
+        k = np.power.outer(x[-1], powers) @ full(a).T        # (points, count)
+        return model(list(k.T), x[:-1]).reshape(shape)
+
+    def jacobian(a, x):
+        P = np.power.outer(x[-1], powers)
+        J = model.jacobian(list((P @ full(a).T).T), x[:-1])   # (points, count)
+        return (J[:, :, None] * P[:, None, :])[:, mask]
+
+    x = _mesh(target.variables, AXIS_POINTS)
+    points = [np.tile(c, per_value.values.size) for c in x] + [np.repeat(per_value.values, x[0].size)]
+    weight = weight_of(target)
+    lo, hi = [a.lo for a in target.axes], [a.hi for a in target.axes]
+    a = coefficients[mask]
+    best = None
+    for _ in range(EXCHANGES + 1):
+        y = f(*points)
+        a, on_points = minimax.slp_points(joint, jacobian, a, y, weight(y), points)
+        e, where = brdf.largest_error(lambda *s: joint(a, list(s)), f, lo, hi, relative=target.metric == "rel",
+                                      **MEASURE_GRID)
+        if best is None or e < best[1]:
+            best = (a.copy(), e)
+        if not np.isfinite(e) or e <= on_points * (1 + 1e-9):
+            break
+        points = [np.r_[p, w] for p, w in zip(points, where)]
+    return full(best[0]), best[1]
+
+
+def measure_box(expression, target: ParametricTarget, f) -> dict:
+    """{max_abs_error, max_rel_error} of a sympy expression in the axes over the whole box."""
+    from ..optics import brdf
+
+    approx = _numpy_of(expression, target.symbols())
+    lo, hi = [a.lo for a in target.axes], [a.hi for a in target.axes]
+    out = {}
+    for key, relative in (("max_abs_error", False), ("max_rel_error", True)):
+        if relative and target.floor > 0:
+            floor = target.floor
+            value, _ = brdf.largest(lambda *s: (approx(*s) - f(*s)) / np.maximum(np.abs(f(*s)), floor), lo, hi,
+                                    **MEASURE_GRID)
+        else:
+            value, _ = brdf.largest_error(approx, f, lo, hi, relative=relative, **MEASURE_GRID)
+        out[key] = float(value)
+    return out
+
+
+def material_forms(templates, target, f, log) -> list[Fitted]:
+    """Steps 2 and 3 for every template: every template's constants as lines and quadratics; the
+    templates no other with as few constants beats per value (the front of constants against the
+    per-value optimum) also with cheaper formulas (`formula_variants`)."""
+    import sympy as sp
+
+    symbols = target.symbols()
+    parameter = symbols[-1]
+    uniforms = [sp.Symbol(f"c{i}", real=True) for i in range(MAX_CONSTANTS)]
+    fits = []
+    for template in templates:
+        per_value = fit_per_value(template, target, f)
+        if per_value is None:
+            log(f"  {template.name}: no finite fit at some value of {target.parameter.name}; left out")
+            continue
+        fits.append((template, per_value))
+    out = []
+    for template, per_value in fits:
+        started = time.perf_counter()
+        reduce = not any(other.count <= template.count and other_fit.errors.max() < per_value.errors.max()
+                         for other, other_fit in fits if other is not template)
+        k = constant_symbols(template.count)
+        found = []
+        for kinds in formula_variants(template.count, reduce):
+            kinds = _cheapest(per_value, template.count) if kinds is None else kinds
+            name = formula_name(kinds)
+            if any(m.formula == name for m in found):
+                continue
+            coefficients, _ = polish_formulas(template, per_value, kinds, target, f)
+            pixel = template.expression.xreplace(dict(zip(k, formula_expressions(coefficients, parameter))))
+            errors = measure_box(pixel, target, f)
+            found.append(Fitted(template, name, coefficients, per_value, errors, pixel,
+                                template.expression.xreplace(dict(zip(k, uniforms)))))
+        out += found
+        log(f"  {template.name}: per value {per_value.errors.max():.4g}; "
+            + ", ".join(f"{m.formula} {m.errors[_error_key(target)]:.4g}" for m in found)
+            + f" ({time.perf_counter() - started:.1f} s)")
+    return out
+
+
+def _error_key(target) -> str:
+    return "max_abs_error" if target.metric == "abs" else "max_rel_error"
+
+
+# ---- costs --------------------------------------------------------------------------------------
+
+def shader(names, used, body: str | None) -> str:
+    """A fragment shader with one input per name of `names`, up to MAX_CONSTANTS push constants c0,
+    c1, ..., writing the form of the inputs `used` (`body`, a GLSL expression) and every input to its
+    output; body None: the wrapper, writing the first input in the form's place. Every shader writes
+    the same inputs, so that a form's cycles net of the wrapper count neither their interpolation
+    nor their export (and the back ends that read the output's first value read the form)."""
+    inputs = "\n".join(f"layout(location = {i}) in float {n}_in;" for i, n in enumerate(names))
+    written = ", ".join([f"{n}_in" for n in names] + ["0.0"] * (3 - len(names)))
+    if body is None:
+        return (f"#version 450\n{inputs}\nlayout(location = 0) out vec4 color;\n"
+                f"void main() {{ color = vec4({names[0]}_in, {written}); }}\n")
+    constants = " ".join(f"float c{i};" for i in range(MAX_CONSTANTS))
+    arguments = ", ".join(f"float {n}" for n in used)
+    return (f"#version 450\n{inputs}\nlayout(location = 0) out vec4 color;\n"
+            f"layout(push_constant) uniform Material {{ {constants} }};\n"
+            f"float form({arguments})\n{{\n    return {body};\n}}\n"
+            f"void main() {{ color = vec4(form({', '.join(f'{n}_in' for n in used)}), {written}); }}\n")
+
+
+def glsl_text(expr) -> str:
+    """A form as GLSL in its symbols' names (forms' printer: exp2, squarings, inversesqrt)."""
+    from .forms import _GLSL
+
+    return _GLSL().doprint(gpu_form(expr))
+
+
+def compile_forms(forms: dict, target: ParametricTarget, architectures) -> tuple[dict, dict]:
+    """({architecture: {name: cycles}}, {what: why not}) of `forms` ({name: (sympy, parameter_per)}),
+    each net of the wrapper returning the inputs it reads."""
+    from ..isa.machine_code import CompilerMissing, compile_shaders
+
+    names = list(target.names)
+    variables = names[:len(target.variables)]
+    sources, wrappers, missing = {"wrapper": shader(names, names, None)}, {}, {}
+    for i, (name, (expr, per)) in enumerate(forms.items()):
+        try:
+            text = glsl_text(expr)
+        except Exception as e:          # a function the GLSL printer does not know
+            missing[name] = f"no GLSL form ({type(e).__name__})"
+            continue
+        key = f"form_{i:03d}"
+        sources[key] = shader(names, names if per == "pixel" else variables, text)
+        wrappers[key] = "wrapper"
+    keys = {f"form_{i:03d}": name for i, name in enumerate(forms)}
+    cycles: dict = {a: {} for a in architectures}
+
+    def add(chosen):
+        compiled = compile_shaders({k: sources[k] for k in chosen + ["wrapper"]}, wrappers, architectures)
+        missing.update(compiled["missing"])
+        for a, shaders in compiled["rows"].items():
+            cycles[a].update({keys[k]: max(round(row["cycles"], 2), 0.0) for k, row in shaders.items() if k in keys})
+
+    chosen = [k for k in sources if k in keys]
+    try:
+        add(chosen)
+    except CompilerMissing:
+        raise
+    except Exception:               # one form a back end cannot lower: each alone, that one left out
+        for k in chosen:
+            try:
+                add([k])
+            except CompilerMissing:
+                raise
+            except Exception as e:
+                missing[keys[k]] = str(e).splitlines()[0][:200]
+    return cycles, missing
+
+
+# ---- the derivation -----------------------------------------------------------------------------
+
+def derive(target: ParametricTarget, gpu=None, seconds: float = 60.0, max_cycles: float | None = None,
+           max_complexity: int = 12, log=print) -> dict:
+    """The derivation of the module docstring for `target` on the architectures `gpu` (names;
+    default every one whose compiler runs here). Returns the results (results.json's content) with
+    the rows of front.csv."""
+    from ..isa.architectures import ARCHITECTURES
+    from ..isa.machine_code import CompilerMissing
+    from ..symbolic import regress
+    from . import engine
+
+    check(target)
+    if not (math.isfinite(seconds) and 5 <= seconds <= 3600):
+        raise DeriveError(f"--seconds {seconds:g}: give a number in [5, 3600]")
+    if max_cycles is not None and not (math.isfinite(max_cycles) and max_cycles > 0):
+        raise DeriveError(f"--max-cycles {max_cycles:g}: give a number > 0")
+    if not 1 <= max_complexity <= regress.MAX_COMPLEXITY:
+        raise DeriveError(f"--max-complexity {max_complexity}: give an integer in [1, {regress.MAX_COMPLEXITY}]")
+    if gpu is None:
+        architectures = engine.available_architectures()
+        if not architectures:
+            raise CompilerMissing("no GPU compiler runs here (make installs Mesa's RADV, NVIDIA's ptxas, Intel's ocloc)")
+    else:
+        unknown = [a for a in gpu if a not in ARCHITECTURES]
+        if unknown or not gpu:
+            raise DeriveError(f"--gpu {unknown[0] if unknown else ''!r}: give architectures among {', '.join(ARCHITECTURES)}")
+        architectures = list(dict.fromkeys(gpu))
+    started = time.perf_counter()
+    f = target.numpy()
+    error_key = _error_key(target)
+    log(f"{target.name}: {target.expression} for {', '.join(a.text() for a in target.axes)}, error {target.metric}; "
+        f"{len(architectures)} architecture{'s' * (len(architectures) > 1)}")
+
+    found, coverage = _searched(target, f, seconds, max_complexity, log)
+    forms = [Form(r["name"], "found", r["family"], r["expression"], r["source"]) for r in found]
+    per_of = {r["name"]: (r["expression"], r["per"]) for r in found}
+    record = {r["name"]: r for r in found}
+    anchors = [Form(a.name, "anchor", "anchor", expr, a.source)
+               for a, expr in zip(target.anchors, target.anchor_expressions().values())]
+    exact = Form("exact", "exact", "exact", target.sympy(), "the target itself")
+    for m in anchors + [exact]:
+        per_of[m.name] = (m.expression, "pixel")
+    everything = forms + anchors + [exact]
+    log(f"measuring {len(everything)} forms over the whole box and compiling them for {len(architectures)} "
+        "architectures")
+    errors = {m.name: record[m.name]["errors"] if m.name in record else measure_box(m.expression, target, f)
+              for m in everything}
+    cycles, missing = compile_forms(per_of, target, architectures)
+    constant = _constant_error(target, f)
+    floor = engine.rounding_floor(target, constant)
+
+    rows, fronts, verdicts = [], {}, {}
+    for a in architectures:
+        by_name = cycles.get(a, {})
+        fronts[a] = {}
+        for per in ("pixel", "material"):
+            candidates_ = [dict(name=m.name, cycles=by_name[m.name], **errors[m.name]) for m in forms
+                           if per_of[m.name][1] == per and m.name in by_name
+                           and (max_cycles is None or by_name[m.name] <= max_cycles)
+                           and errors[m.name][error_key] < constant]
+            fronts[a][per] = [r["name"] for r in engine.front(candidates_, error_key, floor)]
+        on_front = set(fronts[a]["pixel"]) | set(fronts[a]["material"])
+        for m in everything:
+            if m.name not in by_name or (m.kind == "found" and m.name not in on_front):
+                continue
+            rows.append(dict(architecture=a, kind=m.kind, name=m.name, family=m.family,
+                             expression=_text(m, record, target), cycles=by_name[m.name],
+                             cycles_predicted=None, max_abs_error=errors[m.name]["max_abs_error"],
+                             max_rel_error=errors[m.name]["max_rel_error"], on_front=m.name in on_front,
+                             source=m.source, range=target.range_text(), parameter_per=per_of[m.name][1]
+                             if target.parameter is not None else ""))
+        pixel_front = [r for r in rows if r["architecture"] == a and r["name"] in fronts[a]["pixel"]]
+        verdicts[a] = {m.name: dict(cycles=by_name[m.name], error=errors[m.name][error_key],
+                                    **engine.verdict(by_name[m.name], errors[m.name][error_key], pixel_front,
+                                                     error_key, floor))
+                       for m in anchors if m.name in by_name}
+    elapsed = time.perf_counter() - started
+    log(f"done in {elapsed:.0f} s")
+    members = {}
+    for m in everything:
+        if m.kind == "found" and not any(m.name in fr[p] for fr in fronts.values() for p in fr):
+            continue
+        members[m.name] = dict(kind=m.kind, family=m.family, source=m.source, converged=True,
+                               expression=_text(m, record, target), **errors[m.name],
+                               **record.get(m.name, {}).get("formulas", {}))
+    return dict(target=dict(name=target.name, expression=target.expression, variable=target.variable,
+                            variables=[dataclasses.asdict(a) for a in target.variables],
+                            parameter=dataclasses.asdict(target.parameter) if target.parameter else None,
+                            domain=target.domain, metric=target.metric, floor=target.floor,
+                            description=target.description,
+                            anchors=[dict(name=a.name, expression=a.expression, source=a.source) for a in target.anchors]),
+                architectures=architectures, missing=missing, coverage=coverage,
+                families=sorted({m.family for m in forms if m.family != "grammar"}),
+                family_members=[m.name for m in forms if m.family != "grammar"],
+                fronts={a: fr["pixel"] + [n for n in fr["material"] if n not in fr["pixel"]] for a, fr in fronts.items()},
+                fronts_by_parameter=fronts, verdicts=verdicts, rows=rows, error=error_key, constant_error=constant,
+                rounding_floor=floor, cost_tables={}, seconds=round(elapsed, 1), estimated_seconds=None,
+                members=members, forms={m.name: m for m in everything})
+
+
+def registry() -> dict[str, ParametricTarget]:
+    """The registered targets of several variables or a parameter, by name."""
+    from ..optics import brdf
+
+    unit = (0.01, 1.0)
+    return {
+        "smith_ggx_visibility": ParametricTarget(
+            "smith_ggx_visibility",
+            "0.5/(NoL*sqrt(NoV**2*(1 - alpha**2) + alpha**2) + NoV*sqrt(NoL**2*(1 - alpha**2) + alpha**2))",
+            (Axis("NoV", *unit), Axis("NoL", *unit)), Axis("alpha", 0.02, 1.0), "rel",
+            anchors=(Anchor("Hammon", "0.5/(2*NoL*NoV*(1 - alpha) + (NoL + NoV)*alpha)", brdf.HAMMON_2017),
+                     Anchor("Filament_fast", "0.5/(NoV*(NoL*(1 - alpha) + alpha) + NoL*(NoV*(1 - alpha) + alpha))",
+                            brdf.FILAMENT_2018)),
+            description="the height-correlated Smith-GGX visibility V = G2 / (4 NoV NoL) (Heitz 2014), alpha the "
+                        "GGX roughness"),
+    }
+
+
+def _leaves(tree) -> list:
+    return [tree] if len(tree) == 1 else [leaf for a in tree[1:] for leaf in _leaves(a)]
+
+
+def _constant_error(target, f) -> float:
+    """The error of the best constant over the measuring grid (a form worth a cycle beats it)."""
+    values = f(*_mesh(target.axes, 17))
+    if target.metric == "abs":
+        return float(values.max() - values.min()) / 2
+    if values.min() < 0 < values.max():
+        return 1.0
+    size = np.maximum(np.abs(values), target.floor)
+    return float((size.max() - size.min()) / (size.max() + size.min()))
+
+
+def _text(m: Form, record: dict, target) -> str:
+    """A row's expression: the form; a material form's with its constants' formulas."""
+    import sympy as sp
+
+    if m.kind == "exact":
+        return target.expression
+    if m.name in record and "formulas" in record[m.name] and record[m.name]["per"] == "material":
+        return (sp.sstr(m.expression) + "; " +
+                ", ".join(f"c{i} = {c}" for i, c in enumerate(record[m.name]["formulas"]["constants"])))
+    return sp.sstr(sp.N(m.expression, 9))
+
+
+def _searched(target, f, seconds: float, max_complexity: int, log) -> tuple[list[dict], dict]:
+    """(the found forms, each {name, family, expression (sympy), source, per (material or pixel),
+    errors, and for a template's, formulas: {formula, per_value_error, per_value_worst, constants}},
+    the searches' coverage): steps 1 to 4 of the module docstring, kept in `paths.DERIVE_CACHE` by
+    the target, the budget and this code, so that a rerun (another --gpu, --max-cycles) only
+    compiles; an entry that cannot be read is searched again."""
+    import hashlib
+    import json
+    import os
+
+    import sympy as sp
+
+    from ..engine import paths
+    from . import engine
+
+    key = json.dumps([engine._code_version(), repr(target), seconds, max_complexity])
+    kept = paths.DERIVE_CACHE / f"{hashlib.sha256(key.encode()).hexdigest()[:32]}.json"
+    try:
+        entry = json.loads(kept.read_text())
+        found = [r | dict(expression=sp.sympify(r["expression"])) for r in entry["found"]]
+        log(f"the search of an earlier run, kept in {kept.parent}")
+        return found, entry["coverage"] | dict(kept=True)
+    except (OSError, ValueError, KeyError, TypeError, sp.SympifyError):
+        pass
+    found, coverage = _search(target, f, seconds, max_complexity, log)
+    kept.parent.mkdir(parents=True, exist_ok=True)
+    partial = kept.with_suffix(f".{os.getpid()}.tmp")
+    partial.write_text(json.dumps(dict(found=[r | dict(expression=sp.srepr(r["expression"])) for r in found],
+                                       coverage=coverage)))
+    os.replace(partial, kept)
+    return found, coverage | dict(kept=False)
+
+
+def _search(target, f, seconds: float, max_complexity: int, log) -> tuple[list[dict], dict]:
+    """`_searched`, computed."""
+    import sympy as sp
+
+    from ..symbolic import grammar, ladder
+
+    symbols = target.symbols()
+    found: list[dict] = []
+    coverage: dict = dict(max_complexity=int(max_complexity))
+    if target.parameter is not None:
+        symmetric = is_symmetric(target, f)
+        templates = family_templates(target, symmetric)
+        grammar_found, coverage["templates"] = grammar_templates(target, f, seconds * (1 - PIXEL_SHARE),
+                                                                 max_complexity, log)
+        templates += grammar_found
+        log(f"{len(templates)} templates{' (the target is symmetric in its two variables)' if symmetric else ''}: "
+            f"constants fitted at {2 * PARAMETER_VALUES - 1} values of {target.parameter.name}, then as formulas")
+        fitting = time.perf_counter()
+        materials = material_forms(templates, target, f, log)
+        coverage["templates"].update(count=len(templates), seconds=round(time.perf_counter() - fitting, 1),
+                                     at=_middle(target.parameter))
+        coverage.update(parameter_values=2 * PARAMETER_VALUES - 1, symmetric=symmetric)
+        for m in materials:
+            formulas = dict(formula=m.formula, per_value_error=float(m.per_value.errors.max()),
+                            per_value_worst=float(m.per_value.values[int(np.argmax(m.per_value.errors))]),
+                            constants=[sp.sstr(sp.N(e, 7)) for e in formula_expressions(m.coefficients, symbols[-1])])
+            for per, expr in (("material", m.material), ("pixel", m.pixel)):
+                found.append(dict(name=f"{m.name}_{per}", family=m.template.family, expression=expr,
+                                  source=m.template.source, per=per, errors=m.errors,
+                                  formulas=formulas | dict(parameter_per=per)))
+    # the pixel search: the grammar in the variables and the parameter together
+    x = _mesh(target.axes, SEARCH_AXIS_POINTS)
+    y = f(*x)
+    loss = _loss(target)
+    share = seconds * (PIXEL_SHARE if target.parameter is not None else 1.0)
+    candidates, rungs, _ = ladder.run(np.stack(x), y, max_complexity, grammar.TEN, share, loss,
+                                      log=lambda s: log("pixel search: " + s))
+    coverage["pixel_search"] = dict(rungs=[r.row() for r in rungs], points=int(y.size), loss=loss)
+    for i, (tree, c, loss_value, *_) in enumerate(sorted(candidates, key=lambda c: grammar.complexity(c[0]))):
+        if not np.isfinite(loss_value) or not any(grammar.is_variable(leaf) for leaf in _leaves(tree)):
+            continue                # (a constant approximates nothing)
+        expr = grammar.to_sympy(tree, c, symbols)
+        found.append(dict(name=f"search_{i + 1}", family="grammar", expression=expr,
+                          source=f"grammar: {grammar.show(tree, list(target.names))}", per="pixel",
+                          errors=measure_box(expr, target, f)))
+    return found, coverage
