@@ -27,7 +27,7 @@ def resolve(target=None, expr: str | None = None, var: str = "x=0:1", metric: st
     if expr is not None:
         return targets.from_expression(expr, var, metric or "abs", floor or 0.0)
     if not isinstance(target, (Target, parametric.ParametricTarget)):
-        target = targets.named(str(target))
+        target = targets.named(str(target), parametric.registry())
     if metric is not None or floor is not None:
         target = dataclasses.replace(target, metric=metric or target.metric,
                                      floor=target.floor if floor is None else floor)

@@ -220,14 +220,12 @@ def registry() -> dict[str, Target]:
 NAMES = ("schlick", "acos", "cos_n20")
 
 
-def named(name: str):
-    """A registered target (a `Target`, or a `parametric.ParametricTarget` of several variables or a
-    parameter), or a TOML file's (a path ending in .toml). Raises DeriveError."""
-    from . import parametric
-
+def named(name: str, others: dict | None = None):
+    """A registered target, one of `others` (the parametric targets, `parametric.registry()`, which
+    the caller passes), or a TOML file's (a path ending in .toml). Raises DeriveError."""
     if name.endswith(".toml"):
         return from_file(Path(name))
-    targets = registry() | parametric.registry()
+    targets = registry() | (others or {})
     if name not in targets:
         raise DeriveError(f"--target {name!r}: give one of {', '.join(targets)}, or a .toml file")
     return targets[name]
