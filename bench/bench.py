@@ -26,7 +26,8 @@ less than a time. Measured, each in a fresh cache and outputs folder:
   10 within 120 s, Schlick's rational over (t, n) to 10 exactly within 120 s; 1.5 GB; each within
   2x of the time it announced before its search);
 - `pipeline keys` and a run with a bad config (answered without importing JAX);
-- `pipeline derive` on (1 - x)^5 and acos, three architectures, cold and kept (BENCH_ONLY=derive: the
+- `pipeline derive` on (1 - x)^5 and acos, three architectures, cold and kept, and on the Smith-GGX
+  visibility and the environment BRDF cold (target 10 minutes) and with other architectures (BENCH_ONLY=derive: the
   floor and these alone; targets 120 s cold, 30 s kept, the announced time within 2x);
 - `make test` (`python -m pytest -q -n 2 --dist loadfile`) twice, unless BENCH_TESTS=0 (BENCH_ONLY=tests:
   the floor and `make test` alone): first with an empty folder of compiled XLA programs (a fresh
@@ -148,6 +149,7 @@ def derive_rows(py) -> list:
             env = dict(os.environ, PIPELINE_CACHE_DIR=os.path.join(tmp, f"cache_{target}"),
                        PIPELINE_XLA_CACHE_DIR=os.path.join(tmp, f"xla_{target}"),
                        PIPELINE_MACHINE_CODE_CACHE=os.path.join(tmp, f"machine_code_{target}"),
+                       PIPELINE_DERIVE_CACHE=os.path.join(tmp, f"derive_{target}"),
                        PIPELINE_OUTPUTS_DIR=os.path.join(tmp, "outputs"))
             for label, allowed in (("cold", 120.0), ("kept", 30.0)):
                 seconds, _ = timed([py, "-m", "pipeline", "derive", "--target", target, "--gpu", DERIVE_ARCHITECTURES,
@@ -158,6 +160,18 @@ def derive_rows(py) -> list:
                 rows.append((f"derive {target}, {label}", seconds, None,
                              f"{DERIVE_ARCHITECTURES}; target <= {allowed:.0f} s " + ("ok" if seconds <= allowed else "MISSED")
                              + f"; announced {estimate:.0f} s " + ("(within 2x)" if within else "(MISSED 2x)")))
+        # targets of two variables and a parameter: cold, then with other architectures (only compiled)
+        for target in ("smith_ggx_visibility", "env_brdf"):
+            env = dict(os.environ, PIPELINE_CACHE_DIR=os.path.join(tmp, f"cache_{target}"),
+                       PIPELINE_XLA_CACHE_DIR=os.path.join(tmp, f"xla_{target}"),
+                       PIPELINE_MACHINE_CODE_CACHE=os.path.join(tmp, f"machine_code_{target}"),
+                       PIPELINE_DERIVE_CACHE=os.path.join(tmp, f"derive_{target}"),
+                       PIPELINE_OUTPUTS_DIR=os.path.join(tmp, "outputs"))
+            for label, gpu, allowed in (("cold", DERIVE_ARCHITECTURES, 600.0), ("other --gpu", "rdna3,g610", 60.0)):
+                seconds, _ = timed([py, "-m", "pipeline", "derive", "--target", target, "--gpu", gpu,
+                                    "--out", os.path.join(tmp, target)], env)
+                rows.append((f"derive {target}, {label}", seconds, None,
+                             f"{gpu}; target <= {allowed:.0f} s " + ("ok" if seconds <= allowed else "MISSED")))
     return rows
 
 

@@ -159,7 +159,8 @@ def _derive(args) -> int:
     from .optics.spirv import ToolMissing
 
     start = time.perf_counter()
-    target = api.resolve(args.target, args.expr, args.var, args.metric, args.floor)
+    target = api.resolve(args.target, args.expr, args.var, args.metric, args.floor, args.table, args.x, args.parameter,
+                         args.y)
     out = Path(args.out) if args.out else paths.OUTPUTS / "derive" / target.name
     use_compilation_cache(paths.XLA_CACHE or paths.CACHE / XLA)
     try:
@@ -367,9 +368,16 @@ def build_parser() -> argparse.ArgumentParser:
     der = sub.add_parser("derive", help="the cheapest accurate forms of a function a shader approximates, ranked by "
                                         "compiled cycles per GPU architecture")
     der.add_argument("--target", default=None, metavar="NAME|FILE.toml",
-                     help="a registered target (schlick, acos, cos_n20, smith_ggx_visibility) or a TOML file")
+                     help="a registered target (schlick, acos, cos_n20, smith_ggx_visibility, env_brdf, env_brdf_scale, "
+                          "env_brdf_bias) or a TOML file")
     der.add_argument("--expr", default=None, metavar="EXPR", help="the target as an expression (sympy), e.g. 'atan(x)'")
     der.add_argument("--var", default="x=0:1", metavar="NAME=LO:HI", help="with --expr: its variable and domain")
+    der.add_argument("--table", default=None, metavar="FILE.csv",
+                     help="the target as values on a full grid (a header, a row per point), interpolated by cubic splines")
+    der.add_argument("--x", default=None, metavar="NAME[,NAME]", help="with --table: the variables' columns (per pixel)")
+    der.add_argument("--parameter", default=None, metavar="NAME",
+                     help="with --table: the parameter's column (per material: its constants become formulas of it)")
+    der.add_argument("--y", default=None, metavar="NAME", help="with --table: the value's column (default the one left)")
     der.add_argument("--metric", default=None, choices=("abs", "rel"), help="the error measured (default the target's)")
     der.add_argument("--floor", type=float, default=None, metavar="F",
                      help="with --metric rel: |f| below F counts as F")

@@ -19,15 +19,29 @@ from .targets import DeriveError, Target
 
 
 def resolve(target=None, expr: str | None = None, var: str = "x=0:1", metric: str | None = None,
-            floor: float | None = None) -> Target:
-    """The checked target: a Target, a registered name, a TOML file's path, or (with `expr`) an
-    expression in `var` (NAME=LO:HI); `metric` and `floor` replace the target's. Raises DeriveError."""
-    if (target is None) == (expr is None):
-        raise DeriveError("give --target NAME (or FILE.toml) or --expr EXPR, one of them")
+            floor: float | None = None, table: str | None = None, x: str | None = None,
+            parameter: str | None = None, y: str | None = None):
+    """The checked target: a Target, a registered name, a TOML file's path, (with `expr`) an
+    expression in `var` (NAME=LO:HI), or (with `table`) a CSV file's column `y` over the variables `x`
+    (comma-separated) and the `parameter` (`parametric.from_csv`); `metric` and `floor` replace the
+    target's. Raises DeriveError."""
+    if sum(v is not None for v in (target, expr, table)) != 1:
+        raise DeriveError("give --target NAME (or FILE.toml), --expr EXPR or --table FILE.csv, one of them")
+    if (x is not None or parameter is not None or y is not None) and table is None:
+        raise DeriveError("--x, --parameter and --y go with --table")
     if expr is not None:
         return targets.from_expression(expr, var, metric or "abs", floor or 0.0)
-    if not isinstance(target, (Target, parametric.ParametricTarget)):
-        target = targets.named(str(target), parametric.registry())
+    if table is not None:
+        if not x:
+            raise DeriveError("--table: name its variables' columns (--x NAME[,NAME])")
+        return parametric.from_csv(table, [v.strip() for v in x.split(",") if v.strip()], parameter, y,
+                                   metric or "abs", floor or 0.0)
+    if not isinstance(target, (Target, parametric.ParametricTarget, parametric.PairTarget)):
+        target = targets.named(str(target), parametric.registry() | parametric.pairs())
+    if isinstance(target, parametric.PairTarget):
+        if metric is not None or floor is not None:
+            raise DeriveError(f"{target.name}: its metric is its parts' (abs); --metric and --floor do not apply")
+        return parametric.check_pair(target)
     if metric is not None or floor is not None:
         target = dataclasses.replace(target, metric=metric or target.metric,
                                      floor=target.floor if floor is None else floor)
@@ -71,12 +85,8 @@ class Derivation:
         return self.raw["forms"][name].expression
 
     def _arguments(self, name: str) -> str:
-        """The member's arguments: the target's variable, or a parametric target's variables and
-        parameter (a material member: its variables and constants c0, c1, ...)."""
-        member = self.raw["members"].get(name, {})
-        if member.get("parameter_per") == "material":
-            return ", ".join([v.name for v in self.target.variables] + [f"c{i}" for i in range(len(member["constants"]))])
-        return self.target.variable
+        """The member's arguments (`publish.arguments_of`)."""
+        return publish.arguments_of(self.raw, name)
 
     def glsl(self, name: str) -> str:
         """The member as a GLSL expression in the target's variables (and its parameter)."""
@@ -104,15 +114,19 @@ class Derivation:
         return publish.write(Path(out), self.raw)
 
 
-def derive(target=None, *, expr: str | None = None, var: str = "x=0:1", gpu=None, metric: str | None = None,
-           floor: float | None = None, seconds: float = engine.DEFAULT_SECONDS, max_cycles: float | None = None,
-           max_complexity: int = engine.MAX_COMPLEXITY, log=print) -> Derivation:
-    """The cheapest accurate forms of `target` (a registered name, a TOML file, a Target) or of `expr`
-    in `var`, ranked by compiled cycles on the architectures `gpu` (names, or one comma-separated
-    string; default every one whose compiler runs here): `engine.derive`. Raises DeriveError for bad
-    input, CompilerMissing where no GPU compiler runs."""
-    chosen = resolve(target, expr, var, metric, floor)
+def derive(target=None, *, expr: str | None = None, var: str = "x=0:1", table: str | None = None,
+           x: str | None = None, parameter: str | None = None, y: str | None = None, gpu=None,
+           metric: str | None = None, floor: float | None = None, seconds: float = engine.DEFAULT_SECONDS,
+           max_cycles: float | None = None, max_complexity: int = engine.MAX_COMPLEXITY, log=print) -> Derivation:
+    """The cheapest accurate forms of `target` (a registered name, a TOML file, a Target, a
+    ParametricTarget), of `expr` in `var`, or of a CSV `table`'s column `y` over `x` and `parameter`,
+    ranked by compiled cycles on the architectures `gpu` (names, or one comma-separated string; default
+    every one whose compiler runs here): `engine.derive`, `parametric.derive` (several variables or a
+    parameter), `parametric.derive_pair` (env_brdf). Raises DeriveError for bad input, CompilerMissing
+    where no GPU compiler runs."""
+    chosen = resolve(target, expr, var, metric, floor, table, x, parameter, y)
     if isinstance(gpu, str):
         gpu = [g.strip() for g in gpu.split(",") if g.strip()]
-    run = parametric.derive if isinstance(chosen, parametric.ParametricTarget) else engine.derive
+    run = (parametric.derive if isinstance(chosen, parametric.ParametricTarget) else
+           parametric.derive_pair if isinstance(chosen, parametric.PairTarget) else engine.derive)
     return Derivation(chosen, run(chosen, gpu, seconds, max_cycles, max_complexity, log=log))

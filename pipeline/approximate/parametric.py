@@ -34,6 +34,7 @@ pixel. Its error is the largest over the whole box, variables and parameter
 from __future__ import annotations
 
 import dataclasses
+import functools
 import itertools
 import math
 import time
@@ -51,7 +52,8 @@ EXCHANGES = 2               # the box's worst point joins the polish's points, a
 SEARCH_TEMPLATES = 8        # grammar forms (the ladder's front) taken as templates, the most accurate
 PIXEL_SHARE = 0.5           # of the budget: the pixel search (the rest, the templates' search)
 MAX_AXES = 3                # a shader's inputs, variables and the parameter (written with the form: a vec4)
-MAX_CONSTANTS = 8           # push constants of a material form
+MAX_CONSTANTS = 8           # constants of a template (push constants of a material form)
+PUSH_CONSTANTS = 2 * MAX_CONSTANTS  # the shaders' push constants c0, c1, ... (a pair's two forms), and F0
 SYMMETRY = 1e-12            # f(x, y) and f(y, x) agree to this (relative) on the grid: symmetric
 MEASURE_GRID = dict(cells=24, chebyshev=13)     # the box's measuring grid per axis (`brdf.largest`)
 CHECK_POINTS = 33           # per axis: the grid on which a target must be finite
@@ -69,10 +71,61 @@ class Axis:
         return f"{self.name} in [{self.lo:g}, {self.hi:g}]"
 
 
+class Table:
+    """A target given by its values on a grid: one increasing array per axis (variables, then the
+    parameter) and the values (one array axis per axis), interpolated between the grid's points by
+    cubic splines (scipy: `CubicSpline` on one axis, `RectBivariateSpline` on two,
+    `RegularGridInterpolator` on three). Its text names it by a digest of its numbers."""
+
+    def __init__(self, axes, values, source: str):
+        import hashlib
+
+        self.axes = tuple(np.asarray(a, dtype=np.float64) for a in axes)
+        self.values = np.asarray(values, dtype=np.float64)
+        self.source = source
+        if self.values.shape != tuple(a.size for a in self.axes):
+            raise DeriveError(f"{source}: the values' shape {self.values.shape} is not the grid's "
+                              f"{tuple(a.size for a in self.axes)}")
+        for i, a in enumerate(self.axes):
+            if a.size < 4 or not np.all(np.diff(a) > 0):
+                raise DeriveError(f"{source}: axis {i + 1} needs at least 4 increasing values (has {a.size})")
+        if not np.all(np.isfinite(self.values)):
+            raise DeriveError(f"{source}: a value is not finite")
+        digest = hashlib.sha256(b"".join(a.tobytes() for a in self.axes) + self.values.tobytes()).hexdigest()[:16]
+        self.text = f"table {source} ({' x '.join(str(a.size) for a in self.axes)} values, {digest})"
+        self._spline = None
+
+    def __repr__(self) -> str:
+        return self.text
+
+    def __eq__(self, other) -> bool:
+        return isinstance(other, Table) and other.text == self.text
+
+    def __hash__(self) -> int:
+        return hash(self.text)
+
+    def __call__(self, *columns):
+        from scipy.interpolate import CubicSpline, RectBivariateSpline, RegularGridInterpolator
+
+        if self._spline is None:
+            if len(self.axes) == 1:
+                self._spline = CubicSpline(self.axes[0], self.values)
+            elif len(self.axes) == 2:
+                spline = RectBivariateSpline(*self.axes, self.values, kx=3, ky=3, s=0)
+                self._spline = lambda x, y: spline.ev(x, y)
+            else:
+                grid = RegularGridInterpolator(self.axes, self.values, method="cubic")
+                self._spline = lambda *x: grid(np.stack(x, axis=-1))
+        columns = np.broadcast_arrays(*(np.asarray(c, dtype=np.float64) for c in columns))
+        inside = [np.clip(c, a[0], a[-1]) for c, a in zip(columns, self.axes)]   # (rounding at the box's faces)
+        return np.asarray(self._spline(*inside), dtype=np.float64).reshape(columns[0].shape)
+
+
 @dataclasses.dataclass(frozen=True)
 class ParametricTarget:
-    """A function of `variables` (per pixel) and at most one `parameter` (per material), the
-    expression sympy text in their names (module docstring)."""
+    """A function of `variables` (per pixel) and at most one `parameter` (per material): the
+    expression sympy text in their names, or (`table`) values on a grid, the expression then only
+    its name (module docstring)."""
 
     name: str
     expression: str
@@ -82,6 +135,7 @@ class ParametricTarget:
     floor: float = 0.0
     anchors: tuple[Anchor, ...] = ()
     description: str = ""
+    table: Table | None = None
 
     @property
     def axes(self) -> tuple[Axis, ...]:
@@ -105,11 +159,13 @@ class ParametricTarget:
         return [sp.Symbol(n, real=True) for n in self.names]
 
     def sympy(self):
+        if self.table is not None:
+            raise DeriveError(f"{self.name} is a table: it has no expression")
         return parse(self.expression, self.names)
 
     def numpy(self):
         """The exact function as a numpy callable of one array per axis (variables, then the parameter)."""
-        return _numpy_of(self.sympy(), self.symbols())
+        return self.table if self.table is not None else _numpy_of(self.sympy(), self.symbols())
 
     def range_text(self) -> str:
         return self.parameter.text() if self.parameter else ""
@@ -152,6 +208,13 @@ def check(target: ParametricTarget) -> ParametricTarget:
             raise DeriveError(f"{a.name} in [{a.lo}, {a.hi}]: give finite numbers lo < hi")
     if not (math.isfinite(target.floor) and target.floor >= 0):
         raise DeriveError(f"floor {target.floor}: give a number >= 0")
+    if target.table is not None:
+        if len(target.table.axes) != len(target.axes):
+            raise DeriveError(f"{target.name}: the table has {len(target.table.axes)} axes, the target "
+                              f"{len(target.axes)}")
+        for a, grid in zip(target.axes, target.table.axes):
+            if a.lo < grid[0] or a.hi > grid[-1]:
+                raise DeriveError(f"{a.name} in [{a.lo:g}, {a.hi:g}]: the table covers [{grid[0]:g}, {grid[-1]:g}]")
     mesh = np.meshgrid(*(np.linspace(a.lo, a.hi, CHECK_POINTS) for a in target.axes), indexing="ij")
     f = target.numpy()(*mesh)
     for bad, why in ((~np.isfinite(f), "is not finite"),
@@ -207,19 +270,24 @@ def _monomials(symbols, degree: int, bilinear: bool, symmetric: bool) -> list:
     return out
 
 
-BASES = (("degree1", 1, False), ("bilinear", 1, True), ("degree2", 2, False))
+# (label, total degree, bilinear) of the monomial bases, by the number of variables
+BASES = {1: (("degree1", 1, False), ("degree2", 2, False), ("degree3", 3, False), ("degree4", 4, False)),
+         2: (("degree1", 1, False), ("bilinear", 1, True), ("degree2", 2, False)),
+         3: (("degree1", 1, False),)}
+OUTERS = {"identity": "polynomial", "reciprocal": "reciprocal_polynomial", "exp2": "exp2_polynomial"}
 
 
-def family_templates(target: ParametricTarget, symmetric: bool) -> list[Template]:
-    """The linear families of the module docstring, step 1."""
+def family_templates(target: ParametricTarget, symmetric: bool, positive: bool = False) -> list[Template]:
+    """The linear families of the module docstring, step 1 (exp2 of a polynomial where the target is
+    `positive` on the box)."""
     import sympy as sp
 
     symbols = target.symbols()[:len(target.variables)]
     out, seen = [], set()
-    for outer in ("identity", "reciprocal"):
-        for label, degree, bilinear in BASES:
-            if bilinear and len(symbols) < 2:
-                continue
+    for outer, family in OUTERS.items():
+        if outer == "exp2" and not positive:
+            continue
+        for label, degree, bilinear in BASES[len(symbols)]:
             full = _monomials(symbols, degree, bilinear, symmetric)
             for basis, constant in ((full, True), (full[1:], False)):
                 key = (outer, tuple(basis))
@@ -228,11 +296,10 @@ def family_templates(target: ParametricTarget, symmetric: bool) -> list[Template
                 seen.add(key)
                 k = constant_symbols(len(basis))
                 inner = sum((ki * b for ki, b in zip(k, basis)), sp.Integer(0))
-                expression = inner if outer == "identity" else 1 / inner
-                family = ("polynomial" if outer == "identity" else "reciprocal_polynomial")
+                expression = {"identity": inner, "reciprocal": 1 / inner, "exp2": sp.Pow(2, inner)}[outer]
                 name = f"{family}_{label}" + ("" if constant else "_no_constant") + ("_symmetric" if symmetric else "")
                 out.append(Template(name, family, expression, len(basis),
-                                    f"{'1 / ' if outer == 'reciprocal' else ''}a sum of "
+                                    f"{dict(reciprocal='1 / ', exp2='exp2 of ').get(outer, '')}a sum of "
                                     f"{', '.join(str(b) for b in basis)} with constants per value",
                                     outer=outer, basis=tuple(basis)))
     return out
@@ -336,8 +403,10 @@ def _linear_start(template: Template, x, y, w, symbols) -> np.ndarray:
                   for b in template.basis], axis=1)
     if template.outer == "identity":
         u, slope = y, np.ones_like(y)
-    else:
+    elif template.outer == "reciprocal":
         u, slope = 1.0 / y, y * y
+    else:                                   # exp2: its slope at log2 y is y ln 2
+        u, slope = np.log2(y), y * np.log(2.0)
     weights = w * slope
     c, *_ = np.linalg.lstsq(B * weights[:, None], u * weights, rcond=None)
     return c
@@ -544,8 +613,8 @@ def measure_box(expression, target: ParametricTarget, f) -> dict:
 
 def material_forms(templates, target, f, log) -> list[Fitted]:
     """Steps 2 and 3 for every template: every template's constants as lines and quadratics; the
-    templates no other with as few constants beats per value (the front of constants against the
-    per-value optimum) also with cheaper formulas (`formula_variants`)."""
+    templates no other of `templates` with as few constants beats per value (the front of constants
+    against the per-value optimum) also with cheaper formulas (`formula_variants`)."""
     import sympy as sp
 
     symbols = target.symbols()
@@ -589,8 +658,8 @@ def _error_key(target) -> str:
 # ---- costs --------------------------------------------------------------------------------------
 
 def shader(names, used, body: str | None) -> str:
-    """A fragment shader with one input per name of `names`, up to MAX_CONSTANTS push constants c0,
-    c1, ..., writing the form of the inputs `used` (`body`, a GLSL expression) and every input to its
+    """A fragment shader with one input per name of `names`, PUSH_CONSTANTS push constants c0, c1, ...
+    and F0 (the material's reflectance at normal incidence: a pair's output), writing the form of the inputs `used` (`body`, a GLSL expression) and every input to its
     output; body None: the wrapper, writing the first input in the form's place. Every shader writes
     the same inputs, so that a form's cycles net of the wrapper count neither their interpolation
     nor their export (and the back ends that read the output's first value read the form)."""
@@ -599,7 +668,7 @@ def shader(names, used, body: str | None) -> str:
     if body is None:
         return (f"#version 450\n{inputs}\nlayout(location = 0) out vec4 color;\n"
                 f"void main() {{ color = vec4({names[0]}_in, {written}); }}\n")
-    constants = " ".join(f"float c{i};" for i in range(MAX_CONSTANTS))
+    constants = " ".join(f"float c{i};" for i in range(PUSH_CONSTANTS)) + " float F0;"
     arguments = ", ".join(f"float {n}" for n in used)
     return (f"#version 450\n{inputs}\nlayout(location = 0) out vec4 color;\n"
             f"layout(push_constant) uniform Material {{ {constants} }};\n"
@@ -696,10 +765,11 @@ def derive(target: ParametricTarget, gpu=None, seconds: float = 60.0, max_cycles
     record = {r["name"]: r for r in found}
     anchors = [Form(a.name, "anchor", "anchor", expr, a.source)
                for a, expr in zip(target.anchors, target.anchor_expressions().values())]
-    exact = Form("exact", "exact", "exact", target.sympy(), "the target itself")
-    for m in anchors + [exact]:
+    # (a table's own cost is a texture fetch, which these shaders do not measure)
+    exact = [] if target.table is not None else [Form("exact", "exact", "exact", target.sympy(), "the target itself")]
+    for m in anchors + exact:
         per_of[m.name] = (m.expression, "pixel")
-    everything = forms + anchors + [exact]
+    everything = forms + anchors + exact
     log(f"measuring {len(everything)} forms over the whole box and compiling them for {len(architectures)} "
         "architectures")
     errors = {m.name: record[m.name]["errors"] if m.name in record else measure_box(m.expression, target, f)
@@ -772,7 +842,67 @@ def registry() -> dict[str, ParametricTarget]:
                             brdf.FILAMENT_2018)),
             description="the height-correlated Smith-GGX visibility V = G2 / (4 NoV NoL) (Heitz 2014), alpha the "
                         "GGX roughness"),
+        **env_brdf_targets(),
     }
+
+
+ENV_BRDF_POINTS = 65        # the table's Chebyshev-Lobatto points per axis (cubic splines between: within 2e-6)
+ENV_BRDF_BOX = (Axis("NoV", 0.02, 1.0), Axis("roughness", 0.05, 1.0))
+# (A, B) of Karis's EnvBRDFApprox and Lazarov's fit (optics.brdf), in the targets' names
+ENV_BRDF_ANCHORS = {
+    "Karis": ("-1.04*(min((1 - roughness)**2, exp2(-9.28*NoV))*(1 - roughness) + 0.0425 - 0.0275*roughness) "
+              "+ 1.04 - 0.572*roughness",
+              "1.04*(min((1 - roughness)**2, exp2(-9.28*NoV))*(1 - roughness) + 0.0425 - 0.0275*roughness) "
+              "- 0.04 + 0.022*roughness"),
+    "Lazarov": ("0.25*(1 - roughness) + 0.75 - ((1 - roughness)/0.96*min(0.475*(1 - roughness), exp2(-9.28*NoV)) "
+                "+ (0.0275 - 0.25*0.04)/0.96*(1 - roughness) + (0.015 - 0.75*0.04)/0.96)",
+                "(1 - roughness)/0.96*min(0.475*(1 - roughness), exp2(-9.28*NoV)) "
+                "+ (0.0275 - 0.25*0.04)/0.96*(1 - roughness) + (0.015 - 0.75*0.04)/0.96"),
+}
+
+
+@functools.cache
+def env_brdf_table() -> tuple[Table, Table]:
+    """(A, B) of the split-sum environment BRDF of GGX (`optics.brdf.env_brdf`, its quadrature) on
+    ENV_BRDF_POINTS x ENV_BRDF_POINTS Chebyshev points of NoV and roughness, as tables."""
+    from ..optics import brdf
+
+    axes = [_chebyshev(a.lo, a.hi, ENV_BRDF_POINTS) for a in ENV_BRDF_BOX]
+    A, B = brdf.env_brdf_table(*axes)
+    return (Table(axes, A, "env_brdf A (optics.brdf.env_brdf)"), Table(axes, B, "env_brdf B (optics.brdf.env_brdf)"))
+
+
+class _LazyTable(Table):
+    """`env_brdf_table()[part]`, computed when first read (the registry is listed often)."""
+
+    def __init__(self, part: int):                     # noqa: super().__init__ runs on first use
+        self.part = part
+        self.text = f"table env_brdf {'AB'[part]} (optics.brdf.env_brdf, {ENV_BRDF_POINTS} x {ENV_BRDF_POINTS} values)"
+
+    def __getattr__(self, name):
+        if name in ("axes", "values", "source", "_spline"):
+            table = env_brdf_table()[self.part]
+            self.axes, self.values, self.source, self._spline = table.axes, table.values, table.source, None
+            return getattr(self, name)
+        raise AttributeError(name)
+
+
+def env_brdf_targets() -> dict[str, ParametricTarget]:
+    """The environment BRDF's scale A and bias B (`optics.brdf.env_brdf`) over NoV and the roughness
+    (per material, or per pixel from a texture), absolute error, Karis's and Lazarov's fits as anchors
+    (`pipeline derive --target env_brdf` derives both and pairs them: `derive_pair`)."""
+    from ..optics import brdf
+
+    out = {}
+    for part, (name, what) in enumerate((("env_brdf_scale", "A, the scale of F0"), ("env_brdf_bias", "B, the bias"))):
+        out[name] = ParametricTarget(
+            name, name, (ENV_BRDF_BOX[0],), ENV_BRDF_BOX[1], "abs",
+            anchors=tuple(Anchor(a, pair[part], brdf.KARIS_2014 if a == "Karis" else brdf.LAZAROV_2013)
+                          for a, pair in ENV_BRDF_ANCHORS.items()),
+            description=f"the split-sum environment BRDF of GGX (alpha = roughness^2, Schlick-Smith k = alpha / 2), {what}: "
+                        "a table by the pipeline's quadrature",
+            table=_LazyTable(part))
+    return out
 
 
 def _leaves(tree) -> list:
@@ -802,12 +932,9 @@ def _text(m: Form, record: dict, target) -> str:
     return sp.sstr(sp.N(m.expression, 9))
 
 
-def _searched(target, f, seconds: float, max_complexity: int, log) -> tuple[list[dict], dict]:
-    """(the found forms, each {name, family, expression (sympy), source, per (material or pixel),
-    errors, and for a template's, formulas: {formula, per_value_error, per_value_worst, constants}},
-    the searches' coverage): steps 1 to 4 of the module docstring, kept in `paths.DERIVE_CACHE` by
-    the target, the budget and this code, so that a rerun (another --gpu, --max-cycles) only
-    compiles; an entry that cannot be read is searched again."""
+def _kept(key: list, compute, log, what: str):
+    """compute() -> (records, coverage), kept in `paths.DERIVE_CACHE` under `key` and this code; an
+    entry that cannot be read is computed again."""
     import hashlib
     import json
     import os
@@ -817,16 +944,16 @@ def _searched(target, f, seconds: float, max_complexity: int, log) -> tuple[list
     from ..engine import paths
     from . import engine
 
-    key = json.dumps([engine._code_version(), repr(target), seconds, max_complexity])
-    kept = paths.DERIVE_CACHE / f"{hashlib.sha256(key.encode()).hexdigest()[:32]}.json"
+    text = json.dumps([engine._code_version(), *key])
+    kept = paths.DERIVE_CACHE / f"{hashlib.sha256(text.encode()).hexdigest()[:32]}.json"
     try:
         entry = json.loads(kept.read_text())
         found = [r | dict(expression=sp.sympify(r["expression"])) for r in entry["found"]]
-        log(f"the search of an earlier run, kept in {kept.parent}")
+        log(f"the {what} of an earlier run, kept in {kept.parent}")
         return found, entry["coverage"] | dict(kept=True)
     except (OSError, ValueError, KeyError, TypeError, sp.SympifyError):
         pass
-    found, coverage = _search(target, f, seconds, max_complexity, log)
+    found, coverage = compute()
     kept.parent.mkdir(parents=True, exist_ok=True)
     partial = kept.with_suffix(f".{os.getpid()}.tmp")
     partial.write_text(json.dumps(dict(found=[r | dict(expression=sp.srepr(r["expression"])) for r in found],
@@ -835,36 +962,74 @@ def _searched(target, f, seconds: float, max_complexity: int, log) -> tuple[list
     return found, coverage | dict(kept=False)
 
 
-def _search(target, f, seconds: float, max_complexity: int, log) -> tuple[list[dict], dict]:
-    """`_searched`, computed."""
+def _searched(target, f, seconds: float, max_complexity: int, log) -> tuple[list[dict], dict]:
+    """(the found forms, each {name, family, expression (sympy), source, per (material or pixel),
+    errors, and for a template's, formulas: {formula, per_value_error, per_value_worst, constants}},
+    the coverage): steps 1 to 4 of the module docstring. The families' fits are kept by the target
+    and this code, the grammar's forms also by the budget, so that a rerun with other --gpu or
+    --max-cycles only compiles, and one with another budget only searches again."""
+    found, coverage = [], dict(max_complexity=int(max_complexity))
+    if target.parameter is not None:
+        families, coverage["families"] = _kept([repr(target), "families"], lambda: _family_search(target, f, log),
+                                               log, "families' fits")
+        found += families
+    grammar_found, coverage["grammar"] = _kept([repr(target), "grammar", seconds, max_complexity],
+                                               lambda: _grammar_search(target, f, seconds, max_complexity, log),
+                                               log, "grammar's search")
+    found += grammar_found
+    for part in ("families", "grammar"):
+        coverage.update({k: v for k, v in coverage.get(part, {}).items() if k != "kept"})
+    coverage["kept"] = all(coverage.get(part, {}).get("kept", True) for part in ("families", "grammar"))
+    return found, coverage
+
+
+def _records(materials, target) -> list[dict]:
+    """Each fitted template as two forms: its constants per material (push constants) and per pixel."""
     import sympy as sp
 
+    parameter = target.symbols()[-1]
+    out = []
+    for m in materials:
+        formulas = dict(formula=m.formula, per_value_error=float(m.per_value.errors.max()),
+                        per_value_worst=float(m.per_value.values[int(np.argmax(m.per_value.errors))]),
+                        constants=[sp.sstr(sp.N(e, 7)) for e in formula_expressions(m.coefficients, parameter)])
+        for per, expr in (("material", m.material), ("pixel", m.pixel)):
+            out.append(dict(name=f"{m.name}_{per}", family=m.template.family, expression=expr,
+                            source=m.template.source, per=per, errors=m.errors,
+                            formulas=formulas | dict(parameter_per=per)))
+    return out
+
+
+def _family_search(target, f, log) -> tuple[list[dict], dict]:
+    """The families' templates fitted (steps 2 and 3)."""
+    symmetric = is_symmetric(target, f)
+    positive = bool(np.all(f(*_mesh(target.axes, AXIS_POINTS)) > 0))
+    templates = family_templates(target, symmetric, positive)
+    log(f"{len(templates)} family templates{' (the target is symmetric in its two variables)' if symmetric else ''}: "
+        f"constants fitted at {2 * PARAMETER_VALUES - 1} values of {target.parameter.name}, then as formulas")
+    started = time.perf_counter()
+    materials = material_forms(templates, target, f, log)
+    return _records(materials, target), dict(parameter_values=2 * PARAMETER_VALUES - 1, symmetric=symmetric,
+                                             family_templates=len(templates),
+                                             family_seconds=round(time.perf_counter() - started, 1))
+
+
+def _grammar_search(target, f, seconds: float, max_complexity: int, log) -> tuple[list[dict], dict]:
+    """The grammar's templates fitted (steps 1 to 3) and the pixel search (step 4)."""
     from ..symbolic import grammar, ladder
 
     symbols = target.symbols()
     found: list[dict] = []
-    coverage: dict = dict(max_complexity=int(max_complexity))
+    coverage: dict = {}
     if target.parameter is not None:
-        symmetric = is_symmetric(target, f)
-        templates = family_templates(target, symmetric)
-        grammar_found, coverage["templates"] = grammar_templates(target, f, seconds * (1 - PIXEL_SHARE),
-                                                                 max_complexity, log)
-        templates += grammar_found
-        log(f"{len(templates)} templates{' (the target is symmetric in its two variables)' if symmetric else ''}: "
-            f"constants fitted at {2 * PARAMETER_VALUES - 1} values of {target.parameter.name}, then as formulas")
-        fitting = time.perf_counter()
-        materials = material_forms(templates, target, f, log)
-        coverage["templates"].update(count=len(templates), seconds=round(time.perf_counter() - fitting, 1),
+        templates, coverage["templates"] = grammar_templates(target, f, seconds * (1 - PIXEL_SHARE),
+                                                             max_complexity, log)
+        log(f"{len(templates)} grammar templates: constants fitted per value of {target.parameter.name}, then as "
+            "formulas")
+        started = time.perf_counter()
+        found += _records(material_forms(templates, target, f, log), target)
+        coverage["templates"].update(count=len(templates), seconds=round(time.perf_counter() - started, 1),
                                      at=_middle(target.parameter))
-        coverage.update(parameter_values=2 * PARAMETER_VALUES - 1, symmetric=symmetric)
-        for m in materials:
-            formulas = dict(formula=m.formula, per_value_error=float(m.per_value.errors.max()),
-                            per_value_worst=float(m.per_value.values[int(np.argmax(m.per_value.errors))]),
-                            constants=[sp.sstr(sp.N(e, 7)) for e in formula_expressions(m.coefficients, symbols[-1])])
-            for per, expr in (("material", m.material), ("pixel", m.pixel)):
-                found.append(dict(name=f"{m.name}_{per}", family=m.template.family, expression=expr,
-                                  source=m.template.source, per=per, errors=m.errors,
-                                  formulas=formulas | dict(parameter_per=per)))
     # the pixel search: the grammar in the variables and the parameter together
     x = _mesh(target.axes, SEARCH_AXIS_POINTS)
     y = f(*x)
@@ -881,3 +1046,195 @@ def _search(target, f, seconds: float, max_complexity: int, log) -> tuple[list[d
                           source=f"grammar: {grammar.show(tree, list(target.names))}", per="pixel",
                           errors=measure_box(expr, target, f)))
     return found, coverage
+
+
+# ---- a table in a CSV file ------------------------------------------------------------------------
+
+def from_csv(path, variables, parameter: str | None = None, output: str | None = None, metric: str = "abs",
+             floor: float = 0.0) -> ParametricTarget:
+    """A table target from a CSV file: a header, then one row per point of a full grid of the
+    `variables` (and the `parameter`) with the value in the column `output` (default: the one column
+    left). Each axis's range is its values' span. Raises DeriveError naming a missing file or column,
+    a value that is not a number, or rows that do not fill the grid."""
+    import csv
+    from pathlib import Path
+
+    path = Path(path)
+    if not path.is_file():
+        raise DeriveError(f"{path}: no such file")
+    try:
+        with open(path, newline="", encoding="utf-8") as f:
+            rows = list(csv.reader(f))
+    except (UnicodeDecodeError, csv.Error) as e:
+        raise DeriveError(f"{path}: not a CSV file ({e})") from None
+    if len(rows) < 2:
+        raise DeriveError(f"{path}: a header and at least one row are needed")
+    header = [h.strip() for h in rows[0]]
+    names = list(variables) + ([parameter] if parameter else [])
+    missing = [n for n in names if n not in header]
+    if missing:
+        raise DeriveError(f"{path}: no column {missing[0]!r} (the columns: {', '.join(header)})")
+    rest = [h for h in header if h not in names]
+    if output is None:
+        if len(rest) != 1:
+            raise DeriveError(f"{path}: name the value's column (--output): the other columns are {', '.join(rest)}")
+        output = rest[0]
+    if output not in header:
+        raise DeriveError(f"{path}: no column {output!r} (the columns: {', '.join(header)})")
+    columns = [header.index(n) for n in names + [output]]
+    data = np.empty((len(rows) - 1, len(columns)))
+    for i, row in enumerate(rows[1:]):
+        try:
+            data[i] = [float(row[j]) for j in columns]
+        except (ValueError, IndexError):
+            raise DeriveError(f"{path}: row {i + 2}: {','.join(row)!r} has no number in every column named") from None
+    axes = [np.unique(data[:, k]) for k in range(len(names))]
+    shape = tuple(a.size for a in axes)
+    if int(np.prod(shape)) != data.shape[0]:
+        raise DeriveError(f"{path}: {data.shape[0]} rows do not fill the grid of {' x '.join(map(str, shape))} "
+                          f"values of {', '.join(names)}")
+    values = np.full(shape, np.nan)
+    index = tuple(np.searchsorted(a, data[:, k]) for k, a in enumerate(axes))
+    values[index] = data[:, -1]
+    if np.isnan(values).any():
+        raise DeriveError(f"{path}: a point of the grid of {', '.join(names)} repeats, another is missing")
+    table = Table(axes, values, path.name)
+    axis = [Axis(n, float(a[0]), float(a[-1])) for n, a in zip(names, axes)]
+    return check(ParametricTarget(path.stem, f"{output} in {path.name}", tuple(axis[:len(variables)]),
+                                  axis[-1] if parameter else None, metric, floor, table=table,
+                                  description=f"the column {output} of {path.name}, interpolated by cubic splines"))
+
+
+# ---- two outputs: the environment BRDF's scale and bias -------------------------------------------
+
+@dataclasses.dataclass(frozen=True)
+class PairTarget:
+    """Two targets a shader computes together, as F0 A + B (the split-sum environment BRDF's scale A
+    and bias B): each derived alone (`derive`), then their fronts' members paired."""
+
+    name: str
+    scale: ParametricTarget
+    bias: ParametricTarget
+    description: str = ""
+
+    @property
+    def variable(self) -> str:
+        return self.scale.variable
+
+
+PAIR_PARTS = ("scale", "bias")
+
+
+def pairs() -> dict[str, PairTarget]:
+    targets = env_brdf_targets()
+    return {"env_brdf": PairTarget("env_brdf", targets["env_brdf_scale"], targets["env_brdf_bias"],
+                                   "the split-sum environment BRDF of GGX: its scale A and bias B together, "
+                                   "as a shader computes F0 A + B")}
+
+
+def check_pair(target: PairTarget) -> PairTarget:
+    check(target.scale)
+    check(target.bias)
+    if target.scale.axes != target.bias.axes or target.scale.metric != target.bias.metric:
+        raise DeriveError(f"{target.name}: its two targets need the same variables, parameter and metric")
+    return target
+
+
+def _renumbered(expr, offset: int):
+    """expr with its push constants c0, c1, ... renamed c(offset), c(offset + 1), ..."""
+    import sympy as sp
+
+    symbols = {s for s in expr.free_symbols if s.name[:1] == "c" and s.name[1:].isdigit()}
+    return expr.xreplace({s: sp.Symbol(f"c{int(s.name[1:]) + offset}", real=True) for s in symbols})
+
+
+def derive_pair(target: PairTarget, gpu=None, seconds: float = 60.0, max_cycles: float | None = None,
+                max_complexity: int = 12, log=print) -> dict:
+    """Each of the pair's targets derived (`derive`, its budget `seconds` each), then per architecture
+    and per `parameter_per` every pair of their front members (and each anchor's two parts)
+    compiled as one shader computing F0 A + B (F0 a push constant): the shared subexpressions of
+    the two count once, as the compiler makes them. A pair's error is the larger of its two (each
+    also in its own column); the fronts and verdicts are read off as for one output."""
+    import sympy as sp
+
+    from . import engine
+
+    check_pair(target)
+    started = time.perf_counter()
+    parts = {}
+    for part, t in zip(PAIR_PARTS, (target.scale, target.bias)):
+        log(f"{part} ({t.name}):")
+        parts[part] = derive(t, gpu, seconds, max_cycles, max_complexity, log=lambda s: log("  " + s))
+    scale, bias = parts["scale"], parts["bias"]
+    architectures = scale["architectures"]
+    F0 = sp.Symbol("F0", real=True)
+    error_key = scale["error"]
+    forms, per_of, members, errors = {}, {}, {}, {}
+
+    def pair(a_name, b_name, per, kind):
+        a_form, b_form = scale["forms"][a_name], bias["forms"][b_name]
+        offset = len(scale["members"][a_name].get("constants", []))
+        expr = F0 * a_form.expression + _renumbered(b_form.expression, offset)
+        name = a_name if kind == "anchor" else f"{a_name} + {b_name}"
+        forms[name] = Form(name, kind, "pair" if kind == "found" else kind, expr,
+                           f"scale: {a_form.source}; bias: {b_form.source}" if kind == "found" else a_form.source)
+        per_of[name] = (expr, per)
+        ea, eb = scale["members"][a_name], bias["members"][b_name]
+        errors[name] = {key: max(ea[key], eb[key]) for key in ("max_abs_error", "max_rel_error")} | {
+            f"{key}_{part}": e[key] for key in ("max_abs_error", "max_rel_error") for part, e in (("scale", ea), ("bias", eb))}
+        members[name] = dict(kind=kind, family=forms[name].family, source=forms[name].source, converged=True,
+                             expression=f"A = {ea['expression']}; B = {eb['expression']}", **errors[name],
+                             parameter_per=per, constants=ea.get("constants", []) + eb.get("constants", []),
+                             parts=[a_name, b_name])
+
+    for a in architectures:
+        for per in ("pixel", "material"):
+            for a_name, b_name in itertools.product(scale["fronts_by_parameter"][a][per],
+                                                    bias["fronts_by_parameter"][a][per]):
+                if f"{a_name} + {b_name}" not in forms:
+                    pair(a_name, b_name, per, "found")
+    for anchor in target.scale.anchors:
+        if anchor.name in bias["members"]:
+            pair(anchor.name, anchor.name, "pixel", "anchor")
+    log(f"pairs: {len(forms)} compiled for {len(architectures)} architectures (F0 A + B)")
+    cycles, missing = compile_forms(per_of, target.scale, architectures)
+    constant = max(scale["constant_error"], bias["constant_error"])
+    floor = max(scale["rounding_floor"], bias["rounding_floor"])
+    rows, fronts, by_parameter, verdicts = [], {}, {}, {}
+    for a in architectures:
+        by_name = cycles.get(a, {})
+        by_parameter[a] = {}
+        for per in ("pixel", "material"):
+            candidates = [dict(name=n, cycles=by_name[n], **errors[n]) for n, m in forms.items()
+                          if m.kind == "found" and per_of[n][1] == per and n in by_name
+                          and (max_cycles is None or by_name[n] <= max_cycles) and errors[n][error_key] < constant]
+            by_parameter[a][per] = [r["name"] for r in engine.front(candidates, error_key, floor)]
+        fronts[a] = by_parameter[a]["pixel"] + [n for n in by_parameter[a]["material"] if n not in by_parameter[a]["pixel"]]
+        for n, m in forms.items():
+            if n not in by_name or (m.kind == "found" and n not in fronts[a]):
+                continue
+            rows.append(dict(architecture=a, kind=m.kind, name=n, family=m.family, expression=members[n]["expression"],
+                             cycles=by_name[n], cycles_predicted=None, **errors[n], on_front=n in fronts[a],
+                             source=m.source, range=target.scale.range_text(), parameter_per=per_of[n][1]))
+        pixel_front = [r for r in rows if r["architecture"] == a and r["name"] in by_parameter[a]["pixel"]]
+        verdicts[a] = {n: dict(cycles=by_name[n], error=errors[n][error_key],
+                               **engine.verdict(by_name[n], errors[n][error_key], pixel_front, error_key, floor))
+                       for n, m in forms.items() if m.kind == "anchor" and n in by_name}
+    kept = {n for fr in fronts.values() for n in fr} | {n for n, m in forms.items() if m.kind == "anchor"}
+    elapsed = time.perf_counter() - started
+    log(f"done in {elapsed:.0f} s")
+    t = scale["target"]
+    return dict(target=t | dict(name=target.name, expression=f"(A, B) = ({target.scale.name}, {target.bias.name})",
+                                description=target.description, variable=", ".join(target.scale.names) + ", F0"),
+                architectures=architectures, missing=missing | scale["missing"] | bias["missing"],
+                coverage=dict(scale=scale["coverage"], bias=bias["coverage"], pairs=len(forms)),
+                families=sorted(set(scale["families"]) | set(bias["families"])), family_members=[],
+                fronts=fronts, fronts_by_parameter=by_parameter, verdicts=verdicts, rows=rows, error=error_key,
+                constant_error=constant, rounding_floor=floor, cost_tables={}, seconds=round(elapsed, 1),
+                estimated_seconds=None, members={n: members[n] for n in forms if n in kept},
+                forms=forms, parts=dict(scale=publish_part(scale), bias=publish_part(bias)))
+
+
+def publish_part(results: dict) -> dict:
+    """A pair's part as results.json keeps it: its fronts, verdicts and coverage."""
+    return {k: results[k] for k in ("fronts_by_parameter", "verdicts", "coverage", "seconds")}

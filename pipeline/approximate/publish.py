@@ -61,12 +61,28 @@ def exported(results) -> list[str]:
     return names
 
 
+def arguments_of(results, name: str) -> str:
+    """A member's arguments, comma-separated: the target's variable; a parametric target's variables
+    and its parameter (a material member: its variables and constants c0, c1, ..., which the CPU
+    computes); F0 where a pair's member computes F0 A + B."""
+    target, member = results["target"], results["members"].get(name, {})
+    if not target.get("variables"):
+        return target["variable"]
+    names = [a["name"] for a in target["variables"]]
+    if member.get("parameter_per") == "material":
+        names += [f"c{i}" for i in range(len(member.get("constants", [])))]
+    elif target.get("parameter"):
+        names.append(target["parameter"]["name"])
+    if target["variable"].endswith("F0"):
+        names.append("F0")
+    return ", ".join(names)
+
+
 def shader_sources(results) -> dict[str, str]:
     """derive.glsl, derive.hlsl and derive_twin.py as text."""
     import sympy as sp
 
     target = results["target"]
-    arguments = target["variable"]
     head = [f"// Forms of {target['expression']} for {domain_text(target)} found by "
             f"pipeline derive (error {target['metric']}, measured in float64 over the whole domain)", ""]
     glsl_lines, hlsl_lines = list(head), list(head)
@@ -77,11 +93,9 @@ def shader_sources(results) -> dict[str, str]:
         m = results["members"][name]
         doc = f"{m['expression']}: max abs error {m['max_abs_error']:.4g}, max rel error {m['max_rel_error']:.4g}"
         fn = function_name(target["name"], name)
-        expression, names = form.expression, arguments
+        expression, names = form.expression, arguments_of(results, name)
         if m.get("parameter_per") == "material":
             # the constants are the function's arguments; the twin computes them from the formulas
-            count = len(m["constants"])
-            names = ", ".join([a["name"] for a in target["variables"]] + [f"c{i}" for i in range(count)])
             parameter = target["parameter"]["name"]
             values = ", ".join(python(sp.sympify(c, locals={parameter: sp.Symbol(parameter, real=True)}), parameter)
                                for c in m["constants"])
@@ -105,11 +119,13 @@ def _number(v):
 
 
 def write_csv(path: Path, rows) -> None:
+    """COLUMNS, then any other key of the rows (a pair's errors of each output)."""
+    columns = list(COLUMNS) + [k for k in dict.fromkeys(k for r in rows for k in r) if k not in COLUMNS]
     with open(path, "w", newline="") as f:
         writer = csv.writer(f)
-        writer.writerow(COLUMNS)
+        writer.writerow(columns)
         for r in rows:
-            writer.writerow([_number(r[c]) for c in COLUMNS])
+            writer.writerow([_number(r.get(c)) for c in columns])
 
 
 def _json_value(v):
@@ -148,7 +164,8 @@ def _parametric_coverage(results) -> list[str]:
                   f"the values halfway), then each constant a formula of {p}, all polished together over the whole box: "
                   f"{', '.join(results['families'])}"
                   + (" (in symmetric monomials: the target is symmetric in its two variables)" if c.get("symmetric") else "")
-                  + f"; {c['templates']['count']} templates, {c['templates']['seconds']} s.",
+                  + f"; {c['family_templates']} family templates ({c['family_seconds']} s), {c['templates']['count']} "
+                  f"of the grammar ({c['templates']['seconds']} s).",
                   f"- The grammar's templates, at {p} = {c['templates']['at']:g} on {c['templates']['points']} points, "
                   f"loss {c['templates']['loss']}: " + _rungs_text(c["templates"]["rungs"]) + "."]
     s = c["pixel_search"]
@@ -171,7 +188,14 @@ def report(results) -> str:
              + (f" ({t['description']})" if t["description"] else "") + f"; ranked by the {measure} over the whole "
              "domain (float64, grid and refinement), against cycles compiled for each architecture.", "",
              "## What the search covered", ""]
-    lines += _parametric_coverage(results) if t.get("variables") else [
+    if "pairs" in c:            # a pair: each part's coverage, then the pairs
+        for part in ("scale", "bias"):
+            lines += [f"{part}:"] + _parametric_coverage(dict(target=t, coverage=c[part],
+                                                               families=results["families"]))
+        lines += [f"- Pairs: every pair of the two fronts' members per architecture, and each anchor's two parts, "
+                  f"compiled as one shader computing F0 A + B: {c['pairs']} pairs. A pair's error is the larger of its "
+                  "two."]
+    lines += [] if "pairs" in c else _parametric_coverage(results) if t.get("variables") else [
              f"- Families fitted by minimax on the whole interval: {', '.join(results['families'])} "
              f"({len(results['family_members'])} members: {', '.join(results['family_members'])}).",
              f"- The grammar's ten operations ({' '.join(c['operations'])}), loss {c['loss']} on {c['points']} points, "
