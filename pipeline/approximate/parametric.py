@@ -511,7 +511,8 @@ def formula_expressions(coefficients, parameter) -> list:
 
     out = []
     for row in coefficients:
-        terms = sum((sp.Float(float(a), 17) * parameter ** j for j, a in enumerate(row) if a != 0), sp.Integer(0))
+        terms = sum(((sp.Integer(1) if a == 1 else sp.Float(float(a), 17)) * parameter ** j
+                     for j, a in enumerate(row) if a != 0), sp.Integer(0))
         out.append(sp.horner(terms, parameter) if terms.is_Add else terms)
     return out
 
@@ -997,7 +998,33 @@ def _records(materials, target) -> list[dict]:
             out.append(dict(name=f"{m.name}_{per}", family=m.template.family, expression=expr,
                             source=m.template.source, per=per, errors=m.errors,
                             formulas=formulas | dict(parameter_per=per)))
+        scaled = _scaled(m, parameter)
+        if scaled is not None:
+            out.append(dict(name=f"{m.name}_scaled_pixel", family=m.template.family, expression=scaled,
+                            source=m.template.source + "; written with one formula's factor in the numerator",
+                            per="pixel", errors=m.errors, formulas=formulas | dict(parameter_per="pixel")))
     return out
+
+
+def _scaled(m, parameter):
+    """A reciprocal template's pixel form with one constant's factor moved to the numerator,
+    a / (k0 b0 + k1 b1) = (a / c) / ((k0 / c) b0 + p^j b1) where k1 = c p^j is one term (a proportion or
+    a constant): the same function, one multiply fewer where the compiler cannot fold the factor
+    (a multiply-add takes one immediate on NVIDIA). None for another template."""
+    import sympy as sp
+
+    if m.template.outer != "reciprocal":
+        return None
+    single = [i for i, row in enumerate(m.coefficients) if np.count_nonzero(row) == 1]
+    if not single:
+        return None
+    j = single[0]
+    factor = float(m.coefficients[j][np.flatnonzero(m.coefficients[j])[0]])
+    k = constant_symbols(m.template.count)
+    coefficients = m.coefficients / factor
+    coefficients[j] = np.where(coefficients[j] != 0, 1.0, 0.0)       # (exactly 1: no multiply)
+    formulas = formula_expressions(coefficients, parameter)
+    return sp.Float(1 / factor, 17) * m.template.expression.xreplace(dict(zip(k, formulas)))
 
 
 def _family_search(target, f, log) -> tuple[list[dict], dict]:

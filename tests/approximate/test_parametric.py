@@ -52,8 +52,16 @@ def test_a_planted_law_comes_back_exactly_with_lines_in_the_parameter():
     np.testing.assert_allclose(coefficients[:, :2], [[0.5, 1.5], [2.0, -1.0]], atol=1e-8)
     assert np.all(coefficients[:, 2] == 0)          # (a line has no square term)
     # the same with k0 proportional: not the law, measurably worse, never better than per value
-    _, reduced = parametric.polish_formulas(template, per_value, ("proportional", "line"), target, f)
+    reduced_coefficients, reduced = parametric.polish_formulas(template, per_value, ("proportional", "line"), target, f)
     assert reduced > 1e-3
+    # written with k0's factor in the numerator: the same function
+    k, (x, y, a) = parametric.constant_symbols(2), target.symbols()
+    pixel = template.expression.xreplace(dict(zip(k, parametric.formula_expressions(reduced_coefficients, a))))
+    fitted = parametric.Fitted(template, "formulas_pl", reduced_coefficients, per_value, {}, pixel, None)
+    scaled = parametric._scaled(fitted, a)
+    assert scaled != pixel and sp.srepr(scaled).count("Float") == sp.srepr(pixel).count("Float")
+    points = np.random.default_rng(2).uniform(0.1, 1.0, (3, 50))
+    np.testing.assert_allclose(sp.lambdify((x, y, a), scaled)(*points), sp.lambdify((x, y, a), pixel)(*points), rtol=1e-13)
 
 
 def test_the_per_value_optimum_bounds_the_formulas_on_the_visibility():
