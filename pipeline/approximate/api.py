@@ -36,6 +36,8 @@ def resolve(target=None, expr: str | None = None, var: str = "x=0:1", metric: st
             raise DeriveError("--table: name its variables' columns (--x NAME[,NAME])")
         return parametric.from_csv(table, [v.strip() for v in x.split(",") if v.strip()], parameter, y,
                                    metric or "abs", floor or 0.0)
+    if isinstance(target, str) and target.endswith(".toml"):
+        target = parametric.from_file(target)
     if not isinstance(target, (Target, parametric.ParametricTarget, parametric.PairTarget)):
         target = targets.named(str(target), parametric.registry() | parametric.pairs())
     if isinstance(target, parametric.PairTarget):

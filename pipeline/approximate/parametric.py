@@ -18,10 +18,12 @@ pixel. Its error is the largest over the whole box, variables and parameter
    the parameter's grid (`PARAMETER_VALUES` Chebyshev values and the values halfway between them,
    where the worst value is checked), each start from the neighbour's constants. The largest of
    these errors is the template's per-value optimum: no formula of the parameter does better.
-3. Formulas: each constant as a line and as a quadratic in the parameter (least squares on the grid's
-   values), then all the formulas' coefficients polished together by minimax on the points of every
-   value, the box's worst point added and polished again (`EXCHANGES` times); the error measured
-   over the whole box.
+3. Formulas: each constant a formula of the parameter p (`KINDS`: a line, a quadratic, a + b p + c / p
+   where p's range excludes 0, and cheaper mixes: `formula_variants`), fitted by least squares to
+   the grid's values, then all the formulas' coefficients polished together by minimax on the points
+   of every value, the box's worst point added and polished again (`EXCHANGES` times); the error
+   measured over the whole box. A reciprocal template's pixel form is also written with one
+   single-term formula's factor in the numerator (`_scaled`: the same function, cheaper on NVIDIA).
 4. Per pixel: the grammar's forms in the variables and the parameter together, by the ladder.
 5. Costs: every form compiled for each architecture, a fragment shader with one input per variable
    and the parameter (`shader`): `parameter_per = "material"`, the constants push constants that
@@ -49,6 +51,7 @@ AXIS_POINTS = 13            # Chebyshev-Lobatto points per variable: the fits' g
 SEARCH_AXIS_POINTS = 9      # ... and the searches' (times PARAMETER_VALUES for the pixel search)
 PARAMETER_VALUES = 9        # the parameter's grid (Chebyshev-Lobatto), and the 8 values halfway
 EXCHANGES = 2               # the box's worst point joins the polish's points, and it polishes again
+PRUNE = 1e-9                # a formula's coefficient below this share of the largest is dropped, where no worse
 SEARCH_TEMPLATES = 8        # grammar forms (the ladder's front) taken as templates, the most accurate
 PIXEL_SHARE = 0.5           # of the budget: the pixel search (the rest, the templates' search)
 MAX_AXES = 3                # a shader's inputs, variables and the parameter (written with the form: a vec4)
@@ -475,26 +478,27 @@ class Fitted:
         return f"{self.template.name}_{self.formula}"
 
 
-# Each constant's formula in the parameter p: its powers of p.
-KINDS = {"constant": (0,), "proportional": (1,), "line": (0, 1), "quadratic": (0, 1, 2)}
-TAGS = {"constant": "c", "proportional": "p", "line": "l", "quadratic": "q"}
-DEGREE = 2                  # the highest power of a formula
+# Each constant's formula in the parameter p: its powers of p (`laurent`, a + b p + c / p, where the
+# parameter's range excludes 0: GGX's D in alpha^2 has such constants, pi / alpha^2 among them).
+KINDS = {"constant": (0,), "proportional": (1,), "line": (0, 1), "quadratic": (0, 1, 2), "laurent": (-1, 0, 1)}
+TAGS = {"constant": "c", "proportional": "p", "line": "l", "quadratic": "q", "laurent": "i"}
+POWERS = (-1, 0, 1, 2)      # the coefficients' columns, in this order
 
 
 def formula_name(kinds) -> str:
     """`line` or `quadratic` where every constant has that formula, else one letter per constant
     (c constant, p proportional, l line, q quadratic): `formulas_pl`."""
-    if len(set(kinds)) == 1 and kinds[0] in ("line", "quadratic"):
+    if len(set(kinds)) == 1 and kinds[0] in ("line", "quadratic", "laurent"):
         return kinds[0]
     return "formulas_" + "".join(TAGS[k] for k in kinds)
 
 
-def formula_variants(count: int, reduce: bool) -> list[tuple]:
+def formula_variants(count: int, reduce: bool, laurent: bool = False) -> list[tuple]:
     """The formulas tried for a template of `count` constants: every constant a line, every one a
-    quadratic; with `reduce`, also each constant alone a proportion or a constant (the others lines),
-    and every constant a proportion or a constant, whichever fits its values (`None` there: chosen
-    by `_cheapest`)."""
-    out = [("line",) * count, ("quadratic",) * count]
+    quadratic, every one a + b p + c / p (`laurent`: a parameter range without 0); with `reduce`,
+    also each constant alone a proportion or a constant (the others lines), and every constant a
+    proportion or a constant, whichever fits its values (`None` there: chosen by `_cheapest`)."""
+    out = [("line",) * count, ("quadratic",) * count] + ([("laurent",) * count] if laurent else [])
     if reduce:
         for i in range(count):
             for kind in ("proportional", "constant"):
@@ -505,28 +509,29 @@ def formula_variants(count: int, reduce: bool) -> list[tuple]:
 
 
 def formula_expressions(coefficients, parameter) -> list:
-    """Each constant's formula as sympy (Horner form) in the parameter's symbol, from its
-    coefficients of p^0, p^1, p^2 (zero where the formula has no such term)."""
+    """Each constant's formula as sympy in the parameter's symbol (a polynomial in Horner form), from
+    its coefficients of the POWERS of p (zero where the formula has no such term)."""
     import sympy as sp
 
     out = []
     for row in coefficients:
         terms = sum(((sp.Integer(1) if a == 1 else sp.Float(float(a), 17)) * parameter ** j
-                     for j, a in enumerate(row) if a != 0), sp.Integer(0))
-        out.append(sp.horner(terms, parameter) if terms.is_Add else terms)
+                     for j, a in zip(POWERS, row) if a != 0), sp.Integer(0))
+        polynomial = terms.is_Add and row[POWERS.index(-1)] == 0
+        out.append(sp.horner(terms, parameter) if polynomial else terms)
     return out
 
 
 def _start_coefficients(per_value: PerValue, kinds) -> np.ndarray:
-    """(count, DEGREE + 1): each constant's formula fitted by least squares to its values on the grid."""
+    """(count, len(POWERS)): each constant's formula fitted by least squares to its values on the grid."""
     grid = per_value.on_grid
     p = per_value.values[grid]
-    out = np.zeros((len(kinds), DEGREE + 1))
+    out = np.zeros((len(kinds), len(POWERS)))
     for i, kind in enumerate(kinds):
         powers = KINDS[kind]
-        A = np.power.outer(p, np.array(powers))
+        A = np.power.outer(p, np.array(powers, dtype=float))
         solution, *_ = np.linalg.lstsq(A, per_value.constants[grid, i], rcond=None)
-        out[i, list(powers)] = solution
+        out[i, [POWERS.index(k) for k in powers]] = solution
     return out
 
 
@@ -546,18 +551,19 @@ def _cheapest(per_value: PerValue, count: int) -> tuple:
 
 
 def polish_formulas(template: Template, per_value: PerValue, kinds, target: ParametricTarget, f):
-    """Step 3: (coefficients (count, DEGREE + 1), error over the box) of the template's constants as
+    """Step 3: (coefficients (count, len(POWERS)), error over the box) of the template's constants as
     the formulas `kinds` (one of KINDS per constant) of the parameter."""
     from ..optics import brdf
 
     coefficients = _start_coefficients(per_value, kinds)
     mask = np.zeros(coefficients.shape, dtype=bool)
     for i, kind in enumerate(kinds):
-        mask[i, list(KINDS[kind])] = True
+        mask[i, [POWERS.index(k) for k in KINDS[kind]]] = True
     symbols = target.symbols()
     variables = symbols[:len(target.variables)]
     model = Model(template.expression, variables, constant_symbols(template.count))
-    powers = np.arange(DEGREE + 1)
+    used = mask.any(axis=0)                 # (the powers some formula has: 1 / p only where one has it)
+    powers = np.array(POWERS, dtype=float)[used]
 
     def full(a):
         A = np.zeros(coefficients.shape)
@@ -567,13 +573,13 @@ def polish_formulas(template: Template, per_value: PerValue, kinds, target: Para
     def joint(a, x):
         shape = np.shape(x[0])
         x = [np.ravel(c) for c in x]
-        k = np.power.outer(x[-1], powers) @ full(a).T        # (points, count)
+        k = np.power.outer(x[-1], powers) @ full(a)[:, used].T        # (points, count)
         return model(list(k.T), x[:-1]).reshape(shape)
 
     def jacobian(a, x):
         P = np.power.outer(x[-1], powers)
-        J = model.jacobian(list((P @ full(a).T).T), x[:-1])   # (points, count)
-        return (J[:, :, None] * P[:, None, :])[:, mask]
+        J = model.jacobian(list((P @ full(a)[:, used].T).T), x[:-1])   # (points, count)
+        return (J[:, :, None] * P[:, None, :])[:, mask[:, used]]
 
     x = _mesh(target.variables, AXIS_POINTS)
     points = [np.tile(c, per_value.values.size) for c in x] + [np.repeat(per_value.values, x[0].size)]
@@ -621,6 +627,9 @@ def material_forms(templates, target, f, log) -> list[Fitted]:
     symbols = target.symbols()
     parameter = symbols[-1]
     uniforms = [sp.Symbol(f"c{i}", real=True) for i in range(MAX_CONSTANTS)]
+    from . import engine
+
+    floor = engine.rounding_floor(target, _constant_error(target, f))
     fits = []
     for template in templates:
         per_value = fit_per_value(template, target, f)
@@ -635,7 +644,7 @@ def material_forms(templates, target, f, log) -> list[Fitted]:
                          for other, other_fit in fits if other is not template)
         k = constant_symbols(template.count)
         found = []
-        for kinds in formula_variants(template.count, reduce):
+        for kinds in formula_variants(template.count, reduce, laurent=target.parameter.lo > 0):
             kinds = _cheapest(per_value, template.count) if kinds is None else kinds
             name = formula_name(kinds)
             if any(m.formula == name for m in found):
@@ -643,8 +652,17 @@ def material_forms(templates, target, f, log) -> list[Fitted]:
             coefficients, _ = polish_formulas(template, per_value, kinds, target, f)
             pixel = template.expression.xreplace(dict(zip(k, formula_expressions(coefficients, parameter))))
             errors = measure_box(pixel, target, f)
-            found.append(Fitted(template, name, coefficients, per_value, errors, pixel,
-                                template.expression.xreplace(dict(zip(k, uniforms)))))
+            pruned = np.where(np.abs(coefficients) < PRUNE * np.abs(coefficients).max(), 0.0, coefficients)
+            if np.any(pruned != coefficients):
+                # a coefficient at rounding's level (a term the target lacks) dropped, where that costs nothing
+                trial = template.expression.xreplace(dict(zip(k, formula_expressions(pruned, parameter))))
+                measured = measure_box(trial, target, f)
+                key = _error_key(target)
+                if measured[key] <= max(errors[key] * (1 + 1e-6), floor):     # (float32 rounding: equal)
+                    coefficients, pixel, errors = pruned, trial, measured
+            zero = {ki: 0 for ki, row in zip(k, coefficients) if not np.any(row)}
+            material = template.expression.xreplace(zero).xreplace(dict(zip(k, uniforms)))
+            found.append(Fitted(template, name, coefficients, per_value, errors, pixel, material))
         out += found
         log(f"  {template.name}: per value {per_value.errors.max():.4g}; "
             + ", ".join(f"{m.formula} {m.errors[_error_key(target)]:.4g}" for m in found)
@@ -880,6 +898,9 @@ class _LazyTable(Table):
         self.part = part
         self.text = f"table env_brdf {'AB'[part]} (optics.brdf.env_brdf, {ENV_BRDF_POINTS} x {ENV_BRDF_POINTS} values)"
 
+    def __repr__(self) -> str:          # (the computed table's digest: a kept search follows its numbers)
+        return env_brdf_table()[self.part].text
+
     def __getattr__(self, name):
         if name in ("axes", "values", "source", "_spline"):
             table = env_brdf_table()[self.part]
@@ -1073,6 +1094,67 @@ def _grammar_search(target, f, seconds: float, max_complexity: int, log) -> tupl
                           source=f"grammar: {grammar.show(tree, list(target.names))}", per="pixel",
                           errors=measure_box(expr, target, f)))
     return found, coverage
+
+
+# ---- a TOML file --------------------------------------------------------------------------------
+
+AXIS_KEYS = {"name", "range"}
+
+
+def from_file(path):
+    """A target from a TOML file: with [[variable]] tables (name, range = [lo, hi]) and at most one
+    [parameter] table, a ParametricTarget (its [target] table: name, expression, metric, floor,
+    description; its [[anchor]] tables as one variable's file has them); without, the one-variable
+    file of `targets.from_file`. Raises DeriveError naming a missing or unknown key or a bad value."""
+    import tomllib
+    from pathlib import Path
+
+    from . import targets
+
+    path = Path(path)
+    if not path.is_file():
+        raise DeriveError(f"{path}: no such file")
+    try:
+        data = tomllib.loads(path.read_text(encoding="utf-8"))
+    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as e:
+        raise DeriveError(f"{path}: not a TOML file ({e})") from None
+    if "variable" not in data and "parameter" not in data:
+        return targets.from_file(path)
+    unknown = sorted(set(data) - {"target", "anchor", "variable", "parameter"})
+    table = data.get("target")
+    if unknown or not isinstance(table, dict):
+        raise DeriveError(f"{path}: unknown table {unknown[0]!r}" if unknown else f"{path}: no [target] table")
+    keys = {"name", "expression", "metric", "floor", "description"}
+    bad = sorted(set(table) - keys)
+    if bad or "expression" not in table:
+        raise DeriveError(f"{path}: [target] has an unknown key {bad[0]!r} (keys: {', '.join(sorted(keys))})" if bad
+                          else f"{path}: [target] needs an expression")
+
+    def axis(entry, where):
+        if not isinstance(entry, dict) or set(entry) != AXIS_KEYS:
+            raise DeriveError(f"{path}: {where}: give name and range = [lo, hi] (only)")
+        lo_hi = entry["range"]
+        if not (isinstance(lo_hi, list) and len(lo_hi) == 2 and all(isinstance(v, (int, float)) and not isinstance(v, bool)
+                                                                      for v in lo_hi)):
+            raise DeriveError(f"{path}: {where}: range = {lo_hi!r}: give [lo, hi]")
+        return Axis(str(entry["name"]), float(lo_hi[0]), float(lo_hi[1]))
+
+    variables = data.get("variable", [])
+    if not isinstance(variables, list) or not variables:
+        raise DeriveError(f"{path}: give the variables as [[variable]] tables")
+    anchors = []
+    for i, a in enumerate(data.get("anchor", [])):
+        if not isinstance(a, dict) or set(a) - targets.ANCHOR_KEYS or not {"name", "expression"} <= set(a):
+            raise DeriveError(f"{path}: [[anchor]] {i + 1}: give name, expression and source (only)")
+        anchors.append(Anchor(str(a["name"]), str(a["expression"]), str(a.get("source", path.name))))
+    floor = table.get("floor", 0.0)
+    if isinstance(floor, bool) or not isinstance(floor, (int, float)):
+        raise DeriveError(f"{path}: floor = {floor!r}: give a number >= 0")
+    return check(ParametricTarget(
+        str(table.get("name", path.stem)), str(table["expression"]),
+        tuple(axis(v, f"[[variable]] {i + 1}") for i, v in enumerate(variables)),
+        axis(data["parameter"], "[parameter]") if "parameter" in data else None,
+        str(table.get("metric", "abs")), float(floor), tuple(anchors), str(table.get("description", ""))))
 
 
 # ---- a table in a CSV file ------------------------------------------------------------------------
