@@ -137,6 +137,15 @@ def plain_cluster(folder: str):
 DERIVE_ARCHITECTURES = "rdna3,sm_89,xe_hpg"
 
 
+def _cold_env(tmp: str, target: str) -> dict:
+    """The environment of a cold `pipeline derive` of `target`: its own empty caches under `tmp`."""
+    return dict(os.environ, PIPELINE_CACHE_DIR=os.path.join(tmp, f"cache_{target}"),
+                PIPELINE_XLA_CACHE_DIR=os.path.join(tmp, f"xla_{target}"),
+                PIPELINE_MACHINE_CODE_CACHE=os.path.join(tmp, f"machine_code_{target}"),
+                PIPELINE_DERIVE_CACHE=os.path.join(tmp, f"derive_{target}"),
+                PIPELINE_OUTPUTS_DIR=os.path.join(tmp, "outputs"))
+
+
 def derive_rows(py) -> list:
     """`pipeline derive` on Schlick's (1 - x)^5 and on acos, three architectures, the default budget:
     cold (empty machine-code and XLA caches; target 120 s) and again with the compiled programs kept
@@ -146,11 +155,7 @@ def derive_rows(py) -> list:
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
         for target in ("schlick", "acos"):
-            env = dict(os.environ, PIPELINE_CACHE_DIR=os.path.join(tmp, f"cache_{target}"),
-                       PIPELINE_XLA_CACHE_DIR=os.path.join(tmp, f"xla_{target}"),
-                       PIPELINE_MACHINE_CODE_CACHE=os.path.join(tmp, f"machine_code_{target}"),
-                       PIPELINE_DERIVE_CACHE=os.path.join(tmp, f"derive_{target}"),
-                       PIPELINE_OUTPUTS_DIR=os.path.join(tmp, "outputs"))
+            env = _cold_env(tmp, target)
             for label, allowed in (("cold", 120.0), ("kept", 30.0)):
                 seconds, _ = timed([py, "-m", "pipeline", "derive", "--target", target, "--gpu", DERIVE_ARCHITECTURES,
                                     "--out", os.path.join(tmp, target)], env)
@@ -162,11 +167,7 @@ def derive_rows(py) -> list:
                              + f"; announced {estimate:.0f} s " + ("(within 2x)" if within else "(MISSED 2x)")))
         # targets of two variables and a parameter: cold, then with other architectures (only compiled)
         for target in ("smith_ggx_visibility", "env_brdf"):
-            env = dict(os.environ, PIPELINE_CACHE_DIR=os.path.join(tmp, f"cache_{target}"),
-                       PIPELINE_XLA_CACHE_DIR=os.path.join(tmp, f"xla_{target}"),
-                       PIPELINE_MACHINE_CODE_CACHE=os.path.join(tmp, f"machine_code_{target}"),
-                       PIPELINE_DERIVE_CACHE=os.path.join(tmp, f"derive_{target}"),
-                       PIPELINE_OUTPUTS_DIR=os.path.join(tmp, "outputs"))
+            env = _cold_env(tmp, target)
             for label, gpu, allowed in (("cold", DERIVE_ARCHITECTURES, 600.0), ("other --gpu", "rdna3,g610", 60.0)):
                 seconds, _ = timed([py, "-m", "pipeline", "derive", "--target", target, "--gpu", gpu,
                                     "--out", os.path.join(tmp, target)], env)

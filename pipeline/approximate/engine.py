@@ -298,17 +298,13 @@ def _compile(forms: list[Form], architectures, log) -> tuple[dict, dict]:
     return cycles, missing
 
 
-def derive(target, gpu=None, seconds: float = DEFAULT_SECONDS, max_cycles: float | None = None,
-           max_complexity: int = MAX_COMPLEXITY, log=print) -> dict:
-    """The derivation of the module docstring for a checked `target` on the architectures `gpu`
-    (names; default every one whose compiler runs here). Returns the results (`results.json`'s
-    content) with the forms' rows."""
+def checked_options(gpu, seconds: float, max_cycles: float | None, max_complexity: int) -> list[str]:
+    """The architectures `gpu` names (default every one whose compiler runs here), the other options
+    checked. Raises DeriveError naming a bad one, CompilerMissing where no compiler runs."""
     from ..isa.architectures import ARCHITECTURES
-    from ..isa.machine_code import CompilerMissing, estimate_seconds
-    from ..symbolic import gpu_costs, grammar, ladder, regress
-    from ..symbolic.grammar import TEN
+    from ..isa.machine_code import CompilerMissing
+    from ..symbolic import regress
 
-    check(target)
     if not (math.isfinite(seconds) and 5 <= seconds <= 3600):
         raise DeriveError(f"--seconds {seconds:g}: give a number in [5, 3600]")
     if max_cycles is not None and not (math.isfinite(max_cycles) and max_cycles > 0):
@@ -319,11 +315,24 @@ def derive(target, gpu=None, seconds: float = DEFAULT_SECONDS, max_cycles: float
         architectures = available_architectures()
         if not architectures:
             raise CompilerMissing("no GPU compiler runs here (make installs Mesa's RADV, NVIDIA's ptxas, Intel's ocloc)")
-    else:
-        unknown = [a for a in gpu if a not in ARCHITECTURES]
-        if unknown or not gpu:
-            raise DeriveError(f"--gpu {unknown[0] if unknown else ''!r}: give architectures among {', '.join(ARCHITECTURES)}")
-        architectures = list(dict.fromkeys(gpu))
+        return architectures
+    unknown = [a for a in gpu if a not in ARCHITECTURES]
+    if unknown or not gpu:
+        raise DeriveError(f"--gpu {unknown[0] if unknown else ''!r}: give architectures among {', '.join(ARCHITECTURES)}")
+    return list(dict.fromkeys(gpu))
+
+
+def derive(target, gpu=None, seconds: float = DEFAULT_SECONDS, max_cycles: float | None = None,
+           max_complexity: int = MAX_COMPLEXITY, log=print) -> dict:
+    """The derivation of the module docstring for a checked `target` on the architectures `gpu`
+    (names; default every one whose compiler runs here). Returns the results (`results.json`'s
+    content) with the forms' rows."""
+    from ..isa.machine_code import estimate_seconds
+    from ..symbolic import gpu_costs, grammar, ladder
+    from ..symbolic.grammar import TEN
+
+    check(target)
+    architectures = checked_options(gpu, seconds, max_cycles, max_complexity)
     started = time.perf_counter()
     f = target.numpy()
     # The time announced: the families' and the search's (none where an earlier run kept them), the

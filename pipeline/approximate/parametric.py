@@ -751,27 +751,10 @@ def derive(target: ParametricTarget, gpu=None, seconds: float = 60.0, max_cycles
     """The derivation of the module docstring for `target` on the architectures `gpu` (names;
     default every one whose compiler runs here). Returns the results (results.json's content) with
     the rows of front.csv."""
-    from ..isa.architectures import ARCHITECTURES
-    from ..isa.machine_code import CompilerMissing
-    from ..symbolic import regress
     from . import engine
 
     check(target)
-    if not (math.isfinite(seconds) and 5 <= seconds <= 3600):
-        raise DeriveError(f"--seconds {seconds:g}: give a number in [5, 3600]")
-    if max_cycles is not None and not (math.isfinite(max_cycles) and max_cycles > 0):
-        raise DeriveError(f"--max-cycles {max_cycles:g}: give a number > 0")
-    if not 1 <= max_complexity <= regress.MAX_COMPLEXITY:
-        raise DeriveError(f"--max-complexity {max_complexity}: give an integer in [1, {regress.MAX_COMPLEXITY}]")
-    if gpu is None:
-        architectures = engine.available_architectures()
-        if not architectures:
-            raise CompilerMissing("no GPU compiler runs here (make installs Mesa's RADV, NVIDIA's ptxas, Intel's ocloc)")
-    else:
-        unknown = [a for a in gpu if a not in ARCHITECTURES]
-        if unknown or not gpu:
-            raise DeriveError(f"--gpu {unknown[0] if unknown else ''!r}: give architectures among {', '.join(ARCHITECTURES)}")
-        architectures = list(dict.fromkeys(gpu))
+    architectures = engine.checked_options(gpu, seconds, max_cycles, max_complexity)
     started = time.perf_counter()
     f = target.numpy()
     error_key = _error_key(target)
@@ -1106,18 +1089,12 @@ def from_file(path):
     [parameter] table, a ParametricTarget (its [target] table: name, expression, metric, floor,
     description; its [[anchor]] tables as one variable's file has them); without, the one-variable
     file of `targets.from_file`. Raises DeriveError naming a missing or unknown key or a bad value."""
-    import tomllib
     from pathlib import Path
 
     from . import targets
 
     path = Path(path)
-    if not path.is_file():
-        raise DeriveError(f"{path}: no such file")
-    try:
-        data = tomllib.loads(path.read_text(encoding="utf-8"))
-    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as e:
-        raise DeriveError(f"{path}: not a TOML file ({e})") from None
+    data = targets.read_toml(path)
     if "variable" not in data and "parameter" not in data:
         return targets.from_file(path)
     unknown = sorted(set(data) - {"target", "anchor", "variable", "parameter"})
@@ -1142,19 +1119,12 @@ def from_file(path):
     variables = data.get("variable", [])
     if not isinstance(variables, list) or not variables:
         raise DeriveError(f"{path}: give the variables as [[variable]] tables")
-    anchors = []
-    for i, a in enumerate(data.get("anchor", [])):
-        if not isinstance(a, dict) or set(a) - targets.ANCHOR_KEYS or not {"name", "expression"} <= set(a):
-            raise DeriveError(f"{path}: [[anchor]] {i + 1}: give name, expression and source (only)")
-        anchors.append(Anchor(str(a["name"]), str(a["expression"]), str(a.get("source", path.name))))
-    floor = table.get("floor", 0.0)
-    if isinstance(floor, bool) or not isinstance(floor, (int, float)):
-        raise DeriveError(f"{path}: floor = {floor!r}: give a number >= 0")
     return check(ParametricTarget(
         str(table.get("name", path.stem)), str(table["expression"]),
         tuple(axis(v, f"[[variable]] {i + 1}") for i, v in enumerate(variables)),
         axis(data["parameter"], "[parameter]") if "parameter" in data else None,
-        str(table.get("metric", "abs")), float(floor), tuple(anchors), str(table.get("description", ""))))
+        str(table.get("metric", "abs")), targets.read_floor(table, path), targets.read_anchors(data, path),
+        str(table.get("description", ""))))
 
 
 # ---- a table in a CSV file ------------------------------------------------------------------------

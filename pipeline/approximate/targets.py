@@ -256,12 +256,7 @@ ANCHOR_KEYS = {"name", "expression", "source"}
 def from_file(path: Path) -> Target:
     """A target from a TOML file (module docstring), checked. Raises DeriveError naming a missing
     or unknown key or a bad value."""
-    if not path.is_file():
-        raise DeriveError(f"{path}: no such file")
-    try:
-        data = tomllib.loads(path.read_text(encoding="utf-8"))
-    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as e:
-        raise DeriveError(f"{path}: not a TOML file ({e})") from None
+    data = read_toml(path)
     unknown = sorted(set(data) - {"target", "anchor"})
     table = data.get("target")
     if unknown or not isinstance(table, dict):
@@ -274,14 +269,34 @@ def from_file(path: Path) -> Target:
     domain = table.get("domain", [0.0, 1.0])
     if not (isinstance(domain, list) and len(domain) == 2 and all(isinstance(v, (int, float)) for v in domain)):
         raise DeriveError(f"{path}: domain = {domain!r}: give [lo, hi]")
+    return check(Target(str(table.get("name", path.stem)), str(table["expression"]), str(table.get("variable", "x")),
+                        (float(domain[0]), float(domain[1])), str(table.get("metric", "abs")), read_floor(table, path),
+                        read_anchors(data, path), str(table.get("description", ""))))
+
+
+def read_toml(path: Path) -> dict:
+    """A target file's TOML. Raises DeriveError: no such file, not a TOML file."""
+    if not path.is_file():
+        raise DeriveError(f"{path}: no such file")
+    try:
+        return tomllib.loads(path.read_text(encoding="utf-8"))
+    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as e:
+        raise DeriveError(f"{path}: not a TOML file ({e})") from None
+
+
+def read_anchors(data: dict, path: Path) -> tuple[Anchor, ...]:
+    """A target file's [[anchor]] tables (name, expression, source)."""
     anchors = []
     for i, a in enumerate(data.get("anchor", [])):
         if not isinstance(a, dict) or set(a) - ANCHOR_KEYS or not {"name", "expression"} <= set(a):
             raise DeriveError(f"{path}: [[anchor]] {i + 1}: give name, expression and source (only)")
         anchors.append(Anchor(str(a["name"]), str(a["expression"]), str(a.get("source", path.name))))
+    return tuple(anchors)
+
+
+def read_floor(table: dict, path: Path) -> float:
+    """A target file's floor (a number >= 0, checked later by `check`)."""
     floor = table.get("floor", 0.0)
     if isinstance(floor, bool) or not isinstance(floor, (int, float)):
         raise DeriveError(f"{path}: floor = {floor!r}: give a number >= 0")
-    return check(Target(str(table.get("name", path.stem)), str(table["expression"]), str(table.get("variable", "x")),
-                        (float(domain[0]), float(domain[1])), str(table.get("metric", "abs")), float(floor),
-                        tuple(anchors), str(table.get("description", ""))))
+    return float(floor)
