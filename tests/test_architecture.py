@@ -1,5 +1,6 @@
-"""The house: `pipeline/` is wings in folders (engine, optics, symbolic, mitsuba, isa, stages, publish) under
-`cli.py` and `runner.py`; imports go down the layers only, never across wings of one layer, never in a
+"""The house: `pipeline/` is wings in folders (engine, optics, isa, mitsuba, symbolic, approximate, stages,
+publish, from the lowest layer up) under `cli.py` and `runner.py`; `approximate` (`pipeline derive`'s fits,
+costs and fronts) sits below the stages, which use its fronts; imports go down the layers only, never across wings of one layer, never in a
 cycle; no stage imports another stage; every module name is unique."""
 
 import ast
@@ -11,7 +12,8 @@ import pipeline
 
 PACKAGE = Path(pipeline.__file__).parent
 # Layer of each wing: a module may import its own wing and the layers below it.
-LAYER = {"engine": 0, "optics": 1, "isa": 2, "mitsuba": 2, "symbolic": 3, "stages": 4, "publish": 4, "approximate": 4, "": 5}
+LAYER = {"engine": 0, "optics": 1, "isa": 2, "mitsuba": 2, "symbolic": 3, "approximate": 4, "stages": 5, "publish": 5,
+         "": 6}
 
 
 def modules() -> dict[str, Path]:

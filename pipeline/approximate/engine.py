@@ -33,6 +33,7 @@ MAX_COMPLEXITY = 12
 CALIBRATION = 200               # forms compiled per architecture to fit its cost table
 PER_ARCHITECTURE = 24           # grammar forms taken from each architecture's predicted front, at most
 MATCH = 0.01                    # an error within 1 % of an anchor's matches it
+TIE = 1e-6                      # errors within this (relative) are equal on a front
 # Times measured on this 2-core machine, for the time a run announces: the families' fits (about 10 s
 # per target), the forms measured and polished (about 6 s), the command's start (its imports, 6 s).
 FAMILY_SECONDS = 12.0
@@ -79,13 +80,15 @@ def rounding_floor(target, constant: float) -> float:
 
 def front(rows: list[dict], error: str, floor: float = 0.0) -> list[dict]:
     """The rows no other beats at equal or fewer cycles: sorted by cycles, each with an error below
-    every cheaper row's (rows of equal cycles: the most accurate one); errors below `floor` count as
-    `floor` (float32 rounding: a form exact to 1e-15 and the exact one are equal)."""
+    every cheaper row's by more than TIE (relative); errors below `floor` count as `floor` (float32
+    rounding: a form exact to 1e-15 and the exact one are equal). Rows of equal cycles and errors
+    equal to 6 significant digits are a tie, kept by the row listed first (the same function written
+    twice differs in its last bits). The fronts of `pipeline derive` and of the lobe search."""
     ordered = sorted((r for r in rows if np.isfinite(r[error]) and r["cycles"] is not None),
-                     key=lambda r: (r["cycles"], r[error]))
+                     key=lambda r: (r["cycles"], float(f"{max(r[error], floor):.6g}")))
     out, best = [], math.inf
     for r in ordered:
-        if max(r[error], floor) < best:
+        if max(r[error], floor) < best * (1.0 - TIE):
             out.append(r)
             best = max(r[error], floor)
     return out

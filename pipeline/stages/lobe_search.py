@@ -45,6 +45,7 @@ from ..optics.numerics import jax
 import jax.numpy as jnp
 import numpy as np
 
+from ..approximate import engine as derive_engine
 from ..engine import toolchains
 from ..isa import machine_code
 from ..optics import lobe_families, registry
@@ -305,22 +306,18 @@ def predicted_cycles(name: str, table: dict) -> float:
 
 
 def front_of(rows) -> list[dict]:
-    """The rows no other row beats at equal or lower cycles (lowest d first at each cost). Errors equal
-    to 6 significant digits are a tie, kept by the row listed first (a family before a grammar form
+    """The rows no other row beats at equal or lower cycles, by max d: `pipeline derive`'s front
+    (`approximate.engine.front`; a tie kept by the row listed first: a family before a grammar form
     that is the same function written in w)."""
-    front, best = [], np.inf
-    for row in sorted(rows, key=lambda r: (r["cycles"], float(f"{r['d']:.6g}"))):
-        if row["d"] < best * (1.0 - 1e-6):
-            front.append(row)
-            best = row["d"]
-    return front
+    return derive_engine.front(rows, "d")
 
 
 def placement(cycles: float, d: float, front) -> dict | None:
-    """The front member that beats a lobe of `cycles` and max d `d`: the lowest d among the members of
-    at most its cycles and smaller d; None where the lobe is on the front (nothing beats it)."""
-    beating = [r for r in front if r["cycles"] <= cycles and r["d"] < d]
-    return min(beating, key=lambda r: r["d"]) if beating else None
+    """The front member that beats a lobe of `cycles` and max d `d`: the most accurate member of at
+    most its cycles (`approximate.engine.verdict`, as derive places its anchors), where its d is
+    smaller; None where the lobe is on the front (nothing beats it)."""
+    best = derive_engine.verdict(cycles, d, [dict(r, name=i) for i, r in enumerate(front)], "d")
+    return front[best["by"]] if best["by"] is not None and best["ratio"] < 1.0 else None
 
 
 def registry_cycles(rows, lobe: str, architecture: str, power: int):
