@@ -368,8 +368,8 @@ def build_parser() -> argparse.ArgumentParser:
     der = sub.add_parser("derive", help="the cheapest accurate forms of a function a shader approximates, ranked by "
                                         "compiled cycles per GPU architecture")
     der.add_argument("--target", default=None, metavar="NAME|FILE.toml",
-                     help="a registered target (schlick, acos, cos_n20, smith_ggx_visibility, env_brdf, env_brdf_scale, "
-                          "env_brdf_bias) or a TOML file")
+                     help="a registered target (schlick, acos, cos_n20, cos_n, smith_ggx_visibility, env_brdf, "
+                          "env_brdf_scale, env_brdf_bias) or a TOML file")
     der.add_argument("--expr", default=None, metavar="EXPR", help="the target as an expression (sympy), e.g. 'atan(x)'")
     der.add_argument("--var", default="x=0:1", metavar="NAME=LO:HI", help="with --expr: its variable and domain")
     der.add_argument("--table", default=None, metavar="FILE.csv",

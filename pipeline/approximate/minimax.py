@@ -13,7 +13,14 @@ error's alternating extrema, until the extrema's levels agree within `LEVELS` (r
 programs (scipy's HiGHS): each step minimizes the largest linearized error within a trust region,
 kept where the true error falls; after it settles, the error's maximum over the whole interval
 (`measure.largest`) joins the points and it goes on (`EXCHANGES` times), so that the fit is
-minimax on the interval, not on the points.
+minimax on the interval, not on the points. Each linear program is written in units of the
+current largest error (HiGHS's tolerances are absolute, about 1e-7: an error of 1e-8 would be
+below them), and the steps end where the program finds no gain with its step inside the trust
+region (a stationary point of the minimax).
+
+`along(problems, start, own)` fits one form at each value of a parameter in order, each from its
+neighbour's optimum (`pipeline derive`'s targets with a parameter, and the lobe search's families
+at each n).
 """
 
 from __future__ import annotations
@@ -30,6 +37,8 @@ GRID = 8192             # cells of the grid the exchange reads the error's extre
 SLP_STEPS = 80
 EXCHANGES = 4
 POINTS = 400            # the slp's first points (Chebyshev-Lobatto on the interval)
+STATIONARY = 1e-9       # a linear program that gains less than this (relative), its step inside the region: done
+GROWTH = 1.25           # an error this much above the previous value's calls for the form's own start too
 
 
 class MinimaxFailed(RuntimeError):
@@ -151,13 +160,17 @@ def slp_points(model, jacobian, c0, target_values, weights, x, steps: int = SLP_
         if not (np.all(np.isfinite(r)) and np.all(np.isfinite(J))):
             break
         k = c.size
+        scale = max(value, 1e-300)      # step and error in units of the largest error (module docstring)
         A = np.block([[J, -np.ones((count, 1))], [-J, -np.ones((count, 1))]])
-        b = np.concatenate([-r, r])
+        b = np.concatenate([-r, r]) / scale
         lp = linprog(np.r_[np.zeros(k), 1.0], A_ub=A, b_ub=b,
-                     bounds=[(-radius[j], radius[j]) for j in range(k)] + [(0, None)], method="highs")
+                     bounds=[(-radius[j] / scale, radius[j] / scale) for j in range(k)] + [(0, None)], method="highs")
         if lp.status != 0:
             break
-        trial = c + lp.x[:k]
+        step = lp.x[:k] * scale
+        if lp.x[k] >= 1.0 - STATIONARY and np.all(np.abs(step) < 0.5 * radius):
+            break                       # no linearized gain, not for want of room: stationary
+        trial = c + step
         trial_value = on_points(trial)
         if trial_value < value:
             gained = value - trial_value
@@ -170,6 +183,49 @@ def slp_points(model, jacobian, c0, target_values, weights, x, steps: int = SLP_
         if np.all(radius <= 1e-13 * (np.abs(c) + 1e-13)):
             break
     return c, value
+
+
+def along(problems, start, own=None, previous: float | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """`slp_points` at each of `problems` in order (a parameter's values, neighbours in turn), each a
+    tuple (model, jacobian, target_values, weights, x): the first from `start` (the optimum of a
+    neighbour whose error was `previous`, if any), each other from the previous one's constants; also
+    from `own(i)` (a start of the form's own at problem i, or None) where an error is not finite or
+    more than GROWTH times the previous one's (a neighbour's optimum can lead into another basin). The
+    better is kept. Returns (constants (problems, count), errors)."""
+    constants, errors = [], []
+    c = np.asarray(start, dtype=np.float64)
+    for i, (model, jacobian, y, w, x) in enumerate(problems):
+        c, e = slp_points(model, jacobian, c, y, w, x)
+        if not np.isfinite(e) or (previous is not None and e > GROWTH * previous):
+            other = own(i) if own is not None else None
+            if other is not None:
+                c_other, e_other = slp_points(model, jacobian, np.asarray(other, dtype=np.float64), y, w, x)
+                if e_other < e:
+                    c, e = c_other, e_other
+        constants.append(c)
+        errors.append(e)
+        previous = e
+        if not np.isfinite(e):
+            c = np.asarray(start, dtype=np.float64)
+    return np.array(constants).reshape(len(constants), np.size(start)), np.array(errors)
+
+
+def numerical_jacobian(model):
+    """jacobian(c, x) of `model` by central differences (steps 1e-6 of each constant, at least 1e-9):
+    for forms with no derivative of their own (a grammar form's, a family's in its scaled variable);
+    `slp_points` keeps a step only where the true error falls, so the derivative's rounding (about
+    1e-10 relative) costs steps, not accuracy."""
+    def jacobian(c, x):
+        c = np.asarray(c, dtype=np.float64)
+        columns = []
+        for j in range(c.size):
+            h = 1e-6 * max(abs(c[j]), 1e-3)
+            up, down = c.copy(), c.copy()
+            up[j] += h
+            down[j] -= h
+            columns.append((model(up, x) - model(down, x)) / (2.0 * h))
+        return np.stack(columns, axis=1)
+    return jacobian
 
 
 def slp(model, jacobian, c0, target, weight, lo: float, hi: float, steps: int = SLP_STEPS,

@@ -45,7 +45,7 @@ import numpy as np
 
 from . import minimax
 from .forms import Form, gpu_form
-from .targets import METRICS, Anchor, DeriveError, parse
+from .targets import METRICS, Anchor, DeriveError, paper_lobes, parse
 
 AXIS_POINTS = 13            # Chebyshev-Lobatto points per variable: the fits' grid
 SEARCH_AXIS_POINTS = 9      # ... and the searches' (times PARAMETER_VALUES for the pixel search)
@@ -64,14 +64,17 @@ CHECK_POINTS = 33           # per axis: the grid on which a target must be finit
 
 @dataclasses.dataclass(frozen=True)
 class Axis:
-    """A variable or the parameter: its name and range."""
+    """A variable or the parameter: its name and range. A variable's lower end may move with the
+    parameter (`lo_of`, sympy text in the parameter's name: cos^n's epicenter zone, t >= L^(1/n));
+    `lo` is then the lowest it reaches, for the checks."""
 
     name: str
     lo: float
     hi: float
+    lo_of: str = ""
 
     def text(self) -> str:
-        return f"{self.name} in [{self.lo:g}, {self.hi:g}]"
+        return f"{self.name} in [{self.lo_of.replace('**', '^') if self.lo_of else format(self.lo, 'g')}, {self.hi:g}]"
 
 
 class Table:
@@ -218,7 +221,17 @@ def check(target: ParametricTarget) -> ParametricTarget:
         for a, grid in zip(target.axes, target.table.axes):
             if a.lo < grid[0] or a.hi > grid[-1]:
                 raise DeriveError(f"{a.name} in [{a.lo:g}, {a.hi:g}]: the table covers [{grid[0]:g}, {grid[-1]:g}]")
-    mesh = np.meshgrid(*(np.linspace(a.lo, a.hi, CHECK_POINTS) for a in target.axes), indexing="ij")
+    for a in target.variables:
+        if a.lo_of:
+            if target.parameter is None:
+                raise DeriveError(f"{a.name}: its range moves with the parameter ({a.lo_of}), and there is none")
+            ends = _lower_end(a, target.parameter)(np.linspace(target.parameter.lo, target.parameter.hi, CHECK_POINTS))
+            if not (np.all(np.isfinite(ends)) and np.all(ends < a.hi)):
+                raise DeriveError(f"{a.name} in [{a.lo_of}, {a.hi:g}]: give a lower end below {a.hi:g} for every "
+                                  f"{target.parameter.name} of its range")
+    unit = _unit_box(target)
+    mesh = _place(target, [m.ravel() for m in np.meshgrid(*(np.linspace(lo, hi, CHECK_POINTS) for lo, hi in zip(*unit)),
+                                                          indexing="ij")])
     f = target.numpy()(*mesh)
     for bad, why in ((~np.isfinite(f), "is not finite"),
                      ((f == 0) if target.metric == "rel" and target.floor == 0 else np.zeros(f.shape, bool),
@@ -314,7 +327,7 @@ def grammar_templates(target: ParametricTarget, f, seconds: float, max_complexit
     from ..symbolic import grammar, ladder
 
     value = _middle(target.parameter)
-    x = _mesh(target.variables, SEARCH_AXIS_POINTS)
+    x = variables_at(target, SEARCH_AXIS_POINTS, value)
     y = f(*x, value)
     loss = _loss(target)
     candidates, rungs, _ = ladder.run(np.stack(x), y, max_complexity, grammar.TEN, seconds, loss,
@@ -355,6 +368,48 @@ def _mesh(axes, count: int) -> list[np.ndarray]:
     return [g.ravel() for g in grids]
 
 
+def _lower_end(axis: Axis, parameter: Axis):
+    """The variable's lower end as a numpy function of the parameter (`Axis.lo_of`)."""
+    import sympy as sp
+
+    p = sp.Symbol(parameter.name, real=True)
+    end = sp.lambdify([p], parse(axis.lo_of, (parameter.name,)), "numpy")
+    return lambda values: np.broadcast_to(np.asarray(end(np.asarray(values, dtype=np.float64)), dtype=np.float64),
+                                          np.shape(values))
+
+
+def _unit_box(target) -> tuple[list, list]:
+    """(lo, hi) of the box the measures run on: a variable whose range moves with the parameter as its
+    share s in [0, 1] of that range (`_place` maps it back), the others as they are."""
+    return ([0.0 if a.lo_of else a.lo for a in target.axes], [1.0 if a.lo_of else a.hi for a in target.axes])
+
+
+def _place(target, columns) -> list:
+    """The axes' values of points given on `_unit_box` (a moving variable's share of its range at the
+    point's parameter); the identity where no range moves."""
+    out = list(columns)
+    for i, a in enumerate(target.variables):
+        if a.lo_of:
+            lo = _lower_end(a, target.parameter)(columns[-1])
+            out[i] = lo + np.asarray(columns[i]) * (a.hi - lo)
+    return out
+
+
+def mesh(target, count: int, values=None) -> list[np.ndarray]:
+    """The flattened Chebyshev mesh of the target's axes, `count` points per variable (in its range at
+    each value of the parameter) and per parameter (or its given `values`)."""
+    lo, hi = _unit_box(target)
+    axes = [_chebyshev(a, b, count) for a, b in zip(lo, hi)]
+    if values is not None:
+        axes[-1] = np.asarray(values, dtype=np.float64)
+    return _place(target, [g.ravel() for g in np.meshgrid(*axes, indexing="ij")])
+
+
+def variables_at(target, count: int, value: float) -> list[np.ndarray]:
+    """The variables' Chebyshev mesh (`count` per variable) at one value of the parameter."""
+    return mesh(target, count, [value])[:-1] if target.parameter is not None else _mesh(target.variables, count)
+
+
 def parameter_values(parameter: Axis) -> tuple[np.ndarray, np.ndarray]:
     """(the grid's PARAMETER_VALUES Chebyshev values, the values halfway between them)."""
     grid = _chebyshev(parameter.lo, parameter.hi, PARAMETER_VALUES)
@@ -363,9 +418,10 @@ def parameter_values(parameter: Axis) -> tuple[np.ndarray, np.ndarray]:
 
 def is_symmetric(target: ParametricTarget, f) -> bool:
     """Whether f(x, y, ...) = f(y, x, ...) on the fitting grid (two variables of one range)."""
-    if len(target.variables) != 2 or (target.variables[0].lo, target.variables[0].hi) != (target.variables[1].lo, target.variables[1].hi):
+    first, second = target.variables[0], target.variables[-1]
+    if len(target.variables) != 2 or (first.lo, first.hi, first.lo_of) != (second.lo, second.hi, second.lo_of):
         return False
-    x = _mesh(target.axes, 7)
+    x = mesh(target, 7)
     a, b = f(*x), f(x[1], x[0], *x[2:])
     return bool(np.all(np.abs(a - b) <= SYMMETRY * np.maximum(np.abs(a), 1e-300)))
 
@@ -426,35 +482,39 @@ class PerValue:
 
 
 def fit_per_value(template: Template, target: ParametricTarget, f) -> PerValue | None:
-    """Step 2 of the module docstring: None where the template has no finite fit at some value."""
+    """Step 2 of the module docstring (`minimax.along`: from the middle value outward, each value from
+    its neighbour's constants, and from the template's own start where that leads astray; the halfway
+    values from the grid value below them): None where the template has no finite fit at some value
+    of the parameter."""
     symbols = target.symbols()[:len(target.variables)]
     model = Model(template.expression, symbols, constant_symbols(template.count))
-    x = _mesh(target.variables, AXIS_POINTS)
     weight = weight_of(target)
     grid, halfway = parameter_values(target.parameter)
     values = np.r_[grid, halfway]
     on_grid = np.r_[np.ones(grid.size, bool), np.zeros(halfway.size, bool)]
-    # from the middle value outward, each start its neighbour's constants (the halfway values start
-    # from the grid value below them)
+    problems = []
+    for value in values:
+        x = variables_at(target, AXIS_POINTS, value)
+        y = f(*x, value)
+        problems.append((model, model.jacobian, y, weight(y), x))
+
+    def own(j):
+        """The template's own start at value j: least squares where it is linear inside, else its start."""
+        if not template.basis:
+            return template.start
+        _, _, y, w, x = problems[j]
+        return _linear_start(template, x, y, w, symbols)
+
     middle = grid.size // 2
-    order = list(range(middle, grid.size)) + list(range(middle - 1, -1, -1))
     constants = np.full((values.size, template.count), np.nan)
     errors = np.full(values.size, np.inf)
-
-    def fit(j, start):
-        y = f(*x, values[j])
-        w = weight(y)
-        if start is None:
-            start = _linear_start(template, x, y, w, symbols) if template.basis else template.start
-        c, e = minimax.slp_points(model, model.jacobian, start, y, w, x)
-        constants[j], errors[j] = c, e
-
-    for j in order:
-        fit(j, None if j == middle else constants[j - 1] if j > middle else constants[j + 1])
-        if j == middle and not np.isfinite(errors[j]) and template.start is not None and template.basis:
-            fit(j, template.start)
+    up, down = list(range(middle, grid.size)), list(range(middle - 1, -1, -1))
+    constants[up], errors[up] = minimax.along([problems[j] for j in up], own(middle), lambda i: own(up[i]))
+    constants[down], errors[down] = minimax.along([problems[j] for j in down], constants[middle],
+                                                  lambda i: own(down[i]), errors[middle])
     for i in range(halfway.size):
-        fit(grid.size + i, constants[i])
+        j = grid.size + i
+        constants[[j]], errors[[j]] = minimax.along([problems[j]], constants[i], lambda _, j=j: own(j), errors[i])
     if not np.all(np.isfinite(errors)):
         return None
     return PerValue(values, constants, errors, on_grid)
@@ -550,15 +610,19 @@ def _cheapest(per_value: PerValue, count: int) -> tuple:
     return tuple(kinds)
 
 
-def polish_formulas(template: Template, per_value: PerValue, kinds, target: ParametricTarget, f):
+def polish_formulas(template: Template, per_value: PerValue, kinds, target: ParametricTarget, f, zero=None):
     """Step 3: (coefficients (count, len(POWERS)), error over the box) of the template's constants as
-    the formulas `kinds` (one of KINDS per constant) of the parameter."""
+    the formulas `kinds` (one of KINDS per constant) of the parameter; the coefficients marked in
+    `zero` (a boolean array of their shape) held at 0."""
     from ..optics import brdf
 
     coefficients = _start_coefficients(per_value, kinds)
     mask = np.zeros(coefficients.shape, dtype=bool)
     for i, kind in enumerate(kinds):
         mask[i, [POWERS.index(k) for k in KINDS[kind]]] = True
+    if zero is not None:
+        mask &= ~zero
+        coefficients[zero] = 0.0
     symbols = target.symbols()
     variables = symbols[:len(target.variables)]
     model = Model(template.expression, variables, constant_symbols(template.count))
@@ -581,17 +645,17 @@ def polish_formulas(template: Template, per_value: PerValue, kinds, target: Para
         J = model.jacobian(list((P @ full(a)[:, used].T).T), x[:-1])   # (points, count)
         return (J[:, :, None] * P[:, None, :])[:, mask[:, used]]
 
-    x = _mesh(target.variables, AXIS_POINTS)
-    points = [np.tile(c, per_value.values.size) for c in x] + [np.repeat(per_value.values, x[0].size)]
+    points = mesh(target, AXIS_POINTS, per_value.values)
     weight = weight_of(target)
-    lo, hi = [a.lo for a in target.axes], [a.hi for a in target.axes]
+    lo, hi = _unit_box(target)
     a = coefficients[mask]
     best = None
     for _ in range(EXCHANGES + 1):
         y = f(*points)
         a, on_points = minimax.slp_points(joint, jacobian, a, y, weight(y), points)
-        e, where = brdf.largest_error(lambda *s: joint(a, list(s)), f, lo, hi, relative=target.metric == "rel",
-                                      **MEASURE_GRID)
+        e, where = brdf.largest_error(lambda *s: joint(a, _place(target, s)), lambda *s: f(*_place(target, s)), lo, hi,
+                                      relative=target.metric == "rel", **MEASURE_GRID)
+        where = _place(target, [np.atleast_1d(w) for w in where])
         if best is None or e < best[1]:
             best = (a.copy(), e)
         if not np.isfinite(e) or e <= on_points * (1 + 1e-9):
@@ -604,8 +668,12 @@ def measure_box(expression, target: ParametricTarget, f) -> dict:
     """{max_abs_error, max_rel_error} of a sympy expression in the axes over the whole box."""
     from ..optics import brdf
 
+    exact = f
     approx = _numpy_of(expression, target.symbols())
-    lo, hi = [a.lo for a in target.axes], [a.hi for a in target.axes]
+    if any(a.lo_of for a in target.variables):          # (measured on the unit box: `_place`)
+        approx = (lambda g: lambda *s: g(*_place(target, s)))(approx)
+        f = lambda *s: exact(*_place(target, s))        # noqa: E731
+    lo, hi = _unit_box(target)
     out = {}
     for key, relative in (("max_abs_error", False), ("max_rel_error", True)):
         if relative and target.floor > 0:
@@ -654,7 +722,9 @@ def material_forms(templates, target, f, log) -> list[Fitted]:
             errors = measure_box(pixel, target, f)
             pruned = np.where(np.abs(coefficients) < PRUNE * np.abs(coefficients).max(), 0.0, coefficients)
             if np.any(pruned != coefficients):
-                # a coefficient at rounding's level (a term the target lacks) dropped, where that costs nothing
+                # a coefficient at rounding's level (a term the target lacks) dropped and the others polished
+                # again without it, where that costs nothing
+                pruned, _ = polish_formulas(template, per_value, kinds, target, f, zero=(pruned == 0) & (coefficients != 0))
                 trial = template.expression.xreplace(dict(zip(k, formula_expressions(pruned, parameter))))
                 measured = measure_box(trial, target, f)
                 key = _error_key(target)
@@ -829,6 +899,23 @@ def derive(target: ParametricTarget, gpu=None, seconds: float = 60.0, max_cycles
                 members=members, forms={m.name: m for m in everything})
 
 
+COS_N_LEVEL = 0.5           # the registered cos_n's zone: cos^n at least half its peak (the lobe's half maximum)
+
+
+def cos_n_target(level: float = COS_N_LEVEL, n: tuple[float, float] = (2.0, 1000.0)) -> ParametricTarget:
+    """cos^n over its epicenter zone {cos^n >= level} (t = cos in [level^(1/n), 1], a range that moves
+    with n) and n per material, by the relative error (the paper's d): the lobe search's problem, which
+    the `lobe_search` stage poses at the run's calibrated level. Anchors: the paper's and the
+    engines' lobes of `optics.registry` with the paper's constants (`targets.paper_lobes`)."""
+    if not 0.0 < level < 1.0:
+        raise DeriveError(f"cos_n: the zone's level {level}: give a number in (0, 1)")
+    lowest = level ** (1.0 / n[0])
+    return ParametricTarget(
+        "cos_n", "t**n", (Axis("t", lowest, 1.0, lo_of=f"{level!r}**(1/n)"),), Axis("n", float(n[0]), float(n[1])),
+        "rel", anchors=paper_lobes(),
+        description=f"cos^n in its epicenter zone cos^n >= {level:g} (the paper's lobe search), n the Phong exponent")
+
+
 def registry() -> dict[str, ParametricTarget]:
     """The registered targets of several variables or a parameter, by name."""
     from ..optics import brdf
@@ -845,6 +932,7 @@ def registry() -> dict[str, ParametricTarget]:
             description="the height-correlated Smith-GGX visibility V = G2 / (4 NoV NoL) (Heitz 2014), alpha the "
                         "GGX roughness"),
         **env_brdf_targets(),
+        "cos_n": cos_n_target(),
     }
 
 
@@ -916,7 +1004,7 @@ def _leaves(tree) -> list:
 
 def _constant_error(target, f) -> float:
     """The error of the best constant over the measuring grid (a form worth a cycle beats it)."""
-    values = f(*_mesh(target.axes, 17))
+    values = f(*mesh(target, 17))
     if target.metric == "abs":
         return float(values.max() - values.min()) / 2
     if values.min() < 0 < values.max():
@@ -1034,7 +1122,7 @@ def _scaled(m, parameter):
 def _family_search(target, f, log) -> tuple[list[dict], dict]:
     """The families' templates fitted (steps 2 and 3)."""
     symmetric = is_symmetric(target, f)
-    positive = bool(np.all(f(*_mesh(target.axes, AXIS_POINTS)) > 0))
+    positive = bool(np.all(f(*mesh(target, AXIS_POINTS)) > 0))
     templates = family_templates(target, symmetric, positive)
     log(f"{len(templates)} family templates{' (the target is symmetric in its two variables)' if symmetric else ''}: "
         f"constants fitted at {2 * PARAMETER_VALUES - 1} values of {target.parameter.name}, then as formulas")
@@ -1062,7 +1150,7 @@ def _grammar_search(target, f, seconds: float, max_complexity: int, log) -> tupl
         coverage["templates"].update(count=len(templates), seconds=round(time.perf_counter() - started, 1),
                                      at=_middle(target.parameter))
     # the pixel search: the grammar in the variables and the parameter together
-    x = _mesh(target.axes, SEARCH_AXIS_POINTS)
+    x = mesh(target, SEARCH_AXIS_POINTS)
     y = f(*x)
     loss = _loss(target)
     share = seconds * (PIXEL_SHARE if target.parameter is not None else 1.0)

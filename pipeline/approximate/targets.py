@@ -170,24 +170,25 @@ def check(target: Target) -> Target:
     return target
 
 
-def _paper_lobes_at(n: float) -> tuple[Anchor, ...]:
-    """The paper's and the engines' lobes of the registry at a fixed n, in the variable x = cos:
-    each one's sympy expression with the paper's constants (`optics.registry.PAPER`)."""
+PAPER_LOBES = {"f_2": "Romanyuk & Lyashenko 2010 (the cosine-quadratic lobe)",
+               "f_Q2": "the paper (k = 0.448 n + 0.099)",
+               "Schlick": "Schlick 1994, Graphics Gems IV", "SG": "a spherical Gaussian exp(n (t - 1))",
+               "SG_Lagarde": "Lagarde 2012 (spherical Gaussian fitted to cos^n)"}
+
+
+def paper_lobes(n: float | None = None) -> tuple[Anchor, ...]:
+    """The paper's and the engines' lobes of the registry (`PAPER_LOBES`), each one's sympy expression
+    with the paper's constants (`optics.registry.PAPER`): in t and n, or, at a fixed n, in the variable
+    x = cos."""
     import sympy as sp
 
     from ..optics import registry
 
     t, n_symbol = registry.symbols()
-    x = sp.Symbol("x", real=True)
-    sources = {"f_2": "Romanyuk & Lyashenko 2010 (the cosine-quadratic lobe)",
-               "f_Q2": "the paper (k = 0.448 n + 0.099)",
-               "Schlick": "Schlick 1994, Graphics Gems IV", "SG": "a spherical Gaussian exp(n (t - 1))",
-               "SG_Lagarde": "Lagarde 2012 (spherical Gaussian fitted to cos^n)"}
-    out = []
-    for key, source in sources.items():
-        expr = registry.LOBES[key].expression(registry.PAPER).xreplace({n_symbol: sp.Float(n), t: x})
-        out.append(Anchor(key, sp.sstr(expr), source))
-    return tuple(out)
+    names = {t: sp.Symbol("t", real=True), n_symbol: sp.Symbol("n", real=True)} if n is None else \
+        {n_symbol: sp.Float(n), t: sp.Symbol("x", real=True)}
+    return tuple(Anchor(key, sp.sstr(registry.LOBES[key].expression(registry.PAPER).xreplace(names)), source)
+                 for key, source in PAPER_LOBES.items())
 
 
 def registry() -> dict[str, Target]:
@@ -211,7 +212,7 @@ def registry() -> dict[str, Target]:
                             "Eberly, Geometric Tools, ACosEstimate degree 3")),
             description="acos(x) on [0, 1] (the angle between two unit vectors from their dot product)"),
         "cos_n20": Target(
-            "cos_n20", "x**20", "x", (0.0, 1.0), "abs", anchors=_paper_lobes_at(20.0),
+            "cos_n20", "x**20", "x", (0.0, 1.0), "abs", anchors=paper_lobes(20.0),
             description="Blinn-Phong's cos^n at n = 20 of x = cos; the paper's lobes at n = 20 as anchors, which were "
                         "fitted to another measure (the relative error where cos^n >= a level), not this one"),
     }

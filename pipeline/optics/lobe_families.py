@@ -18,10 +18,10 @@ from the previous n's optimum.
   q1 = (n - 1)/n).
 - `rational_square`: (t / (A t + B))^2.
 
-The fit (`fit_minimax`) minimizes max |g / cos^n - 1| over `ZONE_POINTS` points of the zone
-(Chebyshev points in w, which crowd its ends, where the error peaks) by Nelder-Mead, restarted from
-its own result until it no longer improves (a minimax objective has kinks, where one simplex can
-stall). The fitted lobes' d and D are then measured exactly (`optics.extrema`), not on the points.
+The fit (`pipeline.stages.lobe_search.fit_family`, by `pipeline derive`'s minimax,
+`approximate.minimax.along`) minimizes max |g / cos^n - 1| over `ZONE_POINTS` points of the zone
+(Chebyshev points in w, which crowd its ends, where the error peaks). The fitted lobes' d and D are
+then measured exactly (`optics.extrema`), not on the points.
 """
 
 from __future__ import annotations
@@ -35,9 +35,6 @@ from ..engine.config import LOBE_FAMILIES, LOBE_TARGETS
 
 LN2 = math.log(2.0)
 ZONE_POINTS = 256
-RESTARTS = 6
-IMPROVEMENT = 1e-6    # a restart that gains less than this, relative, ends the fit
-GROWTH = 1.25         # an error this much above the previous n's calls for the family's own start too
 
 
 @dataclasses.dataclass(frozen=True)
@@ -175,55 +172,3 @@ def form_value_w(form, w, n: float, q):
     if isinstance(form, str):
         return value_w(form, w, n, q)
     return form(w, n, q)
-
-
-def zone_error(name, n, q, u, reference=None) -> float:
-    """max |g / f - 1| of the family (or grammar form) at one n over the points u (`reference`: the
-    target f there; cos^n by default)."""
-    reference = (1.0 - u) ** n if reference is None else reference
-    with np.errstate(all="ignore"):
-        r = np.abs(form_value_w(name, n * u, n, q) / reference - 1.0)
-    return float(np.max(r)) if np.all(np.isfinite(r)) else np.inf
-
-
-def fit_minimax(name, n, level, start=None, count: int = ZONE_POINTS, target: str = "cos_n",
-                own_start=None, previous_error=None) -> tuple[np.ndarray, float]:
-    """(q, largest relative error on the zone's points) of the family (or a form value(w, n, q), with
-    its `own_start`) at exponent n against the target (`target_u`): Nelder-Mead from `start` (the
-    previous n's optimum, whose error there was `previous_error`), and also from the family's own
-    start where there is no previous optimum or the error grew by more than `GROWTH` from it (the
-    better kept); each restarted from its result until a restart improves by less than `IMPROVEMENT`
-    relative."""
-    from scipy.optimize import minimize
-
-    u = zone_points(n, level, count, target)
-    reference = target_u(np, target, u, n)
-
-    def error(q):
-        return zone_error(name, n, q, u, reference)
-
-    def descend(q):
-        q = np.asarray(q, dtype=np.float64)
-        best = error(q)
-        for _ in range(RESTARTS):
-            step = np.where(np.abs(q) > 1e-3, 0.05 * q, 0.05)
-            simplex = np.vstack([q] + [q + np.eye(q.size)[i] * step[i] for i in range(q.size)])
-            found = minimize(error, q, method="Nelder-Mead",
-                             options=dict(initial_simplex=simplex, xatol=1e-8, fatol=IMPROVEMENT * best,
-                                          maxiter=2000))
-            gained = found.fun < best * (1.0 - IMPROVEMENT)
-            if found.fun < best:
-                q, best = found.x, float(found.fun)
-            if not gained:
-                break
-        return q, best
-
-    own = FAMILIES[name].start if own_start is None else own_start
-    if start is None:
-        return descend(own)
-    q, best = descend(start)
-    if previous_error is None or best > GROWTH * previous_error:
-        # The previous optimum may have led into a stall: the form's own start too.
-        fits = [(q, best), descend(own)]
-        q, best = min(fits, key=lambda f: f[1])
-    return q, best

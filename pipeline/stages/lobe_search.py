@@ -46,6 +46,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from ..approximate import engine as derive_engine
+from ..approximate import minimax
 from ..engine import toolchains
 from ..isa import machine_code
 from ..optics import lobe_families, registry
@@ -77,7 +78,9 @@ def midpoints(n) -> np.ndarray:
 def fit_family(family: str, n, level: float, zone_points: int, target: str = "cos_n", own_start=None) -> dict:
     """The family's (or the grammar form's, by its text in w, from `own_start`) minimax fit to the
     target at every exponent of n, in order, each from the previous optimum, and at the geometric
-    midpoints: q, the shader parameters (families) and the zone error on the points."""
+    midpoints: q, the shader parameters (families) and the zone error on the points. The fit is
+    `pipeline derive`'s (`approximate.minimax.along`: sequential linear programs on `zone_points`
+    points of the zone, weight 1 / target: the relative error), in the scaled variable w."""
     from ..symbolic import grammar
     form = family
     if own_start is not None:
@@ -85,19 +88,27 @@ def fit_family(family: str, n, level: float, zone_points: int, target: str = "co
 
         def form(w, n_, q):
             return grammar.evaluate_numpy(tree, q, w)
+    start = lobe_families.FAMILIES[family].start if own_start is None else own_start
     out = {}
     for key, exponents in (("grid", np.asarray(n, dtype=np.float64)), ("mid", midpoints(np.asarray(n)))):
-        q, errors, start, error = [], [], None, None
+        problems = []
         for n_ in exponents:
-            start, error = lobe_families.fit_minimax(form, float(n_), level, start, zone_points, target, own_start,
-                                                     error)
-            q.append(start)
-            errors.append(error)
-        out[f"{key}_q"] = np.array(q)
-        out[f"{key}_zone_error"] = np.array(errors)
+            u = lobe_families.zone_points(n_, level, zone_points, target)
+            y = lobe_families.target_u(np, target, u, n_)
+            model = functools.partial(_scaled_form, form, float(n_))
+            problems.append((model, minimax.numerical_jacobian(model), y, 1.0 / y, n_ * u))
+        q, errors = minimax.along(problems, start, own=lambda i: start)
+        out[f"{key}_q"] = q
+        out[f"{key}_zone_error"] = errors
         if own_start is None:
-            out[f"{key}_P"] = lobe_families.shader_parameters(family, exponents, np.array(q))
+            out[f"{key}_P"] = lobe_families.shader_parameters(family, exponents, q) if exponents.size else np.zeros((0, 3))
     return out
+
+
+def _scaled_form(form, n_: float, q, w):
+    """The family (by name) or form value(w, n, q) at w = n u, as a model of its constants q."""
+    with np.errstate(all="ignore"):
+        return lobe_families.form_value_w(form, w, n_, q)
 
 
 DENSE_ZONE = 4001       # zone points on which a grammar form's d is measured

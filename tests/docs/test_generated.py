@@ -51,8 +51,7 @@ def test_the_readme_table_and_the_marked_numbers_are_the_paper_runs(paper_docume
     stale = []
     for page in docs.prose_pages():
         text = page.read_text()
-        expected = docs.fill_readme(text, paper_document) if page == docs.README else \
-            docs.fill_numbers(text, paper_document, page.name)
+        expected = docs.generated(paper_document)[page]
         if expected != text:
             lines = [f"  {a!r}\n  -> {b!r}" for a, b in zip(text.splitlines(), expected.splitlines())
                      if a != b]
@@ -76,3 +75,38 @@ def test_a_moved_number_or_a_renamed_field_fails(paper_document):
         docs.fill_numbers("1.2 %<!--r accuracy.d_f_Q9 %.1f-->", paper_document, "page.md")
     with pytest.raises(docs.MissingField, match="no row with architecture=rdna9"):
         docs.fill_numbers("4<!--r decision.table[architecture=rdna9].winner_cycles d-->", paper_document)
+
+
+def test_numbers_of_slow_commands_come_from_their_records(monkeypatch):
+    """A number marked `measured[NAME]...` is the record's (`docs/measured/NAME.json`, written by
+    `make bench` or `make measure`), with no run of the paper needed; benchmarks.md's table is the bench
+    record's rows. Planted records move them; a record or field that does not exist is named."""
+    planted = {"bench": {"rows": {"cold reproduce (empty cache)": dict(
+        seconds=61.5, ratio=20.5, target=12.0, met=False, note="99 | compilations", floor=3.0, date="2026-01-01",
+        commit="abc1234", cores=2)}, "throughput": {}},
+        "derive_schlick": {"wall_seconds": 99.0, "verdict_rows": [
+            dict(architecture="rdna3", anchor="Karis", verdict="beaten", ratio=0.83),
+            dict(architecture="sm_89", anchor="Karis", verdict="missed", ratio=1.2)]}}
+    monkeypatch.setattr(docs, "measured_records", lambda: planted)
+    assert docs.fill_numbers("took 12<!--r measured[bench].rows[cold reproduce (empty cache)].seconds .1f--> s", None) \
+        == "took 61.5<!--r measured[bench].rows[cold reproduce (empty cache)].seconds .1f--> s"
+    text = "beaten on 1<!--r measured[derive_schlick].verdict_rows[verdict=beaten]# d--> of 9<!--r " \
+           "measured[derive_schlick].verdict_rows# d-->"
+    assert docs.fill_numbers(text, None) == text.replace("of 9", "of 2")
+    # a number of the paper's run is left alone where there is no run
+    assert docs.fill_numbers("1.2 %<!--r accuracy.d_f_Q2 %.1f-->", None) == "1.2 %<!--r accuracy.d_f_Q2 %.1f-->"
+    with pytest.raises(docs.MissingField, match="derive_acos"):
+        docs.fill_numbers("1<!--r measured[derive_acos].wall_seconds d-->", None, "page.md")
+    table = docs.fill_bench(f"a\n{docs.BENCH_BEGIN}\nstale text\n{docs.BENCH_END}\nb")
+    assert "| cold reproduce (empty cache) | 61.5 | 20.5 | 12x | no | 99 &#124; compilations | 3.00 |" in table
+    assert "stale text" not in table
+
+
+def test_every_record_a_page_names_exists_and_every_record_is_named():
+    """docs/measured/ holds the records the pages read, and no record nobody reads."""
+    import re
+
+    named = {m for page in docs.prose_pages() for m in re.findall(r"measured\[(\w+)\]", page.read_text())}
+    if any(docs.BENCH_BEGIN in page.read_text() for page in docs.prose_pages()):
+        named.add("bench")
+    assert named == set(docs.measured_records())

@@ -8,8 +8,15 @@ from scipy.signal import argrelextrema
 
 from pipeline.optics import lobe_families as lf
 from pipeline.optics.error_measures import relative_parts
+from pipeline.stages.lobe_search import fit_family
 
 LEVEL = 0.6
+
+
+def fit_minimax(name, n, level):
+    """(q, the largest relative error on the zone's points) of the family at one n: the search's fit."""
+    fit = fit_family(name, [n], level, lf.ZONE_POINTS)
+    return fit["grid_q"][0], fit["grid_zone_error"][0]
 
 
 @pytest.mark.parametrize("name", lf.NAMES)
@@ -28,9 +35,9 @@ def test_the_scaled_form_and_the_shader_form_are_one_function(name, n):
 @pytest.mark.parametrize("n", [3.0, 50.0, 800.0])
 def test_the_fit_is_no_worse_than_a_brute_force_grid(n):
     """exp2(A t + B) at n: no point of a 301 x 301 grid of (q0, q1) around the fit (+-2 %) has a smaller
-    error on the same zone points than the fit, beyond the fit's stopping rule (a restart gaining
-    less than 1e-6 relative ends it)."""
-    q, error = lf.fit_minimax("exp2_linear", n, LEVEL)
+    error on the same zone points than the fit, beyond 1e-6 relative (the fit stops where its linear
+    program gains less than 1e-9 relative)."""
+    q, error = fit_minimax("exp2_linear", n, LEVEL)
     u = lf.zone_points(n, LEVEL)
     reference = (1.0 - u) ** n
     q0 = q[0] + np.linspace(-0.02, 0.02, 301) * max(abs(q[0]), 1e-3)
@@ -49,7 +56,7 @@ def test_the_best_k_of_the_paper_s_family_matches_the_closed_form_optimum(n):
     minimizer. The fit sees 256 zone points, so its d (measured exactly) may exceed the optimum by
     what the points miss: at most 1e-4 relative here (the error's peaks are at the zone's end,
     a point, and at one interior stationary point, among Chebyshev points that crowd the ends)."""
-    q, _ = lf.fit_minimax("square_peak1", n, LEVEL)
+    q, _ = fit_minimax("square_peak1", n, LEVEL)
 
     def d(k):
         over, under, _, _ = relative_parts(np.float64(n), np.float64(k), LEVEL, 2)
@@ -63,10 +70,9 @@ def test_the_best_k_of_the_paper_s_family_matches_the_closed_form_optimum(n):
 def test_the_minimax_error_equioscillates():
     """Chebyshev's alternation: the best two-parameter fit exp(q0 - q1 w) has its error at three
     extremes of alternating sign and equal size. On 4001 points of the zone, the interior extremum
-    and the two ends are within 1e-4 of one size (the fit's stopping rule and the 256 points it
-    ran on), signs alternating."""
+    and the two ends are within 1e-4 of one size (the 256 points the fit ran on), signs alternating."""
     n = 120.0
-    q, error = lf.fit_minimax("exp2_linear", n, LEVEL)
+    q, error = fit_minimax("exp2_linear", n, LEVEL)
     w = np.linspace(0.0, lf.zone_w(n, LEVEL), 4001)
     r = lf.value_w("exp2_linear", w, n, q) / (1.0 - w / n) ** n - 1.0
     inner = argrelextrema(np.abs(r), np.greater)[0]
