@@ -24,7 +24,7 @@ CONFIG ?= configs/paper.toml
 SET ?=
 ONLY ?=
 
-.PHONY: reproduce test test-isa bench refit clean keys graph docs
+.PHONY: reproduce test test-isa bench refit clean keys graph docs measure
 
 $(INSTALLED): pyproject.toml constraints.txt
 	$(PYTHON) -m venv $(VENV)
@@ -149,6 +149,11 @@ graph: $(INSTALLED)
 # The generated pages (config keys, results.json keys, command help, the README's results table and
 # the numbers marked in docs/, from outputs/paper/results.json where it exists), then the site in
 # strict mode into docs/_build/.
+# The derive runs docs/derive.md states, recorded in docs/measured/ (about 12 minutes; `make docs` then
+# fills the page's numbers from them).
+measure: $(INSTALLED) $(LLVM_READY) $(RADV_READY) $(NVIDIA_READY) $(INTEL_READY) $(MOBILE_READY)
+	$(BIN)/python scripts/measure.py
+
 docs: $(DOCS_INSTALLED)
 	$(BIN)/python scripts/docs.py
 

@@ -37,6 +37,10 @@ less than a time. Measured, each in a fresh cache and outputs folder:
   float32, as a shader would use; median of 9 repeats and the range), on the CPU and, where JAX sees
   one, on a GPU.
 
+Each row is also kept in `docs/measured/bench.json` with its floor, date, commit and core count (a
+row this run did not measure keeps its last record): the numbers docs/benchmarks.md states are marked
+fields of it (`make docs`), never typed by hand.
+
 Targets (the issue "The research loop"): cold <= 12x floor, Q refit <= 8x, a Q refit `--only
 accuracy,hemispherical` <= 3x; (the issue "Refits in seconds") curve_points refit <= 3x, warm
 <= 1.2x, keys and bad config < 1 s; (the issue "Tests that pass on every machine") make test <= 75x.
@@ -192,6 +196,28 @@ def regress_rows(py, env) -> list:
                      f"{allowed:.0f} s, 1.5 GB, within 2x of the announced time"
                      + (", RMS < 1e-9" if "rational" in case else "") + (" ok" if ok else " MISSED")))
     return rows
+
+
+RECORD = ROOT / "docs" / "measured" / "bench.json"
+
+
+def record(rows, floor: float, throughput) -> None:
+    """Merge this run's rows into RECORD (module docstring), each under its label."""
+    import json
+    import datetime
+
+    commit = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=ROOT, capture_output=True,
+                            text=True).stdout.strip()
+    when = dict(date=datetime.date.today().isoformat(), commit=commit, cores=os.cpu_count(), floor=round(floor, 2))
+    kept = json.loads(RECORD.read_text()) if RECORD.exists() else dict(rows={}, throughput={})
+    for label, seconds, target, note in rows:
+        kept["rows"][label] = dict(seconds=round(seconds, 2), ratio=round(seconds / floor, 2), target=target,
+                                   met=None if target is None else seconds / floor <= target, note=note, **when)
+    for label, measured in throughput:
+        kept["throughput"][label] = dict({name: round(median, -6) for name, median, _, _ in measured}, **when)
+    RECORD.parent.mkdir(parents=True, exist_ok=True)
+    RECORD.write_text(json.dumps(kept, indent=1, sort_keys=True) + "\n")
+    print(f"\nrecorded in {RECORD.relative_to(ROOT)}")
 
 
 def main() -> int:
@@ -353,6 +379,7 @@ def main() -> int:
             print(f"  {name:<20} {median / 1e9:7.3f}  [{low / 1e9:.3f}, {high / 1e9:.3f}]")
     if len(throughput) == 1 and len(devices) == 1:
         print("  (JAX sees no GPU here; on a machine where it does, the same table follows for it)")
+    record(rows, floor, throughput)
     return 0
 
 

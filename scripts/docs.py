@@ -7,7 +7,10 @@ Writes, never by hand:
 - the README's results table, between `<!-- results:begin -->` and `<!-- results:end -->`, and every
   number of the README and docs/ marked `<!--r PATH FORMAT-->` (the number just before the mark), from
   the paper's run, `outputs/paper/results.json` (`make reproduce` writes it; where it is missing they
-  are left as they are, and the script says so).
+  are left as they are, and the script says so); a number marked `<!--r measured[NAME]... FORMAT-->`
+  comes from `docs/measured/NAME.json`, the record a slow command wrote when it last ran (`make bench`
+  writes `bench.json`, `make measure` the `derive` records): too slow for the tests to run, never
+  typed by hand.
 
 Then builds the site with MkDocs in strict mode into `docs/_build/` (MkDocs builds beside it and the
 script swaps the folder in: MkDocs refuses a site folder inside its pages' folder). `--no-build` only
@@ -37,6 +40,7 @@ DOCS = ROOT / "docs"
 README = ROOT / "README.md"
 REFERENCE = DOCS / "reference"
 SITE = DOCS / "_build"
+MEASURED = DOCS / "measured"
 BEGIN, END = "<!-- results:begin -->", "<!-- results:end -->"
 
 
@@ -59,6 +63,11 @@ def results_path() -> Path:
 def load_results(path: Path | None = None) -> dict | None:
     path = path or results_path()
     return json.loads(path.read_text()) if path.exists() else None
+
+
+def measured_records() -> dict:
+    """{name: record} of `docs/measured/*.json`: what `make bench` and `make measure` wrote."""
+    return {p.stem: json.loads(p.read_text()) for p in sorted(MEASURED.glob("*.json"))}
 
 
 # ---------------------------------------------------------------------------------------------------
@@ -174,14 +183,17 @@ TOKEN = re.compile(r"\.?([A-Za-z_][\w]*)|\[([^\]]*)\]|(#)")
 
 def lookup(doc: dict, path: str):
     """A value of a results.json document by path: `stage.field` (a stage's field, under `stages`), or
-    `checks`, `headline`, `config` first; then `.name` (a field), `[key]` (a dict's key, or a list's
+    `checks`, `headline`, `config` first, or `measured[NAME]` (the record `docs/measured/NAME.json`); then `.name` (a field), `[key]` (a dict's key, or a list's
     index), `[k=v,k=v]` (the rows of a list whose fields match; `2:1000` matches the list [2, 1000]) and
     `#` (how many rows). A field of a list of rows is the first row's."""
     tokens = [m.groups() for m in TOKEN.finditer(path)]
     if "".join(m.group(0) for m in TOKEN.finditer(path)) != path or not tokens:
         raise MissingField(f"{path}: not a path")
     first = tokens[0][0]
-    value = doc[first] if first in ("checks", "headline", "config", "timings") else doc["stages"].get(first)
+    if first == "measured":
+        value = measured_records()
+    else:
+        value = doc[first] if first in ("checks", "headline", "config", "timings") else doc["stages"].get(first)
     if value is None:
         raise MissingField(f"{path}: the run has no stage {first!r}")
     for name, bracket, count in tokens[1:]:
@@ -225,9 +237,12 @@ def format_value(value, spec: str) -> str:
     return format(value, spec)
 
 
-def fill_numbers(text: str, doc: dict, where: str = "") -> str:
-    """`text` with each marked number rewritten from the run."""
+def fill_numbers(text: str, doc: dict | None, where: str = "") -> str:
+    """`text` with each marked number rewritten from the run (where `doc` is None, the records of
+    `docs/measured/` alone)."""
     def one(m):
+        if doc is None and not m.group("path").startswith("measured"):
+            return m.group(0)
         try:
             out = format_value(lookup(doc, m.group("path")), m.group("format"))
         except (KeyError, IndexError, TypeError, ValueError) as e:
@@ -305,6 +320,32 @@ def results_table(doc: dict) -> str:
     return "\n".join(lines)
 
 
+BENCH_BEGIN, BENCH_END = "<!-- bench:begin -->", "<!-- bench:end -->"
+
+
+def bench_table(record: dict) -> str:
+    """docs/benchmarks.md's table: every row `make bench` recorded (`docs/measured/bench.json`), with
+    its floor, target and when it was measured."""
+    lines = ["| what | seconds | x floor | target | met | note | floor (s) | measured |", "|---|---|---|---|---|---|---|---|"]
+    for label, row in sorted(record.get("rows", {}).items()):
+        target = "" if row["target"] is None else f"{row['target']:g}x"
+        met = "" if row["met"] is None else ("yes" if row["met"] else "no")
+        lines.append(f"| {_escape(label)} | {row['seconds']:.1f} | {row['ratio']:.1f} | {target} | {met} | "
+                     f"{_escape(row['note']).replace('|', '&#124;')} | {row['floor']:.2f} | {row['date']}, {row['commit']}, "
+                     f"{row['cores']} cores |")
+    return "\n".join(lines)
+
+
+def fill_bench(text: str) -> str:
+    """The table between BENCH_BEGIN and BENCH_END, from the record (where the page has the marks)."""
+    if BENCH_BEGIN not in text:
+        return text
+    head, rest = text.split(BENCH_BEGIN, 1)
+    _, tail = rest.split(BENCH_END, 1)
+    record = measured_records().get("bench", {})
+    return f"{head}{BENCH_BEGIN}\n{bench_table(record)}\n{BENCH_END}{tail}"
+
+
 def fill_readme(text: str, doc: dict) -> str:
     head, rest = text.split(BEGIN, 1)
     _, tail = rest.split(END, 1)
@@ -319,10 +360,10 @@ def prose_pages() -> list[Path]:
 def generated(doc: dict | None) -> dict[Path, str]:
     """Every generated file's content as `make docs` writes it; with no run, the reference pages only."""
     out = reference_pages()
-    if doc is not None:
-        for page in prose_pages():
-            text = page.read_text()
-            out[page] = fill_readme(text, doc) if page == README else fill_numbers(text, doc, page.name)
+    for page in prose_pages():
+        text = page.read_text()
+        out[page] = fill_readme(text, doc) if page == README and doc is not None else \
+            fill_numbers(fill_bench(text), doc, page.name)
     return out
 
 
@@ -376,8 +417,8 @@ def main(argv=None) -> int:
     path = args.results or results_path()
     doc = load_results(path)
     if doc is None:
-        print(f"{path} not found: the README's results table and the numbers of docs/ are left as they are "
-              "(`make reproduce` writes it)")
+        print(f"{path} not found: the README's results table and the numbers of the paper's run in docs/ are "
+              "left as they are (`make reproduce` writes it)")
     for target, content in generated(doc).items():
         if not target.exists() or target.read_text() != content:
             target.parent.mkdir(parents=True, exist_ok=True)
