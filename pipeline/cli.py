@@ -160,7 +160,7 @@ def _derive(args) -> int:
 
     start = time.perf_counter()
     target = api.resolve(args.target, args.expr, args.var, args.metric, args.floor, args.table, args.x, args.parameter,
-                         args.y)
+                         args.y, args.parameter_range)
     out = Path(args.out) if args.out else paths.OUTPUTS / "derive" / target.name
     use_compilation_cache(paths.XLA_CACHE or paths.CACHE / XLA)
     try:
@@ -378,6 +378,9 @@ def build_parser() -> argparse.ArgumentParser:
     der.add_argument("--parameter", default=None, metavar="NAME",
                      help="with --table: the parameter's column (per material: its constants become formulas of it)")
     der.add_argument("--y", default=None, metavar="NAME", help="with --table: the value's column (default the one left)")
+    der.add_argument("--range", default=None, metavar="LO:HI", dest="parameter_range",
+                     help="the parameter's range, replacing the target's (e.g. cos_n's n, split as the lobe search "
+                          "splits it: 2:10, 10:100, 100:1000)")
     der.add_argument("--metric", default=None, choices=("abs", "rel"), help="the error measured (default the target's)")
     der.add_argument("--floor", type=float, default=None, metavar="F",
                      help="with --metric rel: |f| below F counts as F")

@@ -20,11 +20,19 @@ from .targets import DeriveError, Target
 
 def resolve(target=None, expr: str | None = None, var: str = "x=0:1", metric: str | None = None,
             floor: float | None = None, table: str | None = None, x: str | None = None,
-            parameter: str | None = None, y: str | None = None):
+            parameter: str | None = None, y: str | None = None, parameter_range=None):
     """The checked target: a Target, a registered name, a TOML file's path, (with `expr`) an
     expression in `var` (NAME=LO:HI), or (with `table`) a CSV file's column `y` over the variables `x`
     (comma-separated) and the `parameter` (`parametric.from_csv`); `metric` and `floor` replace the
-    target's. Raises DeriveError."""
+    target's, `parameter_range` ("LO:HI" or (lo, hi)) its parameter's range (`parametric.with_range`:
+    one of the ranges the lobe search splits n into). Raises DeriveError."""
+    chosen = _resolve(target, expr, var, metric, floor, table, x, parameter, y)
+    if parameter_range is None:
+        return chosen
+    return parametric.with_range(chosen, parameter_range)
+
+
+def _resolve(target, expr, var, metric, floor, table, x, parameter, y):
     if sum(v is not None for v in (target, expr, table)) != 1:
         raise DeriveError("give --target NAME (or FILE.toml), --expr EXPR or --table FILE.csv, one of them")
     if (x is not None or parameter is not None or y is not None) and table is None:
@@ -119,14 +127,16 @@ class Derivation:
 def derive(target=None, *, expr: str | None = None, var: str = "x=0:1", table: str | None = None,
            x: str | None = None, parameter: str | None = None, y: str | None = None, gpu=None,
            metric: str | None = None, floor: float | None = None, seconds: float = engine.DEFAULT_SECONDS,
-           max_cycles: float | None = None, max_complexity: int = engine.MAX_COMPLEXITY, log=print) -> Derivation:
+           max_cycles: float | None = None, max_complexity: int = engine.MAX_COMPLEXITY, parameter_range=None,
+           log=print) -> Derivation:
     """The cheapest accurate forms of `target` (a registered name, a TOML file, a Target, a
-    ParametricTarget), of `expr` in `var`, or of a CSV `table`'s column `y` over `x` and `parameter`,
+    ParametricTarget), of `expr` in `var`, or of a CSV `table`'s column `y` over `x` and `parameter`
+    (its range `parameter_range`, "LO:HI", where given),
     ranked by compiled cycles on the architectures `gpu` (names, or one comma-separated string; default
     every one whose compiler runs here): `engine.derive`, `parametric.derive` (several variables or a
     parameter), `parametric.derive_pair` (env_brdf). Raises DeriveError for bad input, CompilerMissing
     where no GPU compiler runs."""
-    chosen = resolve(target, expr, var, metric, floor, table, x, parameter, y)
+    chosen = resolve(target, expr, var, metric, floor, table, x, parameter, y, parameter_range)
     if isinstance(gpu, str):
         gpu = [g.strip() for g in gpu.split(",") if g.strip()]
     run = (parametric.derive if isinstance(chosen, parametric.ParametricTarget) else

@@ -916,6 +916,36 @@ def cos_n_target(level: float = COS_N_LEVEL, n: tuple[float, float] = (2.0, 1000
         description=f"cos^n in its epicenter zone cos^n >= {level:g} (the paper's lobe search), n the Phong exponent")
 
 
+def with_range(target, parameter_range):
+    """The target (or a pair's two parts) with its parameter's range replaced: "LO:HI" or (lo, hi),
+    checked (a variable whose range moves with the parameter keeps its formula, its lowest end
+    recomputed). Raises DeriveError where the target has no parameter or the range is not two
+    numbers lo < hi."""
+    if isinstance(parameter_range, str):
+        try:
+            lo, hi = (float(v) for v in parameter_range.split(":"))
+        except ValueError:
+            raise DeriveError(f"--range {parameter_range!r}: give LO:HI, two numbers") from None
+    else:
+        lo, hi = (float(v) for v in parameter_range)
+    if isinstance(target, PairTarget):
+        return check_pair(dataclasses.replace(target, scale=with_range(target.scale, (lo, hi)),
+                                              bias=with_range(target.bias, (lo, hi))))
+    if not isinstance(target, ParametricTarget) or target.parameter is None:
+        raise DeriveError(f"{target.name} has no parameter: --range applies to targets with one")
+    parameter = dataclasses.replace(target.parameter, lo=lo, hi=hi)
+    if not (math.isfinite(lo) and math.isfinite(hi) and lo < hi):
+        raise DeriveError(f"--range {lo:g}:{hi:g}: give finite numbers lo < hi")
+    variables = []
+    for a in target.variables:
+        if a.lo_of:
+            with np.errstate(all="ignore"):
+                ends = _lower_end(a, parameter)(np.linspace(lo, hi, CHECK_POINTS))
+            a = dataclasses.replace(a, lo=float(np.min(ends)) if np.all(np.isfinite(ends)) else a.lo)
+        variables.append(a)
+    return check(dataclasses.replace(target, variables=tuple(variables), parameter=parameter))
+
+
 def registry() -> dict[str, ParametricTarget]:
     """The registered targets of several variables or a parameter, by name."""
     from ..optics import brdf

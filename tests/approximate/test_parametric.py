@@ -394,3 +394,23 @@ def test_the_engine_and_the_lobe_search_fit_the_spherical_gaussian_s_class_alike
     P[:, :2] = slopes * integers[:, None] + intercepts
     d_line = lobe_search.exact_errors("exp2_linear", integers, P, level, 4096, settings)["d"].max()
     assert d * (1 - 2e-4) <= line_error <= d_line, (d, line_error, d_line)
+
+
+def test_a_parameter_s_range_is_replaced_as_the_lobe_search_splits_n(tmp_path):
+    """`--range LO:HI` (`parameter_range`): cos_n over n in [100, 1000] has its zone's lowest end
+    recomputed, L^(1/100); the environment BRDF's two parts both take it; bad ranges are named."""
+    from pipeline.approximate import api
+
+    target = api.resolve("cos_n", parameter_range="100:1000")
+    assert (target.parameter.lo, target.parameter.hi) == (100.0, 1000.0)
+    assert target.variables[0].lo == pytest.approx(parametric.COS_N_LEVEL ** (1 / 100), rel=1e-12)
+    pair = api.resolve("env_brdf", parameter_range=(0.5, 1.0))
+    assert pair.scale.parameter.lo == pair.bias.parameter.lo == 0.5
+    for bad, message in (("schlick", "has no parameter"), ("cos_n", "give LO:HI"), ("env_brdf", "the table covers")):
+        with pytest.raises(DeriveError, match=message):
+            api.resolve(bad, parameter_range="0.01:1" if bad == "env_brdf" else "1:2" if bad == "schlick" else "a:b")
+    with pytest.raises(DeriveError, match="lo < hi"):
+        api.resolve("cos_n", parameter_range="10:2")
+    done = subprocess.run([sys.executable, "-m", "pipeline", "derive", "--target", "schlick", "--range", "1:2"],
+                          capture_output=True, text=True, env=cli_env(tmp_path))
+    assert done.returncode == 2 and "has no parameter" in done.stderr
