@@ -165,7 +165,7 @@ def _derive(args) -> int:
     use_compilation_cache(paths.XLA_CACHE or paths.CACHE / XLA)
     try:
         found = api.derive(target, gpu=args.gpu, seconds=args.seconds, max_cycles=args.max_cycles,
-                           max_complexity=args.max_complexity)
+                           max_complexity=args.max_complexity, formula_complexity=args.formula_complexity)
     except (CompilerMissing, ToolMissing) as e:
         print(f"error: the GPU compilers cannot run here: {e}", file=sys.stderr)
         return faults.EXIT_ENVIRONMENT
@@ -381,6 +381,10 @@ def build_parser() -> argparse.ArgumentParser:
     der.add_argument("--range", default=None, metavar="LO:HI", dest="parameter_range",
                      help="the parameter's range, replacing the target's (e.g. cos_n's n, split as the lobe search "
                           "splits it: 2:10, 10:100, 100:1000)")
+    der.add_argument("--formula-complexity", type=int, default=0, metavar="K",
+                     help="with a parameter: each constant's residual from its line searched by the symbolic "
+                          "regression up to K, as the paper found coef(n) (default 0: lines, quadratics and "
+                          "a + b p + c / p alone)")
     der.add_argument("--metric", default=None, choices=("abs", "rel"), help="the error measured (default the target's)")
     der.add_argument("--floor", type=float, default=None, metavar="F",
                      help="with --metric rel: |f| below F counts as F")

@@ -128,10 +128,11 @@ def derive(target=None, *, expr: str | None = None, var: str = "x=0:1", table: s
            x: str | None = None, parameter: str | None = None, y: str | None = None, gpu=None,
            metric: str | None = None, floor: float | None = None, seconds: float = engine.DEFAULT_SECONDS,
            max_cycles: float | None = None, max_complexity: int = engine.MAX_COMPLEXITY, parameter_range=None,
-           log=print) -> Derivation:
+           formula_complexity: int = 0, log=print) -> Derivation:
     """The cheapest accurate forms of `target` (a registered name, a TOML file, a Target, a
     ParametricTarget), of `expr` in `var`, or of a CSV `table`'s column `y` over `x` and `parameter`
-    (its range `parameter_range`, "LO:HI", where given),
+    (its range `parameter_range`, "LO:HI", where given; with `formula_complexity` > 0 the constants'
+    lines also corrected by the symbolic regression, `parametric.corrected`),
     ranked by compiled cycles on the architectures `gpu` (names, or one comma-separated string; default
     every one whose compiler runs here): `engine.derive`, `parametric.derive` (several variables or a
     parameter), `parametric.derive_pair` (env_brdf). Raises DeriveError for bad input, CompilerMissing
@@ -139,6 +140,10 @@ def derive(target=None, *, expr: str | None = None, var: str = "x=0:1", table: s
     chosen = resolve(target, expr, var, metric, floor, table, x, parameter, y, parameter_range)
     if isinstance(gpu, str):
         gpu = [g.strip() for g in gpu.split(",") if g.strip()]
-    run = (parametric.derive if isinstance(chosen, parametric.ParametricTarget) else
-           parametric.derive_pair if isinstance(chosen, parametric.PairTarget) else engine.derive)
-    return Derivation(chosen, run(chosen, gpu, seconds, max_cycles, max_complexity, log=log))
+    if isinstance(chosen, (parametric.ParametricTarget, parametric.PairTarget)):
+        run = parametric.derive if isinstance(chosen, parametric.ParametricTarget) else parametric.derive_pair
+        return Derivation(chosen, run(chosen, gpu, seconds, max_cycles, max_complexity, log=log,
+                                      formula_complexity=formula_complexity))
+    if formula_complexity:
+        raise DeriveError(f"{chosen.name} has no parameter: --formula-complexity applies to targets with one")
+    return Derivation(chosen, engine.derive(chosen, gpu, seconds, max_cycles, max_complexity, log=log))

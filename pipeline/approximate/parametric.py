@@ -24,6 +24,8 @@ pixel. Its error is the largest over the whole box, variables and parameter
    of every value, the box's worst point added and polished again (`EXCHANGES` times); the error
    measured over the whole box. A reciprocal template's pixel form is also written with one
    single-term formula's factor in the numerator (`_scaled`: the same function, cheaper on NVIDIA).
+   With `formula_complexity` > 0, the templates on the per-value front also take formulas the
+   symbolic regression finds from each constant's values (`corrected`, as the paper found coef(n)).
 4. Per pixel: the grammar's forms in the variables and the parameter together, by the ladder.
 5. Costs: every form compiled for each architecture, a fragment shader with one input per variable
    and the parameter (`shader`): `parameter_per = "material"`, the constants push constants that
@@ -56,6 +58,7 @@ SEARCH_TEMPLATES = 8        # grammar forms (the ladder's front) taken as templa
 PIXEL_SHARE = 0.5           # of the budget: the pixel search (the rest, the templates' search)
 MAX_AXES = 3                # a shader's inputs, variables and the parameter (written with the form: a vec4)
 MAX_CONSTANTS = 8           # constants of a template (push constants of a material form)
+MAX_FORMULA_COMPLEXITY = 9  # of a constant's correction found by the symbolic regression
 PUSH_CONSTANTS = 2 * MAX_CONSTANTS  # the shaders' push constants c0, c1, ... (a pair's two forms), and F0
 SYMMETRY = 1e-12            # f(x, y) and f(y, x) agree to this (relative) on the grid: symmetric
 MEASURE_GRID = dict(cells=24, chebyshev=13)     # the box's measuring grid per axis (`brdf.largest`)
@@ -532,10 +535,14 @@ class Fitted:
     errors: dict                    # max_abs_error, max_rel_error over the box
     pixel: object                   # sympy: the formulas substituted (the parameter per pixel)
     material: object                # sympy: the constants as push constants c0, c1, ...
+    formulas: tuple | None = None   # sympy, per constant, where not the coefficients' (`corrected`)
 
     @property
     def name(self) -> str:
         return f"{self.template.name}_{self.formula}"
+
+    def constant_formulas(self, parameter) -> list:
+        return list(self.formulas) if self.formulas is not None else formula_expressions(self.coefficients, parameter)
 
 
 # Each constant's formula in the parameter p: its powers of p (`laurent`, a + b p + c / p, where the
@@ -645,15 +652,25 @@ def polish_formulas(template: Template, per_value: PerValue, kinds, target: Para
         J = model.jacobian(list((P @ full(a)[:, used].T).T), x[:-1])   # (points, count)
         return (J[:, :, None] * P[:, None, :])[:, mask[:, used]]
 
-    points = mesh(target, AXIS_POINTS, per_value.values)
+    a, error = minimax_on_box(joint, jacobian, coefficients[mask], target, f, per_value.values)
+    return full(a), error
+
+
+def minimax_on_box(model, jacobian, a0, target, f, values) -> tuple[np.ndarray, float]:
+    """(the constants, the error over the whole box) of `model(a, points)` (the points: the axes'
+    columns) fitted by minimax on the variables' mesh at the parameter's `values`, the box's worst point
+    added and fitted again (`EXCHANGES` times): the polish of every formula's constants together."""
+    from ..optics import brdf
+
+    points = mesh(target, AXIS_POINTS, values)
     weight = weight_of(target)
     lo, hi = _unit_box(target)
-    a = coefficients[mask]
+    a = np.asarray(a0, dtype=np.float64)
     best = None
     for _ in range(EXCHANGES + 1):
         y = f(*points)
-        a, on_points = minimax.slp_points(joint, jacobian, a, y, weight(y), points)
-        e, where = brdf.largest_error(lambda *s: joint(a, _place(target, s)), lambda *s: f(*_place(target, s)), lo, hi,
+        a, on_points = minimax.slp_points(model, jacobian, a, y, weight(y), points)
+        e, where = brdf.largest_error(lambda *s: model(a, _place(target, s)), lambda *s: f(*_place(target, s)), lo, hi,
                                       relative=target.metric == "rel", **MEASURE_GRID)
         where = _place(target, [np.atleast_1d(w) for w in where])
         if best is None or e < best[1]:
@@ -661,7 +678,7 @@ def polish_formulas(template: Template, per_value: PerValue, kinds, target: Para
         if not np.isfinite(e) or e <= on_points * (1 + 1e-9):
             break
         points = [np.r_[p, w] for p, w in zip(points, where)]
-    return full(best[0]), best[1]
+    return best
 
 
 def measure_box(expression, target: ParametricTarget, f) -> dict:
@@ -686,10 +703,11 @@ def measure_box(expression, target: ParametricTarget, f) -> dict:
     return out
 
 
-def material_forms(templates, target, f, log) -> list[Fitted]:
+def material_forms(templates, target, f, log, formula_complexity: int = 0) -> list[Fitted]:
     """Steps 2 and 3 for every template: every template's constants as lines and quadratics; the
     templates no other of `templates` with as few constants beats per value (the front of constants
-    against the per-value optimum) also with cheaper formulas (`formula_variants`)."""
+    against the per-value optimum) also with cheaper formulas (`formula_variants`) and, with
+    `formula_complexity` > 0, with their lines corrected by the symbolic regression (`corrected`)."""
     import sympy as sp
 
     symbols = target.symbols()
@@ -733,11 +751,78 @@ def material_forms(templates, target, f, log) -> list[Fitted]:
             zero = {ki: 0 for ki, row in zip(k, coefficients) if not np.any(row)}
             material = template.expression.xreplace(zero).xreplace(dict(zip(k, uniforms)))
             found.append(Fitted(template, name, coefficients, per_value, errors, pixel, material))
+        line = next((m for m in found if m.formula == "line"), None)
+        if formula_complexity > 0 and reduce and line is not None:
+            better = corrected(line, target, f, formula_complexity, log)
+            if better is not None:
+                found.append(better)
         out += found
         log(f"  {template.name}: per value {per_value.errors.max():.4g}; "
             + ", ".join(f"{m.formula} {m.errors[_error_key(target)]:.4g}" for m in found)
             + f" ({time.perf_counter() - started:.1f} s)")
     return out
+
+
+FORMULA_OPERATIONS = "+,-,*,/,log,sqrt"     # of a constant's correction in the parameter (as the lobe search's)
+
+
+def corrected(line: Fitted, target, f, complexity: int, log) -> Fitted | None:
+    """The template's constants as formulas the symbolic regression finds, as the paper found coef(n):
+    each constant's values at the per-value optima searched (`symbolic.search`, FORMULA_OPERATIONS,
+    up to `complexity`, least squares); at each complexity level every constant takes its front's
+    member at or below it (its line, from `line`, where it has none that holds its values better by
+    RMS), the box's error is measured,
+    and the level of least error is kept where it beats the lines (the formulas' numbers polished
+    together by minimax on the box first, `_polished`). None where no level does."""
+    import sympy as sp
+
+    from ..symbolic import grammar, search
+
+    parameter = target.symbols()[-1]
+    values = line.per_value.values
+    lines = np.power.outer(values, np.array(POWERS, dtype=float)) @ line.coefficients.T      # (values, count)
+    fronts = []
+    for j in range(line.template.count):
+        y = line.per_value.constants[:, j]
+        found = search.search(values, y, int(complexity), FORMULA_OPERATIONS)
+        line_rms = float(np.sqrt(np.mean((lines[:, j] - y) ** 2)))
+        # a member that holds the constant's values no better than its line leaves the line in place
+        fronts.append([(int(found["complexity"][i]), found["forms"][i],
+                        [float(c) for c in found["constants"][i][:grammar.constants(found["forms"][i])]])
+                       for i in found["front"] if found["rms"][i] < line_rms])
+    k = constant_symbols(line.template.count)
+    key = _error_key(target)
+    best = None
+    for level in sorted({c for front in fronts for c, _, _ in front}):
+        formulas = []
+        for expression, front in zip(formula_expressions(line.coefficients, parameter), fronts):
+            chosen = max((m for m in front if m[0] <= level), key=lambda m: m[0], default=None)
+            formulas.append(expression if chosen is None else
+                            grammar.substitute(chosen[1], [sp.Float(c, 17) for c in chosen[2]], [parameter],
+                                               _SYMPY_FUNCTIONS()))
+        pixel, polished = _polished(line.template.expression.xreplace(dict(zip(k, formulas))), target, f, values)
+        formulas = [e.xreplace(polished) for e in formulas]
+        errors = measure_box(pixel, target, f)
+        if errors[key] < (best.errors[key] if best else line.errors[key] * (1 - 1e-6)):
+            best = dataclasses.replace(line, formula=f"found{level}", pixel=pixel, errors=errors,
+                                       formulas=tuple(formulas))
+    log(f"  {line.template.name}: lines {line.errors[key]:.4g}, formulas found "
+        + (f"{best.errors[key]:.4g} ({best.formula})" if best else "no better"))
+    return best
+
+
+def _polished(expression, target, f, values):
+    """(the expression (in the axes) with its numbers polished together by minimax on the box
+    (`minimax_on_box`, from their values), {each number: its polished value})."""
+    import sympy as sp
+
+    numbers = sorted(expression.atoms(sp.Float), key=sp.default_sort_key)
+    q = [sp.Symbol(f"q_{i}", real=True) for i in range(len(numbers))]
+    free = expression.xreplace(dict(zip(numbers, q)))
+    model = Model(free, target.symbols(), q)
+    a, _ = minimax_on_box(model, model.jacobian, [float(v) for v in numbers], target, f, values)
+    polished = {v: sp.Float(x, 17) for v, x in zip(numbers, a)}
+    return free.xreplace(dict(zip(q, polished.values()))), polished
 
 
 def _error_key(target) -> str:
@@ -817,10 +902,11 @@ def compile_forms(forms: dict, target: ParametricTarget, architectures) -> tuple
 # ---- the derivation -----------------------------------------------------------------------------
 
 def derive(target: ParametricTarget, gpu=None, seconds: float = 60.0, max_cycles: float | None = None,
-           max_complexity: int = 12, log=print) -> dict:
+           max_complexity: int = 12, log=print, formula_complexity: int = 0) -> dict:
     """The derivation of the module docstring for `target` on the architectures `gpu` (names;
-    default every one whose compiler runs here). Returns the results (results.json's content) with
-    the rows of front.csv."""
+    default every one whose compiler runs here), with `formula_complexity` > 0 the lines of the best
+    templates also corrected by the symbolic regression (`corrected`). Returns the results
+    (results.json's content) with the rows of front.csv."""
     from . import engine
 
     check(target)
@@ -831,7 +917,11 @@ def derive(target: ParametricTarget, gpu=None, seconds: float = 60.0, max_cycles
     log(f"{target.name}: {target.expression} for {', '.join(a.text() for a in target.axes)}, error {target.metric}; "
         f"{len(architectures)} architecture{'s' * (len(architectures) > 1)}")
 
-    found, coverage = _searched(target, f, seconds, max_complexity, log)
+    if not (isinstance(formula_complexity, int) and 0 <= formula_complexity <= MAX_FORMULA_COMPLEXITY):
+        raise DeriveError(f"--formula-complexity {formula_complexity}: give an integer in [0, {MAX_FORMULA_COMPLEXITY}]")
+    if formula_complexity and target.parameter is None:
+        raise DeriveError(f"{target.name} has no parameter: --formula-complexity applies to targets with one")
+    found, coverage = _searched(target, f, seconds, max_complexity, log, formula_complexity)
     forms = [Form(r["name"], "found", r["family"], r["expression"], r["source"]) for r in found]
     per_of = {r["name"]: (r["expression"], r["per"]) for r in found}
     record = {r["name"]: r for r in found}
@@ -1085,7 +1175,7 @@ def _kept(key: list, compute, log, what: str):
     return found, coverage | dict(kept=False)
 
 
-def _searched(target, f, seconds: float, max_complexity: int, log) -> tuple[list[dict], dict]:
+def _searched(target, f, seconds: float, max_complexity: int, log, formula_complexity: int = 0) -> tuple[list[dict], dict]:
     """(the found forms, each {name, family, expression (sympy), source, per (material or pixel),
     errors, and for a template's, formulas: {formula, per_value_error, per_value_worst, constants}},
     the coverage): steps 1 to 4 of the module docstring. The families' fits are kept by the target
@@ -1093,11 +1183,13 @@ def _searched(target, f, seconds: float, max_complexity: int, log) -> tuple[list
     --max-cycles only compiles, and one with another budget only searches again."""
     found, coverage = [], dict(max_complexity=int(max_complexity))
     if target.parameter is not None:
-        families, coverage["families"] = _kept([repr(target), "families"], lambda: _family_search(target, f, log),
+        families, coverage["families"] = _kept([repr(target), "families", formula_complexity],
+                                               lambda: _family_search(target, f, log, formula_complexity),
                                                log, "families' fits")
         found += families
-    grammar_found, coverage["grammar"] = _kept([repr(target), "grammar", seconds, max_complexity],
-                                               lambda: _grammar_search(target, f, seconds, max_complexity, log),
+    grammar_found, coverage["grammar"] = _kept([repr(target), "grammar", seconds, max_complexity, formula_complexity],
+                                               lambda: _grammar_search(target, f, seconds, max_complexity, log,
+                                                                       formula_complexity),
                                                log, "grammar's search")
     found += grammar_found
     for part in ("families", "grammar"):
@@ -1115,7 +1207,7 @@ def _records(materials, target) -> list[dict]:
     for m in materials:
         formulas = dict(formula=m.formula, per_value_error=float(m.per_value.errors.max()),
                         per_value_worst=float(m.per_value.values[int(np.argmax(m.per_value.errors))]),
-                        constants=[sp.sstr(sp.N(e, 7)) for e in formula_expressions(m.coefficients, parameter)])
+                        constants=[sp.sstr(sp.N(e, 7)) for e in m.constant_formulas(parameter)])
         for per, expr in (("material", m.material), ("pixel", m.pixel)):
             out.append(dict(name=f"{m.name}_{per}", family=m.template.family, expression=expr,
                             source=m.template.source, per=per, errors=m.errors,
@@ -1135,7 +1227,7 @@ def _scaled(m, parameter):
     (a multiply-add takes one immediate on NVIDIA). None for another template."""
     import sympy as sp
 
-    if m.template.outer != "reciprocal":
+    if m.template.outer != "reciprocal" or m.formulas is not None:
         return None
     single = [i for i, row in enumerate(m.coefficients) if np.count_nonzero(row) == 1]
     if not single:
@@ -1149,7 +1241,7 @@ def _scaled(m, parameter):
     return sp.Float(1 / factor, 17) * m.template.expression.xreplace(dict(zip(k, formulas)))
 
 
-def _family_search(target, f, log) -> tuple[list[dict], dict]:
+def _family_search(target, f, log, formula_complexity: int = 0) -> tuple[list[dict], dict]:
     """The families' templates fitted (steps 2 and 3)."""
     symmetric = is_symmetric(target, f)
     positive = bool(np.all(f(*mesh(target, AXIS_POINTS)) > 0))
@@ -1157,13 +1249,13 @@ def _family_search(target, f, log) -> tuple[list[dict], dict]:
     log(f"{len(templates)} family templates{' (the target is symmetric in its two variables)' if symmetric else ''}: "
         f"constants fitted at {2 * PARAMETER_VALUES - 1} values of {target.parameter.name}, then as formulas")
     started = time.perf_counter()
-    materials = material_forms(templates, target, f, log)
+    materials = material_forms(templates, target, f, log, formula_complexity)
     return _records(materials, target), dict(parameter_values=2 * PARAMETER_VALUES - 1, symmetric=symmetric,
                                              family_templates=len(templates),
                                              family_seconds=round(time.perf_counter() - started, 1))
 
 
-def _grammar_search(target, f, seconds: float, max_complexity: int, log) -> tuple[list[dict], dict]:
+def _grammar_search(target, f, seconds: float, max_complexity: int, log, formula_complexity: int = 0) -> tuple[list[dict], dict]:
     """The grammar's templates fitted (steps 1 to 3) and the pixel search (step 4)."""
     from ..symbolic import grammar, ladder
 
@@ -1176,7 +1268,7 @@ def _grammar_search(target, f, seconds: float, max_complexity: int, log) -> tupl
         log(f"{len(templates)} grammar templates: constants fitted per value of {target.parameter.name}, then as "
             "formulas")
         started = time.perf_counter()
-        found += _records(material_forms(templates, target, f, log), target)
+        found += _records(material_forms(templates, target, f, log, formula_complexity), target)
         coverage["templates"].update(count=len(templates), seconds=round(time.perf_counter() - started, 1),
                                      at=_middle(target.parameter))
     # the pixel search: the grammar in the variables and the parameter together
@@ -1346,7 +1438,7 @@ def _renumbered(expr, offset: int):
 
 
 def derive_pair(target: PairTarget, gpu=None, seconds: float = 60.0, max_cycles: float | None = None,
-                max_complexity: int = 12, log=print) -> dict:
+                max_complexity: int = 12, log=print, formula_complexity: int = 0) -> dict:
     """Each of the pair's targets derived (`derive`, its budget `seconds` each), then per architecture
     and per `parameter_per` every pair of their front members (and each anchor's two parts)
     compiled as one shader computing F0 A + B (F0 a push constant): the shared subexpressions of
@@ -1361,7 +1453,8 @@ def derive_pair(target: PairTarget, gpu=None, seconds: float = 60.0, max_cycles:
     parts = {}
     for part, t in zip(PAIR_PARTS, (target.scale, target.bias)):
         log(f"{part} ({t.name}):")
-        parts[part] = derive(t, gpu, seconds, max_cycles, max_complexity, log=lambda s: log("  " + s))
+        parts[part] = derive(t, gpu, seconds, max_cycles, max_complexity, log=lambda s: log("  " + s),
+                             formula_complexity=formula_complexity)
     scale, bias = parts["scale"], parts["bias"]
     architectures = scale["architectures"]
     F0 = sp.Symbol("F0", real=True)

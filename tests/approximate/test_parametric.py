@@ -414,3 +414,23 @@ def test_a_parameter_s_range_is_replaced_as_the_lobe_search_splits_n(tmp_path):
     done = subprocess.run([sys.executable, "-m", "pipeline", "derive", "--target", "schlick", "--range", "1:2"],
                           capture_output=True, text=True, env=cli_env(tmp_path))
     assert done.returncode == 2 and "has no parameter" in done.stderr
+
+
+def test_a_constant_no_line_holds_comes_from_the_symbolic_regression():
+    """1 / (1 + sqrt(a) x): the reciprocal of a line whose slope is sqrt(a), a in [0.1, 4]. Lines in a
+    err above 1e-2; the symbolic regression finds k0 = 1 and k1 = sqrt(a) from the per-value optima
+    (`--formula-complexity`), and the member errs below 1e-6 over the whole box."""
+    target = ParametricTarget("sqrt_slope", "1/(1 + sqrt(a)*x)", (Axis("x", 0.0, 1.0),), Axis("a", 0.1, 4.0), "rel")
+    f = target.numpy()
+    template = next(t for t in parametric.family_templates(target, False, True) if t.name == "reciprocal_polynomial_degree1")
+    fitted = parametric.material_forms([template], target, f, lambda s: None, formula_complexity=4)
+    line = next(m for m in fitted if m.formula == "line")
+    found = next(m for m in fitted if m.formula.startswith("found"))
+    assert line.errors["max_rel_error"] > 1e-2 and found.errors["max_rel_error"] < 1e-6, (line.errors, found.errors)
+    a = sp.Symbol("a", real=True)
+    assert sp.simplify(found.formulas[1] - sp.sqrt(a)).evalf(subs={a: 2.0}) == pytest.approx(0, abs=1e-8)
+    record = parametric._records([found], target)[0]
+    assert float(sp.sympify(record["formulas"]["constants"][1]).subs("a", 2.0)) == pytest.approx(np.sqrt(2.0), rel=1e-6)
+    with pytest.raises(DeriveError, match="no parameter"):
+        from pipeline.approximate import api
+        api.derive("schlick", formula_complexity=3)
