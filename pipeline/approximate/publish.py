@@ -34,7 +34,8 @@ def domain_text(target: dict) -> str:
     """"x in [0, 1]", or each variable's and the parameter's range."""
     if target.get("variables"):
         axes = target["variables"] + ([target["parameter"]] if target.get("parameter") else [])
-        return ", ".join(f"{a['name']} in [{a['lo']:g}, {a['hi']:g}]" for a in axes)
+        return ", ".join(f"{a['name']} in [{a['lo_of'].replace('**', '^') if a.get('lo_of') else format(a['lo'], 'g')}, "
+                         f"{a['hi']:g}]" for a in axes)
     return f"{target['variable']} in [{target['domain'][0]:g}, {target['domain'][1]:g}]"
 
 
@@ -311,10 +312,12 @@ def figure(path: Path, results) -> None:
     for ax in axes.flat:
         for h, label in zip(*ax.get_legend_handles_labels()):
             handles.setdefault(label, h)
-    fig.legend(handles.values(), handles.keys(), loc="lower center", ncol=4, fontsize=9, frameon=False)
+    ncol = 4 if columns > 2 else 2          # (two panels are too narrow for four long labels a row)
+    fig.legend(handles.values(), handles.keys(), loc="lower center", ncol=ncol, fontsize=9, frameon=False)
     fig.suptitle(f"{t['name']} for {domain_text(t)}: error against compiled cycles, "
                  "one panel per vendor", fontsize=11)
-    fig.tight_layout(rect=(0, 0.06, 1, 1))
+    legend_rows = -(-len(handles) // ncol)
+    fig.tight_layout(rect=(0, min(0.3, 0.25 * legend_rows / (3.9 * lines + 0.6)), 1, 1))
     fig.savefig(path, dpi=110)
     plt.close(fig)
 

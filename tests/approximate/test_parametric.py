@@ -355,6 +355,8 @@ def test_cos_n_s_zone_moves_with_n_and_the_spherical_gaussian_errs_its_closed_fo
     sg = target.anchor_expressions()["SG"]
     measured = parametric.measure_box(sg, target, target.numpy())["max_rel_error"]
     assert measured == pytest.approx(np.exp(2 * (np.sqrt(level) - 1)) / level - 1, rel=1e-9)
+    names = [t.name for t in parametric.family_templates(target, False, True)]
+    assert len(names) == 12 and not any("degree3" in n or "degree4" in n for n in names)    # (max_degree 2)
     with pytest.raises(DeriveError, match="lower end below 1"):
         parametric.check(ParametricTarget("bad", "t**n", (Axis("t", 0.5, 1.0, lo_of="2**(1/n)"),),
                                           Axis("n", 2.0, 10.0), "rel"))
