@@ -30,7 +30,8 @@ less than a time. Measured, each in a fresh cache and outputs folder:
   visibility and the environment BRDF cold (target 10 minutes) and with other architectures (BENCH_ONLY=derive: the
   floor and these alone; targets 120 s cold, 30 s kept, the announced time within 2x);
 - `make test` (`python -m pytest -q -n 2 --dist loadfile`) twice, unless BENCH_TESTS=0 (BENCH_ONLY=tests:
-  the floor and `make test` alone): first with an empty folder of compiled XLA programs (a fresh
+  the floor and `make test` alone; BENCH_ONLY=reproduce: the floor, a cold and a warm `pipeline
+  reproduce` alone): first with an empty folder of compiled XLA programs (a fresh
   clone, as CI runs it), then again with the programs the first run compiled (as `make test` keeps
   them between runs);
 - the throughput of each cheap lobe compiled by XLA (evaluations per second over 2^24 values of t in
@@ -150,6 +151,21 @@ def _cold_env(tmp: str, target: str) -> dict:
                 PIPELINE_OUTPUTS_DIR=os.path.join(tmp, "outputs"))
 
 
+def reproduce_rows(py) -> list:
+    """A cold `pipeline reproduce` (empty cache) and a warm one (nothing changed), alone
+    (BENCH_ONLY=reproduce): the two times the README states, the same rows as the whole bench's."""
+    with tempfile.TemporaryDirectory() as tmp:
+        env = dict(os.environ, PIPELINE_CACHE_DIR=os.path.join(tmp, "cache"),
+                   PIPELINE_MACHINE_CODE_CACHE=os.path.join(tmp, "machine_code"),
+                   PIPELINE_OUTPUTS_DIR=os.path.join(tmp, "outputs"), JAX_ENABLE_X64="1", JAX_PLATFORMS="cpu")
+        seconds, out = timed([py, "-c", COUNTED_REPRODUCE], env)
+        compiles = next(s for s in out.splitlines() if s.startswith("XLA compilations"))
+        rows = [("cold reproduce (empty cache)", seconds, 12.0, compiles)]
+        seconds, out = timed([py, "-m", "pipeline", "reproduce"], env)
+        rows.append(("warm reproduce", seconds, 1.2, recomputed(out)))
+    return rows
+
+
 def derive_rows(py) -> list:
     """`pipeline derive` on Schlick's (1 - x)^5 and on acos, three architectures, the default budget:
     cold (empty machine-code and XLA caches; target 120 s) and again with the compiled programs kept
@@ -228,7 +244,7 @@ def main() -> int:
     # BENCH_ONLY=tests: the floor and `make test` alone (the pipeline's timings take ~10 minutes more);
     # BENCH_ONLY=derive: the floor and `pipeline derive` alone; BENCH_ONLY=regress: the floor and
     # `pipeline regress`'s default engine alone.
-    if os.environ.get("BENCH_ONLY") not in ("tests", "derive", "regress"):
+    if os.environ.get("BENCH_ONLY") not in ("tests", "derive", "regress", "reproduce"):
         with tempfile.TemporaryDirectory() as tmp:
             env = dict(os.environ, PIPELINE_CACHE_DIR=os.path.join(tmp, "cache"),
                        PIPELINE_MACHINE_CODE_CACHE=os.path.join(tmp, "machine_code"),
@@ -343,6 +359,8 @@ def main() -> int:
             seconds, _ = timed([py, "-m", "pipeline", "refit", "--config", "configs/paper.toml", "--set",
                                 "derivation.Q=2", "--out", "bad"], env, expect=2)
             rows.append(("bad config (exit 2)", seconds, None, "target < 1 s"))
+    if os.environ.get("BENCH_ONLY") == "reproduce":
+        rows += reproduce_rows(py)
     if os.environ.get("BENCH_ONLY") in (None, "derive"):
         rows += derive_rows(py)
     if os.environ.get("BENCH_ONLY") == "regress":
