@@ -365,7 +365,7 @@ def main() -> int:
         rows += derive_rows(py)
     if os.environ.get("BENCH_ONLY") == "regress":
         rows += regress_rows(py, dict(os.environ, JAX_ENABLE_X64="1", JAX_PLATFORMS="cpu"))
-    if os.environ.get("BENCH_TESTS", "1") != "0" and os.environ.get("BENCH_ONLY") not in ("derive", "regress"):
+    if os.environ.get("BENCH_TESTS", "1") != "0" and os.environ.get("BENCH_ONLY") not in ("derive", "regress", "reproduce"):
         # Twice, on one folder of compiled XLA programs: empty at first (a fresh clone, as CI runs
         # it), then holding the first session's programs (`make test` keeps them between runs).
         with tempfile.TemporaryDirectory() as xla:
@@ -390,10 +390,10 @@ def main() -> int:
         ratio = seconds / floor
         verdict = "" if target is None else f"<= {target:g}x " + ("ok" if ratio <= target else "MISSED")
         print(f"{label:<30} {seconds:8.2f} {ratio:8.2f}  {verdict:>13}  {note}")
-    for label, rows in throughput:
+    for label, measured in throughput:
         print(f"\nlobe throughput, XLA on the {label} (float32, 2^24 values of t; 10^9 evaluations per second: "
               "median [min, max] of 9)")
-        for name, median, low, high in rows:
+        for name, median, low, high in measured:
             print(f"  {name:<20} {median / 1e9:7.3f}  [{low / 1e9:.3f}, {high / 1e9:.3f}]")
     if len(throughput) == 1 and len(devices) == 1:
         print("  (JAX sees no GPU here; on a machine where it does, the same table follows for it)")
