@@ -4,7 +4,8 @@ without the forms' internals; with `verdict_rows`, one row per architecture and 
 numbers are marked fields of these records (`make docs` fills them, a test fails where they differ): a
 run too long for the tests (1 to 4 minutes each), never typed by hand.
 
-`python scripts/measure.py [TARGET ...]` runs the named ones (default all, about 25 minutes here); each
+A record no page reads fails a test (`tests/docs/test_generated.py`): a run added here is also
+marked in a page. `python scripts/measure.py [TARGET ...]` runs the named ones (default all, about 10 minutes here); each
 runs cold (its own derive cache in a temporary folder), its machine code kept in `.cache/machine_code/`.
 """
 
@@ -28,7 +29,6 @@ RUNS = {
     "acos": dict(),
     "smith_ggx_visibility": dict(gpu="rdna3,sm_89,xe_hpg,g610,a740", seconds=10),
     "env_brdf": dict(gpu="rdna3,sm_89", seconds=10),
-    "cos_n": dict(gpu="rdna3,sm_89", seconds=10),
 }
 
 
