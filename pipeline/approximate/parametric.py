@@ -774,9 +774,9 @@ def corrected(line: Fitted, target, f, complexity: int, log) -> Fitted | None:
     each constant's values at the per-value optima searched (`symbolic.search`, FORMULA_OPERATIONS,
     up to `complexity`, least squares); at each complexity level every constant takes its front's
     member at or below it (its line, from `line`, where it has none that holds its values better by
-    RMS), the box's error is measured,
-    and the level of least error is kept where it beats the lines (the formulas' numbers polished
-    together by minimax on the box first, `_polished`). None where no level does."""
+    RMS), the formulas' numbers are polished together by minimax on the box (`_polished`: equal
+    numbers are one), the box's error is measured, and the level of least error is kept where it
+    beats the lines. None where no level does."""
     import sympy as sp
 
     from ..symbolic import grammar, search
