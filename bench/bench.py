@@ -151,16 +151,26 @@ def _cold_env(tmp: str, target: str) -> dict:
                 PIPELINE_OUTPUTS_DIR=os.path.join(tmp, "outputs"))
 
 
+def _run_env(tmp: str) -> dict:
+    """The pipeline's environment with its own empty cache, machine code and outputs under `tmp`."""
+    return dict(os.environ, PIPELINE_CACHE_DIR=os.path.join(tmp, "cache"),
+                PIPELINE_MACHINE_CODE_CACHE=os.path.join(tmp, "machine_code"),
+                PIPELINE_OUTPUTS_DIR=os.path.join(tmp, "outputs"), JAX_ENABLE_X64="1", JAX_PLATFORMS="cpu")
+
+
+def cold_reproduce_row(py, env) -> tuple:
+    """A cold `pipeline reproduce` in `env` (empty cache), with the XLA compilations it triggers."""
+    seconds, out = timed([py, "-c", COUNTED_REPRODUCE], env)
+    compiles = next(s for s in out.splitlines() if s.startswith("XLA compilations"))
+    return ("cold reproduce (empty cache)", seconds, 12.0, compiles)
+
+
 def reproduce_rows(py) -> list:
     """A cold `pipeline reproduce` (empty cache) and a warm one (nothing changed), alone
     (BENCH_ONLY=reproduce): the two times the README states, the same rows as the whole bench's."""
     with tempfile.TemporaryDirectory() as tmp:
-        env = dict(os.environ, PIPELINE_CACHE_DIR=os.path.join(tmp, "cache"),
-                   PIPELINE_MACHINE_CODE_CACHE=os.path.join(tmp, "machine_code"),
-                   PIPELINE_OUTPUTS_DIR=os.path.join(tmp, "outputs"), JAX_ENABLE_X64="1", JAX_PLATFORMS="cpu")
-        seconds, out = timed([py, "-c", COUNTED_REPRODUCE], env)
-        compiles = next(s for s in out.splitlines() if s.startswith("XLA compilations"))
-        rows = [("cold reproduce (empty cache)", seconds, 12.0, compiles)]
+        env = _run_env(tmp)
+        rows = [cold_reproduce_row(py, env)]
         seconds, out = timed([py, "-m", "pipeline", "reproduce"], env)
         rows.append(("warm reproduce", seconds, 1.2, recomputed(out)))
     return rows
@@ -243,16 +253,12 @@ def main() -> int:
     rows = []
     # BENCH_ONLY=tests: the floor and `make test` alone (the pipeline's timings take ~10 minutes more);
     # BENCH_ONLY=derive: the floor and `pipeline derive` alone; BENCH_ONLY=regress: the floor and
-    # `pipeline regress`'s default engine alone.
+    # `pipeline regress`'s default engine alone; BENCH_ONLY=reproduce: a cold and a warm reproduce.
     if os.environ.get("BENCH_ONLY") not in ("tests", "derive", "regress", "reproduce"):
         with tempfile.TemporaryDirectory() as tmp:
-            env = dict(os.environ, PIPELINE_CACHE_DIR=os.path.join(tmp, "cache"),
-                       PIPELINE_MACHINE_CODE_CACHE=os.path.join(tmp, "machine_code"),
-                       PIPELINE_OUTPUTS_DIR=os.path.join(tmp, "outputs"), JAX_ENABLE_X64="1", JAX_PLATFORMS="cpu")
-            seconds, out = timed([py, "-c", COUNTED_REPRODUCE], env)
-            compiles = next(s for s in out.splitlines() if s.startswith("XLA compilations"))
-            rows.append(("cold reproduce (empty cache)", seconds, 12.0, compiles))
-            cold = seconds
+            env = _run_env(tmp)
+            rows.append(cold_reproduce_row(py, env))
+            cold = rows[-1][1]
             # The same cold run as a user starts it without `make`: `.venv/bin/pipeline reproduce` with
             # only PATH and HOME (and its own empty folders) set; the pipeline finds its tools itself.
             clean = {"PATH": os.environ["PATH"], "HOME": os.environ.get("HOME", tmp),

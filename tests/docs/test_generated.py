@@ -110,3 +110,24 @@ def test_every_record_a_page_names_exists_and_every_record_is_named():
     if any(docs.BENCH_BEGIN in page.read_text() for page in docs.prose_pages()):
         named.add("bench")
     assert named == set(docs.measured_records())
+
+
+def test_make_bench_records_its_timed_rows(tmp_path, monkeypatch):
+    """bench.py's record: each timed row under its label with its ratio to the floor and whether it met
+    its target; a later run keeps the rows it did not measure and replaces those it did."""
+    import importlib.util
+    import json
+
+    spec = importlib.util.spec_from_file_location("bench_script", docs.ROOT / "bench" / "bench.py")
+    bench = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(bench)
+    monkeypatch.setattr(bench, "RECORD", tmp_path / "measured" / "bench.json")
+    monkeypatch.setattr(bench, "ROOT", tmp_path)
+    bench.record([("cold reproduce (empty cache)", 30.0, 12.0, "n"), ("warm reproduce", 1.0, 1.2, "w")], 2.0,
+                 [("CPU", [("f_Q2", 6.2e8, 6e8, 6.4e8)])])
+    bench.record([("warm reproduce", 3.0, 1.2, "w")], 2.0, [])
+    rows = json.loads(bench.RECORD.read_text())["rows"]
+    assert set(rows) == {"cold reproduce (empty cache)", "warm reproduce"}
+    assert rows["cold reproduce (empty cache)"]["ratio"] == 15.0 and rows["cold reproduce (empty cache)"]["met"] is False
+    assert rows["warm reproduce"]["seconds"] == 3.0 and rows["warm reproduce"]["met"] is False
+    assert json.loads(bench.RECORD.read_text())["throughput"]["CPU"]["f_Q2"] == 6.2e8
