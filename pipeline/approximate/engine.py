@@ -235,19 +235,10 @@ def _polish(tree, c, target, f, weight) -> np.ndarray:
     def model(c_, s):
         return grammar.evaluate_numpy(tree, c_, s)
 
-    def jacobian(c_, s):
-        columns = []
-        for j in range(c_.size):
-            h = 1e-7 * (abs(c_[j]) + 1e-7)
-            up, down = c_.copy(), c_.copy()
-            up[j] += h
-            down[j] -= h
-            columns.append((model(up, s) - model(down, s)) / (2 * h))
-        return np.stack(columns, axis=1)
-
     if len(c) == 0:
         return np.asarray(c, dtype=float)
-    polished, _ = minimax.slp(model, jacobian, np.asarray(c, dtype=float), f, weight, lo, hi, steps=40, exchanges=2)
+    polished, _ = minimax.slp(model, minimax.numerical_jacobian(model), np.asarray(c, dtype=float), f, weight, lo, hi,
+                              steps=40, exchanges=2)
     return polished
 
 

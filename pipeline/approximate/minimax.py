@@ -13,9 +13,9 @@ error's alternating extrema, until the extrema's levels agree within `LEVELS` (r
 programs (scipy's HiGHS): each step minimizes the largest linearized error within a trust region,
 kept where the true error falls; after it settles, the error's maximum over the whole interval
 (`measure.largest`) joins the points and it goes on (`EXCHANGES` times), so that the fit is
-minimax on the interval, not on the points. Each linear program is written in units of the
-current largest error (HiGHS's tolerances are absolute, about 1e-7: an error of 1e-8 would be
-below them), and the steps end where the program finds no gain with its step inside the trust
+minimax on the interval, not on the points. Each linear program has its step and its error in
+units of the current largest error (HiGHS's tolerances are absolute, about 1e-7: an error of 1e-8
+would be below them; the matrix is left as it is, since scaling it stalls exact fits), and the steps end where the program finds no gain with its step inside the trust
 region (a stationary point of the minimax).
 
 `along(problems, start, own)` fits one form at each value of a parameter in order, each from its
@@ -211,15 +211,15 @@ def along(problems, start, own=None, previous: float | None = None) -> tuple[np.
 
 
 def numerical_jacobian(model):
-    """jacobian(c, x) of `model` by central differences (steps 1e-6 of each constant, at least 1e-9):
+    """jacobian(c, x) of `model` by central differences (steps 1e-7 (|c| + 1e-7) of each constant):
     for forms with no derivative of their own (a grammar form's, a family's in its scaled variable);
-    `slp_points` keeps a step only where the true error falls, so the derivative's rounding (about
-    1e-10 relative) costs steps, not accuracy."""
+    `slp_points` keeps a step only where the true error falls, so the derivative's rounding costs
+    steps, not accuracy."""
     def jacobian(c, x):
         c = np.asarray(c, dtype=np.float64)
         columns = []
         for j in range(c.size):
-            h = 1e-6 * max(abs(c[j]), 1e-3)
+            h = 1e-7 * (abs(c[j]) + 1e-7)
             up, down = c.copy(), c.copy()
             up[j] += h
             down[j] -= h
