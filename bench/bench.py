@@ -194,7 +194,8 @@ def derive_rows(py) -> list:
                 within = 0.5 <= estimate / seconds <= 2.0
                 rows.append((f"derive {target}, {label}", seconds, None,
                              f"{DERIVE_ARCHITECTURES}; target <= {allowed:.0f} s " + ("ok" if seconds <= allowed else "MISSED")
-                             + f"; announced {estimate:.0f} s " + ("(within 2x)" if within else "(MISSED 2x)")))
+                             + f"; announced {estimate:.0f} s " + ("(within 2x)" if within else "(MISSED 2x)"),
+                             dict(announced_seconds=round(estimate, 1))))
         # targets of two variables and a parameter: cold, then with other architectures (only compiled)
         for target in ("smith_ggx_visibility", "env_brdf"):
             env = _cold_env(tmp, target)
@@ -220,7 +221,8 @@ def regress_rows(py, env) -> list:
         rows.append((f"regress {case}", seconds, None,
                      f"peak {peak:.2f} GB, best RMS {best:.3g}; announced {estimate:.0f} s; target <= "
                      f"{allowed:.0f} s, 1.5 GB, within 2x of the announced time"
-                     + (", RMS < 1e-9" if "rational" in case else "") + (" ok" if ok else " MISSED")))
+                     + (", RMS < 1e-9" if "rational" in case else "") + (" ok" if ok else " MISSED"),
+                     dict(peak_gb=round(peak, 3), best_rms=float(f"{best:.4g}"), announced_seconds=estimate)))
     return rows
 
 
@@ -236,9 +238,10 @@ def record(rows, floor: float, throughput) -> None:
                             text=True).stdout.strip()
     when = dict(date=datetime.date.today().isoformat(), commit=commit, cores=os.cpu_count(), floor=round(floor, 2))
     kept = json.loads(RECORD.read_text()) if RECORD.exists() else dict(rows={}, throughput={})
-    for label, seconds, target, note in rows:
+    for label, seconds, target, note, *fields in rows:
         kept["rows"][label] = dict(seconds=round(seconds, 2), ratio=round(seconds / floor, 2), target=target,
-                                   met=None if target is None else seconds / floor <= target, note=note, **when)
+                                   met=None if target is None else seconds / floor <= target, note=note,
+                                   **(fields[0] if fields else {}), **when)
     for label, measured in throughput:
         kept["throughput"][label] = dict({name: round(median, -6) for name, median, _, _ in measured}, **when)
     RECORD.parent.mkdir(parents=True, exist_ok=True)
@@ -306,7 +309,8 @@ def main() -> int:
             sequential = time.perf_counter() - start
             rows.append(("sweep of 8 Q, --only accuracy", sweep_seconds, None,
                          f"8 targeted refits in a row: {sequential:.1f} s; the sweep must not be slower: "
-                         + ("ok" if sweep_seconds <= sequential else "MISSED")))
+                         + ("ok" if sweep_seconds <= sequential else "MISSED"),
+                         dict(sequential_seconds=round(sequential, 2))))
             # The same sweep (8 other Q values) on a cluster started the ordinary way, in another folder
             # and without the pipeline's environment: two daemonic workers under their nannies.
             with open(sweep_file, "w") as f:
@@ -358,7 +362,9 @@ def main() -> int:
                 ok = seconds <= 60 and (peak <= 1.0 or not memory)
                 rows.append((f"regress {case}", seconds, None,
                              f"peak {peak:.2f} GB, best RMS {best:.3g}; pyoperon {o_seconds:.1f} s, {o_peak:.2f} GB, best RMS "
-                             f"{o_best:.3g}; target <= 60 s{memory} " + ("ok" if ok else "MISSED")))
+                             f"{o_best:.3g}; target <= 60 s{memory} " + ("ok" if ok else "MISSED"),
+                             dict(peak_gb=round(peak, 3), best_rms=float(f"{best:.4g}"), operon_seconds=round(o_seconds, 2),
+                                  operon_peak_gb=round(o_peak, 3), operon_best_rms=float(f"{o_best:.4g}"))))
             rows += regress_rows(py, env)
             seconds, _ = timed([py, "-m", "pipeline", "keys"], env)
             rows.append(("pipeline keys", seconds, None, "target < 1 s"))
@@ -392,7 +398,7 @@ def main() -> int:
 
     print(f"import floor ({FLOOR}): {floor:.2f} s\n")
     print(f"{'':<30} {'seconds':>8} {'x floor':>8}  {'target':>8}  note")
-    for label, seconds, target, note in rows:
+    for label, seconds, target, note, *_ in rows:
         ratio = seconds / floor
         verdict = "" if target is None else f"<= {target:g}x " + ("ok" if ratio <= target else "MISSED")
         print(f"{label:<30} {seconds:8.2f} {ratio:8.2f}  {verdict:>13}  {note}")

@@ -114,7 +114,8 @@ def test_every_record_a_page_names_exists_and_every_record_is_named():
 
 def test_make_bench_records_its_timed_rows(tmp_path, monkeypatch):
     """bench.py's record: each timed row under its label with its ratio to the floor and whether it met
-    its target; a later run keeps the rows it did not measure and replaces those it did."""
+    its target, and the row's own measured fields (a peak memory) beside them; a later run keeps the rows
+    it did not measure and replaces those it did."""
     import importlib.util
     import json
 
@@ -125,8 +126,10 @@ def test_make_bench_records_its_timed_rows(tmp_path, monkeypatch):
     monkeypatch.setattr(bench, "ROOT", tmp_path)
     bench.record([("cold reproduce (empty cache)", 30.0, 12.0, "n"), ("warm reproduce", 1.0, 1.2, "w")], 2.0,
                  [("CPU", [("f_Q2", 6.2e8, 6e8, 6.4e8)])])
-    bench.record([("warm reproduce", 3.0, 1.2, "w")], 2.0, [])
+    bench.record([("warm reproduce", 3.0, 1.2, "w"), ("regress a case", 40.0, None, "r", dict(peak_gb=0.61))], 2.0, [])
     rows = json.loads(bench.RECORD.read_text())["rows"]
+    assert rows["regress a case"]["peak_gb"] == 0.61 and rows["regress a case"]["met"] is None
+    del rows["regress a case"]
     assert set(rows) == {"cold reproduce (empty cache)", "warm reproduce"}
     assert rows["cold reproduce (empty cache)"]["ratio"] == 15.0 and rows["cold reproduce (empty cache)"]["met"] is False
     assert rows["warm reproduce"]["seconds"] == 3.0 and rows["warm reproduce"]["met"] is False
