@@ -1,7 +1,8 @@
 """`derive`: the cheapest accurate forms of a target (`targets`), ranked by compiled cycles per GPU
 architecture.
 
-1. Families fitted by minimax directly (`families`).
+1. Families fitted by minimax directly (`families`), and each anchor's own form with its decimal
+   numbers refitted by minimax (`refitted_anchors`: the same operations, so mostly the same cost).
 2. The grammar's forms (`symbolic.grammar`, the ten operations), by the ladder of grammars within
    the budget (`symbolic.ladder`: every form of + - * / as deep as it reaches, then of the ten
    operations and of those the target suggests, by `symbolic.search`, loss max or max-relative on
@@ -242,41 +243,59 @@ def _polish(tree, c, target, f, weight) -> np.ndarray:
     return polished
 
 
+def refitted_anchors(target, f, log) -> list[Form]:
+    """Each anchor's form with its decimal numbers refitted together by minimax over the domain (from
+    their own values, `minimax.slp`), where that lowers its error: the engines' own form at its own
+    cost, with the numbers the exact function asks for. An anchor without decimal numbers has none."""
+    import sympy as sp
+
+    lo, hi = target.domain
+    key = "max_abs_error" if target.metric == "abs" else "max_rel_error"
+    weight = families.weight_of(target, f)
+    symbol = target.symbol()
+    out = []
+    for anchor, expr in zip(target.anchors, target.anchor_expressions().values()):
+        numbers = sorted(expr.atoms(sp.Float), key=sp.default_sort_key)
+        if not numbers:
+            continue
+        q = [sp.Symbol(f"q_{i}", real=True) for i in range(len(numbers))]
+        free = expr.xreplace(dict(zip(numbers, q)))
+        g = sp.lambdify([q, symbol], free, "numpy")
+
+        def model(c, s, g=g):
+            with np.errstate(all="ignore"):
+                return np.broadcast_to(np.asarray(g(c, s), dtype=np.float64), np.shape(s))
+
+        c, _ = minimax.slp(model, minimax.numerical_jacobian(model), [float(v) for v in numbers], f, weight, lo, hi,
+                           steps=40, exchanges=2)
+        refit = Form(f"{anchor.name}_refitted", "found", "anchor_refit",
+                     free.xreplace({qi: sp.Float(float(ci), 17) for qi, ci in zip(q, c)}),
+                     f"{anchor.name}'s form, its numbers refitted by minimax")
+        before, after = _measure(Form(anchor.name, "anchor", "anchor", expr, ""), target, f)[key], \
+            _measure(refit, target, f)[key]
+        if np.isfinite(after) and after < before * (1 - 1e-6):
+            log(f"{anchor.name} refitted: error {before:.3g} -> {after:.3g}")
+            out.append(refit)
+    return out
+
+
 def _measure(form: Form, target, f) -> dict:
     lo, hi = target.domain
     return measure.max_error(numpy_function(form.expression, target.symbol()), f, lo, hi, target.floor)
 
 
 def _compile(forms: list[Form], architectures, log) -> tuple[dict, dict]:
-    """({architecture: {form name: cycles}}, {vendor: why not}) of every form (an exact target whose
-    functions no back end lowers is left out where it fails)."""
-    from ..isa.machine_code import CompilerMissing
+    """({architecture: {form name: cycles}}, {what: why not}) of every form, by `derive`'s one
+    costing (`isa.machine_code.form_cycles`: a shader reading t, net of the shader writing it); the
+    exact target per vendor, left out where a vendor's lowering lacks one of its functions."""
     from ..isa.architectures import ARCHITECTURES, vendor_groups
-    from ..symbolic.gpu_costs import expression_cycles
+    from ..isa.machine_code import form_cycles
 
-    cycles: dict = {a: {} for a in architectures}
-    missing: dict = {}
-    plain = {m.name: glsl(m.expression, "t") for m in forms if m.kind != "exact"}
-    if plain:
-        try:
-            found = expression_cycles(plain, architectures)
-        except CompilerMissing:
-            raise
-        except Exception:           # one form a back end cannot lower: each alone, that one left out
-            found = {}
-            for name, text in plain.items():
-                try:
-                    for a, values in expression_cycles({name: text}, architectures).items():
-                        found.setdefault(a, {}).update(values)
-                except CompilerMissing:
-                    raise
-                except Exception as e:
-                    missing[name] = str(e).splitlines()[0][:200]
-        for a, values in found.items():
-            cycles[a].update(values)
-        for a in architectures:
-            if a not in found:
-                missing[ARCHITECTURES[a].vendor] = "its compiler did not run"
+    plain = {m.name: (f"return {glsl(m.expression, 't')};", ["t"]) for m in forms if m.kind != "exact"}
+    cycles, missing, _ = form_cycles(plain, ["t"], architectures) if plain else ({a: {} for a in architectures}, {}, {})
+    for a in architectures:
+        if plain and not cycles[a]:
+            missing[ARCHITECTURES[a].vendor] = "its compiler did not run"
     for m in (m for m in forms if m.kind == "exact"):
         try:
             text = glsl(m.expression, "t")
@@ -285,10 +304,14 @@ def _compile(forms: list[Form], architectures, log) -> tuple[dict, dict]:
             continue
         for vendor, names in vendor_groups(list(architectures)):
             try:
-                for a, values in expression_cycles({m.name: text}, names).items():
-                    cycles[a].update(values)
-            except (CompilerMissing, Exception) as e:   # (an operation the vendor's lowering lacks)
+                found, failed, _ = form_cycles({m.name: (f"return {text};", ["t"])}, ["t"], names)
+            except Exception as e:      # (no back end of this vendor runs here)
                 missing[f"exact on {vendor}"] = str(e).splitlines()[0][:200]
+                continue
+            if failed:                  # (an operation the vendor's lowering lacks)
+                missing[f"exact on {vendor}"] = next(iter(failed.values()))
+            for a, values in found.items():
+                cycles[a].update(values)
     return cycles, missing
 
 
@@ -343,6 +366,7 @@ def derive(target, gpu=None, seconds: float = DEFAULT_SECONDS, max_cycles: float
         f"{len(architectures)} architecture{'s' * (len(architectures) > 1)}; about {estimate:.0f} s")
 
     found, trees, fitted, losses, coverage = _searched(target, f, seconds, max_complexity, log)
+    found += refitted_anchors(target, f, log)
     log(f"cost tables: {CALIBRATION} forms compiled per architecture")
     tables = gpu_costs.operation_costs(CALIBRATION, architectures)["tables"]
     chosen = _select(trees, losses, tables)

@@ -26,9 +26,12 @@ pixel. Its error is the largest over the whole box, variables and parameter
    single-term formula's factor in the numerator (`_scaled`: the same function, cheaper on NVIDIA).
    With `formula_complexity` > 0, the templates on the per-value front also take formulas the
    symbolic regression finds from each constant's values (`corrected`, as the paper found coef(n)).
-4. Per pixel: the grammar's forms in the variables and the parameter together, by the ladder.
+4. Per pixel: the grammar's forms in the variables and the parameter together, by the ladder; and
+   each anchor's own form with its decimal numbers refitted by minimax on the box
+   (`refitted_anchors`: the same operations, so mostly the same cost).
 5. Costs: every form compiled for each architecture, a fragment shader with one input per variable
-   and the parameter (`shader`): `parameter_per = "material"`, the constants push constants that
+   and the parameter (`isa.machine_code.form_cycles`, net of the shader writing the inputs the form
+   reads): `parameter_per = "material"`, the constants push constants that
    the CPU computes once per material from the formulas; `pixel`, the formulas compiled into the
    shader with the parameter per pixel (textured roughness). The fronts are read off per
    architecture and per `parameter_per`; the anchors, which engines evaluate with the parameter per
@@ -45,6 +48,7 @@ import time
 
 import numpy as np
 
+from ..isa.shaders import FORM_CONSTANTS
 from . import minimax
 from .forms import Form, gpu_form
 from .targets import METRICS, Anchor, DeriveError, paper_lobes, parse
@@ -60,6 +64,7 @@ MAX_AXES = 3                # a shader's inputs, variables and the parameter (wr
 MAX_CONSTANTS = 8           # constants of a template (push constants of a material form)
 MAX_FORMULA_COMPLEXITY = 9  # of a constant's correction found by the symbolic regression
 PUSH_CONSTANTS = 2 * MAX_CONSTANTS  # the shaders' push constants c0, c1, ... (a pair's two forms), and F0
+assert PUSH_CONSTANTS <= FORM_CONSTANTS, "isa.shaders.form_shader's push constants hold a pair's"
 SYMMETRY = 1e-12            # f(x, y) and f(y, x) agree to this (relative) on the grid: symmetric
 MEASURE_GRID = dict(cells=24, chebyshev=13)     # the box's measuring grid per axis (`brdf.largest`)
 CHECK_POINTS = 33           # per axis: the grid on which a target must be finite
@@ -663,24 +668,37 @@ def minimax_on_box(model, jacobian, a0, target, f, values) -> tuple[np.ndarray, 
     """(the constants, the error over the whole box) of `model(a, points)` (the points: the axes'
     columns) fitted by minimax on the variables' mesh at the parameter's `values`, the box's worst point
     added and fitted again (`EXCHANGES` times): the polish of every formula's constants together."""
+    return minimax_on_box_parts([(model, jacobian, target, f)], a0, values)
+
+
+def minimax_on_box_parts(parts, a0, values) -> tuple[np.ndarray, float]:
+    """`minimax_on_box` for several outputs sharing their constants (a pair's A and B): `parts` are
+    (model, jacobian, target, f) on one box; the error is the largest of the parts', each part's
+    worst point added to every part's points."""
     from ..optics import brdf
 
+    target = parts[0][2]
     points = mesh(target, AXIS_POINTS, values)
-    weight = weight_of(target)
     lo, hi = _unit_box(target)
     a = np.asarray(a0, dtype=np.float64)
     best = None
     for _ in range(EXCHANGES + 1):
-        y = f(*points)
-        a, on_points = minimax.slp_points(model, jacobian, a, y, weight(y), points)
-        e, where = brdf.largest_error(lambda *s: model(a, _place(target, s)), lambda *s: f(*_place(target, s)), lo, hi,
-                                      relative=target.metric == "rel", **MEASURE_GRID)
-        where = _place(target, [np.atleast_1d(w) for w in where])
+        ys = [part_f(*points) for _, _, _, part_f in parts]
+        y = np.concatenate(ys)
+        weight = np.concatenate([weight_of(t)(v) for (_, _, t, _), v in zip(parts, ys)])
+        model = lambda c, x: np.concatenate([m(c, x) for m, *_ in parts])       # noqa: E731
+        jacobian = lambda c, x: np.concatenate([j(c, x) for _, j, *_ in parts])  # noqa: E731
+        a, on_points = minimax.slp_points(model, jacobian, a, y, weight, points)
+        measured = [brdf.largest_error(lambda *s, m=m: m(a, _place(t, s)), lambda *s, t=t, g=g: g(*_place(t, s)), lo, hi,
+                                       relative=t.metric == "rel", **MEASURE_GRID) for m, _, t, g in parts]
+        e = max(err for err, _ in measured)
         if best is None or e < best[1]:
             best = (a.copy(), e)
         if not np.isfinite(e) or e <= on_points * (1 + 1e-9):
             break
-        points = [np.r_[p, w] for p, w in zip(points, where)]
+        for _, where in measured:
+            where = _place(target, [np.atleast_1d(w) for w in where])
+            points = [np.r_[p, w] for p, w in zip(points, where)]
     return best
 
 
@@ -828,30 +846,36 @@ def _polished(expression, target, f, values):
     return free.xreplace(dict(zip(q, polished.values()))), polished
 
 
+def refitted_anchors(target: ParametricTarget, f, log) -> tuple[list[dict], dict]:
+    """Each anchor's form with its decimal numbers refitted together by minimax on the box
+    (`_polished`, from their own values, at the parameter's grid and halfway values), as a pixel form,
+    where that lowers its error: the engines' own form at its own cost, with the numbers the exact
+    function asks for. An anchor without decimal numbers has none. Returns (the forms as `_searched`'s
+    records, the coverage)."""
+    import sympy as sp
+
+    values = None if target.parameter is None else np.sort(np.concatenate(parameter_values(target.parameter)))
+    key = _error_key(target)
+    out = []
+    for anchor, expr in zip(target.anchors, target.anchor_expressions().values()):
+        if not expr.atoms(sp.Float):
+            continue
+        before = measure_box(expr, target, f)[key]
+        refit, _ = _polished(expr, target, f, values)
+        errors = measure_box(refit, target, f)
+        if np.isfinite(errors[key]) and errors[key] < before * (1 - 1e-6):
+            log(f"{anchor.name} refitted: error {before:.3g} -> {errors[key]:.3g}")
+            out.append(dict(name=f"{anchor.name}_refitted", family="anchor_refit", expression=refit,
+                            source=f"{anchor.name}'s form, its numbers refitted by minimax on the box", per="pixel",
+                            errors=errors))
+    return out, dict(refitted_anchors=[r["name"] for r in out])
+
+
 def _error_key(target) -> str:
     return "max_abs_error" if target.metric == "abs" else "max_rel_error"
 
 
 # ---- costs --------------------------------------------------------------------------------------
-
-def shader(names, used, body: str | None) -> str:
-    """A fragment shader with one input per name of `names`, PUSH_CONSTANTS push constants c0, c1, ...
-    and F0 (the material's reflectance at normal incidence: a pair's output), writing the form of the inputs `used` (`body`, a GLSL expression) and every input to its
-    output; body None: the wrapper, writing the first input in the form's place. Every shader writes
-    the same inputs, so that a form's cycles net of the wrapper count neither their interpolation
-    nor their export (and the back ends that read the output's first value read the form)."""
-    inputs = "\n".join(f"layout(location = {i}) in float {n}_in;" for i, n in enumerate(names))
-    written = ", ".join([f"{n}_in" for n in names] + ["0.0"] * (3 - len(names)))
-    if body is None:
-        return (f"#version 450\n{inputs}\nlayout(location = 0) out vec4 color;\n"
-                f"void main() {{ color = vec4({names[0]}_in, {written}); }}\n")
-    constants = " ".join(f"float c{i};" for i in range(PUSH_CONSTANTS)) + " float F0;"
-    arguments = ", ".join(f"float {n}" for n in used)
-    return (f"#version 450\n{inputs}\nlayout(location = 0) out vec4 color;\n"
-            f"layout(push_constant) uniform Material {{ {constants} }};\n"
-            f"float form({arguments})\n{{\n    return {body};\n}}\n"
-            f"void main() {{ color = vec4(form({', '.join(f'{n}_in' for n in used)}), {written}); }}\n")
-
 
 def glsl_text(expr) -> str:
     """A form as GLSL in its symbols' names (forms' printer: exp2, squarings, inversesqrt)."""
@@ -862,44 +886,24 @@ def glsl_text(expr) -> str:
 
 def compile_forms(forms: dict, target: ParametricTarget, architectures) -> tuple[dict, dict]:
     """({architecture: {name: cycles}}, {what: why not}) of `forms` ({name: (sympy, parameter_per)}),
-    each net of the wrapper returning the inputs it reads."""
-    from ..isa.machine_code import CompilerMissing, compile_shaders
+    by `isa.machine_code.form_cycles`: a material form reads the variables, a pixel form the parameter
+    too (each only those its expression holds)."""
+    from ..isa.machine_code import form_cycles
 
     names = list(target.names)
     variables = names[:len(target.variables)]
-    sources, wrappers, missing = {"wrapper": shader(names, names, None)}, {}, {}
-    for i, (name, (expr, per)) in enumerate(forms.items()):
+    bodies, missing = {}, {}
+    for name, (expr, per) in forms.items():
         try:
             text = glsl_text(expr)
         except Exception as e:          # a function the GLSL printer does not know
             missing[name] = f"no GLSL form ({type(e).__name__})"
             continue
-        key = f"form_{i:03d}"
-        sources[key] = shader(names, names if per == "pixel" else variables, text)
-        wrappers[key] = "wrapper"
-    keys = {f"form_{i:03d}": name for i, name in enumerate(forms)}
-    cycles: dict = {a: {} for a in architectures}
-
-    def add(chosen):
-        compiled = compile_shaders({k: sources[k] for k in chosen + ["wrapper"]}, wrappers, architectures)
-        missing.update(compiled["missing"])
-        for a, shaders in compiled["rows"].items():
-            cycles[a].update({keys[k]: max(round(row["cycles"], 2), 0.0) for k, row in shaders.items() if k in keys})
-
-    chosen = [k for k in sources if k in keys]
-    try:
-        add(chosen)
-    except CompilerMissing:
-        raise
-    except Exception:               # one form a back end cannot lower: each alone, that one left out
-        for k in chosen:
-            try:
-                add([k])
-            except CompilerMissing:
-                raise
-            except Exception as e:
-                missing[keys[k]] = str(e).splitlines()[0][:200]
-    return cycles, missing
+        read = {s.name for s in expr.free_symbols}
+        used = [n for n in (names if per == "pixel" else variables) if n in read] or names[:1]
+        bodies[name] = (f"return {text};", used)
+    cycles, more, _ = form_cycles(bodies, names, architectures)
+    return cycles, missing | more
 
 
 # ---- the derivation -----------------------------------------------------------------------------
@@ -1199,9 +1203,12 @@ def _searched(target, f, seconds: float, max_complexity: int, log, formula_compl
                                                                        formula_complexity),
                                                log, "grammar's search")
     found += grammar_found
-    for part in ("families", "grammar"):
+    refits, coverage["anchors"] = _kept([repr(target), "anchors"], lambda: refitted_anchors(target, f, log), log,
+                                        "anchors' refits")
+    found += refits
+    for part in ("families", "grammar", "anchors"):
         coverage.update({k: v for k, v in coverage.get(part, {}).items() if k != "kept"})
-    coverage["kept"] = all(coverage.get(part, {}).get("kept", True) for part in ("families", "grammar"))
+    coverage["kept"] = all(coverage.get(part, {}).get("kept", True) for part in ("families", "grammar", "anchors"))
     return found, coverage
 
 
@@ -1444,6 +1451,40 @@ def _renumbered(expr, offset: int):
     return expr.xreplace({s: sp.Symbol(f"c{int(s.name[1:]) + offset}", real=True) for s in symbols})
 
 
+def refitted_pair_anchors(target: PairTarget, log) -> list[dict]:
+    """Each anchor's two parts with their decimal numbers refitted together by minimax on the box
+    (`minimax_on_box_parts`: a number both parts hold stays one number, as the anchor shares it), where
+    that lowers the pair's error: [{name, scale, bias (sympy), errors: {scale, bias}}]."""
+    import sympy as sp
+
+    scale, bias = target.scale, target.bias
+    key = _error_key(scale)
+    values = np.sort(np.concatenate(parameter_values(scale.parameter)))
+    fs = (scale.numpy(), bias.numpy())
+    b_anchors = bias.anchor_expressions()
+    out = []
+    for name, a_expr in scale.anchor_expressions().items():
+        if name not in b_anchors:
+            continue
+        exprs = (a_expr, b_anchors[name])
+        numbers = sorted(exprs[0].atoms(sp.Float) | exprs[1].atoms(sp.Float), key=sp.default_sort_key)
+        if not numbers:
+            continue
+        q = [sp.Symbol(f"q_{i}", real=True) for i in range(len(numbers))]
+        free = [e.xreplace(dict(zip(numbers, q))) for e in exprs]
+        models = [Model(e, t.symbols(), q) for e, t in zip(free, (scale, bias))]
+        a, _ = minimax_on_box_parts([(m, m.jacobian, t, g) for m, t, g in zip(models, (scale, bias), fs)],
+                                    [float(v) for v in numbers], values)
+        refit = [e.xreplace({qi: sp.Float(float(ai), 17) for qi, ai in zip(q, a)}) for e in free]
+        before = max(measure_box(e, t, g)[key] for e, t, g in zip(exprs, (scale, bias), fs))
+        errors = {part: measure_box(e, t, g) for part, e, t, g in zip(PAIR_PARTS, refit, (scale, bias), fs)}
+        after = max(e[key] for e in errors.values())
+        if np.isfinite(after) and after < before * (1 - 1e-6):
+            log(f"{name} refitted (both parts together): error {before:.3g} -> {after:.3g}")
+            out.append(dict(name=f"{name}_refitted", scale=refit[0], bias=refit[1], errors=errors))
+    return out
+
+
 def derive_pair(target: PairTarget, gpu=None, seconds: float = 60.0, max_cycles: float | None = None,
                 max_complexity: int = 12, log=print, formula_complexity: int = 0) -> dict:
     """Each of the pair's targets derived (`derive`, its budget `seconds` each), then per architecture
@@ -1493,6 +1534,17 @@ def derive_pair(target: PairTarget, gpu=None, seconds: float = 60.0, max_cycles:
     for anchor in target.scale.anchors:
         if anchor.name in bias["members"]:
             pair(anchor.name, anchor.name, "pixel", "anchor")
+    for r in refitted_pair_anchors(target, log):
+        name, expr = r["name"], F0 * r["scale"] + r["bias"]
+        forms[name] = Form(name, "found", "anchor_refit", expr,
+                           f"{name.removesuffix('_refitted')}'s A and B, their numbers refitted together by minimax")
+        per_of[name] = (expr, "pixel")
+        ea, eb = r["errors"]["scale"], r["errors"]["bias"]
+        errors[name] = {key: max(ea[key], eb[key]) for key in ("max_abs_error", "max_rel_error")} | {
+            f"{key}_{part}": e[key] for key in ("max_abs_error", "max_rel_error") for part, e in (("scale", ea), ("bias", eb))}
+        members[name] = dict(kind="found", family="anchor_refit", source=forms[name].source, converged=True,
+                             expression=f"A = {sp.sstr(sp.N(r['scale'], 9))}; B = {sp.sstr(sp.N(r['bias'], 9))}",
+                             **errors[name], parameter_per="pixel", constants=[], parts=[])
     log(f"pairs: {len(forms)} compiled for {len(architectures)} architectures (F0 A + B)")
     cycles, missing = compile_forms(per_of, target.scale, architectures)
     constant = max(scale["constant_error"], bias["constant_error"])

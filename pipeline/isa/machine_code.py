@@ -27,8 +27,8 @@ from ..engine import paths, toolchains
 from . import adreno, intel, mali, nvidia, radv
 from .architectures import (ARCHITECTURES, BY_CHIP, VENDORS, Architecture, CompilerMissing, named,  # noqa: F401
                             vendor_groups)
-from .shaders import (NDF_BODIES, NDF_PER_PIXEL, PER_PIXEL, UNIFORM, WRAPPER_PER_PIXEL,  # noqa: F401
-                      WRAPPER_UNIFORM, glsl_expression, shader_sources)
+from .shaders import (FORM_PUSH, NDF_BODIES, NDF_PER_PIXEL, PER_PIXEL, UNIFORM, WRAPPER_PER_PIXEL,  # noqa: F401
+                      WRAPPER_UNIFORM, form_shader, glsl_expression, shader_sources)
 
 BACKENDS = {"radv": radv, "nvidia": nvidia, "intel": intel, "adreno": adreno, "mali": mali}
 ALL = tuple(ARCHITECTURES)
@@ -141,6 +141,53 @@ def compile_shaders(sources: dict[str, str], wrappers: dict[str, str], architect
     if not rows:
         raise CompilerMissing("; ".join(f"{VENDORS[v]}: {why}" for v, why in missing.items()))
     return dict(rows=rows, devices=devices, missing=missing)
+
+
+def form_sources(bodies: dict, names) -> tuple[dict, dict, dict]:
+    """(sources, wrappers, {source key: form name}) of `form_cycles`'s shaders."""
+    sources, wrappers, keys = {}, {}, {}
+    for i, (name, (body, used)) in enumerate(bodies.items()):
+        wrapper = "wrapper_" + "_".join(used)
+        sources.setdefault(wrapper, form_shader(names, used, None))
+        key = f"form_{i:03d}"
+        sources[key], wrappers[key], keys[key] = form_shader(names, used, body), wrapper, name
+    return sources, wrappers, keys
+
+
+def form_cycles(bodies: dict, names, architectures=ALL) -> tuple[dict, dict, dict]:
+    """({architecture: {name: cycles}}, {what: why not}, {architecture: what compiled it}) of `bodies`
+    ({name: (GLSL statements returning a form, the inputs of `names` it reads)}), each in
+    `shaders.form_shader` (push constants c0 ... c15 and F0), net of the wrapper of the inputs it
+    reads, clipped at 0. A form a back end cannot lower is left out (named in the second dict, as is a
+    vendor whose back end does not run); raises CompilerMissing where none runs. The one costing of
+    every form: `pipeline derive`'s, the lobe search's families and the cost tables' forms."""
+    sources, wrappers, keys = form_sources(bodies, names)
+    cycles: dict = {a: {} for a in architectures}
+    missing: dict = {}
+    devices: dict = {}
+
+    def add(chosen):
+        wanted = chosen + sorted({wrappers[k] for k in chosen})
+        compiled = compile_shaders({k: sources[k] for k in wanted}, wrappers, architectures)
+        missing.update(compiled["missing"])
+        devices.update(compiled["devices"])
+        for a, shaders in compiled["rows"].items():
+            cycles[a].update({keys[k]: max(round(row["cycles"], 2), 0.0) for k, row in shaders.items() if k in keys})
+
+    chosen = list(keys)
+    try:
+        add(chosen)
+    except CompilerMissing:
+        raise
+    except Exception:               # one form a back end cannot lower: each alone, that one left out
+        for k in chosen:
+            try:
+                add([k])
+            except CompilerMissing:
+                raise
+            except Exception as e:
+                missing[keys[k]] = str(e).splitlines()[0][:200]
+    return cycles, missing, devices
 
 
 def costs(p, powers=(2,), architectures=ALL, registry_shaders: bool = True) -> dict:

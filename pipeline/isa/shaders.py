@@ -58,6 +58,30 @@ void main() { color = vec4(t_in, n_in, 0.0, 0.0); }
 """
 
 
+FORM_CONSTANTS = 16         # a form's push constants c0 ... c15 (a pair's two forms of up to 8 each) ...
+FORM_PUSH = " ".join(f"float c{i};" for i in range(FORM_CONSTANTS)) + " float F0;"   # ... and F0
+
+
+def form_shader(names, used, body: str | None, push: str = FORM_PUSH) -> str:
+    """A fragment shader with one input per name of `names` (location i; those a form does not read are
+    never interpolated), the push constants `push` (a block's members, as "float c0; float c1;"), and a
+    function of the inputs `used` whose GLSL statements are `body`, written to all four components of
+    the output as the lobes' shaders write theirs (`UNIFORM`, `PER_PIXEL`). body None: the wrapper,
+    which computes nothing and writes the inputs `used` (one of them to all four components), as
+    `WRAPPER_UNIFORM` and `WRAPPER_PER_PIXEL` do. A form's cycles are net of the wrapper of the same
+    inputs: their interpolation does not count, the form's arithmetic does. The one shader of every
+    derived form and every lobe family's fit."""
+    inputs = "\n".join(f"layout(location = {i}) in float {n}_in;" for i, n in enumerate(names))
+    head = f"#version 450\n{inputs}\nlayout(location = 0) out vec4 color;\n"
+    if body is None:
+        written = f"{used[0]}_in" if len(used) == 1 else ", ".join([f"{n}_in" for n in used] + ["0.0"] * (4 - len(used)))
+        return head + f"void main() {{ color = vec4({written}); }}\n"
+    block = f"layout(push_constant) uniform Material {{ {push} }};\n" if push else ""
+    arguments = ", ".join(f"float {n}" for n in used)
+    return (head + block + f"float form({arguments})\n{{\n    {body}\n}}\n"
+            f"void main() {{ color = vec4(form({', '.join(f'{n}_in' for n in used)})); }}\n")
+
+
 def glsl_expression(expr) -> str:
     """A sympy expression in n as GLSL, integer powers written as products (as a shader author
     writes them) and pi as a number."""

@@ -40,6 +40,7 @@ says why there are no cycles (no fronts).
 from __future__ import annotations
 
 import functools
+import re
 
 from ..optics.numerics import jax
 import jax.numpy as jnp
@@ -54,13 +55,8 @@ from ..optics.extrema import error_extrema
 from ..optics.roots import SolverSettings
 from .common import n_range, require_converged
 
-# The lobe shader of `isa.machine_code` with this search's uniforms: a family's parameters A, B, C;
-# a grammar form's n and constants (written in w = n (1 - t), its constants of order 1 for every n:
-# one multiply-add more than a form in t).
-MATERIAL = "float n; float k; float rate;"
-assert MATERIAL in machine_code.UNIFORM, "the lobe shader's uniform block, which these shaders replace"
-SHADER = machine_code.UNIFORM.replace(MATERIAL, "float A; float B; float C;")
-GRAMMAR_SHADER = machine_code.UNIFORM.replace(MATERIAL, "float n; float c[8];")
+# The families' and grammar forms' shaders are `derive`'s (`compiled_cycles`): a grammar form is
+# written in w = n (1 - t), its constants of order 1 for every n (one multiply-add more than a form in t).
 BLOCK = 512        # exponents per exact measurement call (one compiled program)
 LINE_ENOUGH = 1.1  # a line is enough where its d is at most this times the per-n optimum's
 FORMULA_OPERATIONS = "+,-,*,/,log,sqrt"     # of a parameter's correction in n (per material: any is free)
@@ -273,23 +269,25 @@ def formula_text(names, slopes, intercepts, corrections) -> dict[str, str]:
 def compiled_cycles(families, grammar=()) -> dict:
     """{architecture: {family or grammar form: cycles net of the shader returning t}} of each
     family's shader and each grammar form's (its text in w = n (1 - t)), compiled for every
-    architecture whose compiler runs here (parameters uniforms), or {"reason": why not}."""
+    architecture whose compiler runs here by `derive`'s costing (`isa.machine_code.form_cycles`:
+    the parameters push constants, A, B, C as c0, c1, c2; a grammar form's constants c0 ... and n after
+    them), or {"reason": why not}."""
+    from ..approximate import parametric
     from ..symbolic import grammar as grammar_
-    sources = {"wrapper": SHADER.format(body="return t;")}
-    names = list(families) + list(grammar)
-    sources.update({f"family_{i:02d}": SHADER.format(body=lobe_families.FAMILIES[name].glsl)
-                    for i, name in enumerate(families)})
-    sources.update({f"family_{len(families) + i:02d}": GRAMMAR_SHADER.format(
-        body="float w = n - n * t;\n    return "
-             + grammar_.glsl(grammar_.parse(text), [], variable="w", uniforms="c") + ";")
-        for i, text in enumerate(grammar)})
+
+    bodies = {name: (re.sub(r"\b[ABC]\b", lambda m: f"c{'ABC'.index(m.group(0))}", lobe_families.FAMILIES[name].glsl),
+                     ["t"]) for name in families}
+    n_at = parametric.MAX_CONSTANTS          # (after the most constants a form has)
+    for text in grammar:
+        form = grammar_.glsl(grammar_.parse(text), [], variable="w", uniforms="c")
+        bodies[text] = (f"float w = c{n_at} - c{n_at} * t;\n    return "
+                        + re.sub(r"\bc\[(\d+)\]", r"c\1", form) + ";", ["t"])
     try:
-        compiled = machine_code.compile_shaders(sources, dict.fromkeys(sources, "wrapper"))
+        cycles, _, devices = machine_code.form_cycles(bodies, ["t"])
     except machine_code.CompilerMissing as e:
         return dict(available=False, reason=str(e), cycles={}, devices={})
-    cycles = {architecture: {name: round(rows[f"family_{i:02d}"]["cycles"], 1) for i, name in enumerate(names)}
-              for architecture, rows in compiled["rows"].items()}
-    return dict(available=True, reason="", cycles=cycles, devices=compiled["devices"])
+    cycles = {a: {name: round(c, 1) for name, c in by.items()} for a, by in cycles.items() if by}
+    return dict(available=True, reason="", cycles=cycles, devices=devices)
 
 
 @toolchains.uses(*toolchains.MACHINE_CODE)

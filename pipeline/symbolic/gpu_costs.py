@@ -7,7 +7,7 @@ A form's cost is what its architecture's compiler makes of it: a fragment shader
 in t (the interpolated input; its constants written as numbers, as a shader specialized to one
 material has them), its cycles by the back end's cost model (ACO's cycles per wave on AMD, the
 throughput model per warp on NVIDIA, and so on: `isa.machine_code.models_text`), net of the shader returning t
-(`isa.machine_code.compile_shaders`). The table gives each operation a cost such that a form's
+(`isa.machine_code.form_cycles`, the one costing of every form). The table gives each operation a cost such that a form's
 cost is about the sum of its operations' costs: fitted by non-negative least squares to the
 compiled cycles of `CALIBRATION` forms drawn from every form of the grammar's ten operations
 (`OPERATIONS`: what a lobe is made of) up to complexity 7 (random constants, a fixed seed), a
@@ -22,11 +22,12 @@ the tables predict and the compiled cycles of a form remain the measure.
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 
 import numpy as np
 
-from ..isa.machine_code import ALL, ARCHITECTURES, UNIFORM, compile_shaders
+from ..isa.machine_code import ALL, ARCHITECTURES, form_cycles, form_sources
 from . import grammar
 
 CALIBRATION = 400           # forms compiled to fit the tables (a quarter held out)
@@ -35,25 +36,21 @@ CALIBRATION_COMPLEXITY = 7
 SEED = 0
 
 
-# A form whose constants are per-material uniforms (`grammar.glsl(..., uniforms="c")`).
-UNIFORM_CONSTANTS = UNIFORM.replace("float n; float k; float rate;", "float c[{count}];")
 MAX_CONSTANTS = 8
 
 
-def _sources(expressions: dict[str, str], template: str) -> dict[str, str]:
-    def shader(body):
-        return template.format(body=body, count=MAX_CONSTANTS)
-    sources = {"expression_none": shader("return t;")}
-    sources.update({f"expression_{i:03d}": shader(f"return {text};") for i, text in enumerate(expressions.values())})
-    return sources
+def _bodies(expressions: dict[str, str]) -> dict:
+    """`form_cycles`' bodies of GLSL expressions in t (a per-material constant c[i] read as the push
+    constant c<i>)."""
+    return {name: ("return " + re.sub(r"\bc\[(\d+)\]", r"c\1", text) + ";", ["t"]) for name, text in expressions.items()}
 
 
-def not_kept(expressions: dict[str, str], architectures=ALL, template: str = UNIFORM) -> float:
+def not_kept(expressions: dict[str, str], architectures=ALL) -> float:
     """The share of the shaders `expression_cycles` would compile that no run has kept (0 to 1), over
     the architectures (for the time a command announces)."""
     from ..isa.machine_code import _kept_file
 
-    sources = _sources(expressions, template).values()
+    sources = form_sources(_bodies(expressions), ["t"])[0].values()
     chosen = [ARCHITECTURES[a] for a in architectures]
     missing = sum(not _kept_file(a.backend, a.chip, source).is_file() for a in chosen for source in sources)
     return missing / max(1, len(chosen) * len(sources))
@@ -69,18 +66,17 @@ def calibration_expressions(count: int = CALIBRATION, uniforms: bool = False) ->
     return chosen, glsl
 
 
-def expression_cycles(expressions: dict[str, str], architectures=ALL,
-                      template: str = UNIFORM) -> dict[str, dict[str, float]]:
-    """{architecture: {name: cycles}} of each GLSL expression in t (a fragment shader returning it),
-    net of the shader returning t, on each architecture whose compiler runs here; 0 for an
-    expression without t (it skips the interpolation of t, which a lobe computes anyway). Raises
-    CompilerMissing where none runs."""
-    sources = _sources(expressions, template)
-    names = list(expressions)
-    compiled = compile_shaders(sources, dict.fromkeys(sources, "expression_none"), architectures)
-    return {architecture: {name: max(round(shaders[f"expression_{i:03d}"]["cycles"], 2), 0.0)
-                           for i, name in enumerate(names)}
-            for architecture, shaders in compiled["rows"].items()}
+def expression_cycles(expressions: dict[str, str], architectures=ALL) -> dict[str, dict[str, float]]:
+    """{architecture: {name: cycles}} of each GLSL expression in t (its per-material constants c[i],
+    if any, push constants), by the one costing of every form (`isa.machine_code.form_cycles`: a
+    fragment shader returning it, net of the shader returning t), on each architecture whose
+    compiler runs here. Raises CompilerMissing where none runs, and the error of a form a back end
+    cannot lower (a table is fitted to every form or to none)."""
+    cycles, missing, _ = form_cycles(_bodies(expressions), ["t"], architectures)
+    failed = [name for name in expressions if name in missing]
+    if failed:
+        raise RuntimeError(f"{failed[0]}: {missing[failed[0]]}")
+    return {a: by for a, by in cycles.items() if by}
 
 
 def operation_counts(e) -> list[int]:
@@ -107,7 +103,7 @@ def operation_costs(count: int = CALIBRATION, architectures=ALL, uniforms: bool 
     from scipy.optimize import nnls
 
     chosen, glsl = calibration_expressions(count, uniforms)
-    measured = expression_cycles(glsl, architectures, UNIFORM_CONSTANTS if uniforms else UNIFORM)
+    measured = expression_cycles(glsl, architectures)
     A = np.array([operation_counts(e) for e in chosen], dtype=float)
     fit = slice(0, 3 * len(chosen) // 4)
     held = slice(3 * len(chosen) // 4, len(chosen))

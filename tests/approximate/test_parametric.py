@@ -37,6 +37,23 @@ PLANTED = ParametricTarget("planted", "1/((0.5 + 1.5*a)*(x + y) + (2 - a)*x*y)",
                            Axis("a", 0.0, 1.0), "rel")
 
 
+def test_an_anchors_numbers_refitted_on_the_box_come_back_exactly():
+    """The planted law written as an anchor with its numbers off (0.4, 1.6 and 2.2 for 0.5, 1.5 and 2):
+    refitted together by minimax on the box, it is the law (error below 1e-9), a pixel form of its
+    own; an anchor with no decimal number gives none."""
+    import dataclasses
+
+    from pipeline.approximate.targets import Anchor
+
+    target = parametric.check(dataclasses.replace(PLANTED, anchors=(
+        Anchor("off", "1/((0.4 + 1.6*a)*(x + y) + (2.2 - a)*x*y)", "planted"),
+        Anchor("integers", "1/((1 + a)*(x + y) + (2 - a)*x*y)", "planted"))))
+    found, coverage = parametric.refitted_anchors(target, target.numpy(), lambda s: None)
+    assert [r["name"] for r in found] == ["off_refitted"] == coverage["refitted_anchors"]
+    assert found[0]["per"] == "pixel" and found[0]["errors"]["max_rel_error"] < 1e-9
+    assert parametric.measure_box(target.anchor_expressions()["off"], target, target.numpy())["max_rel_error"] > 0.05
+
+
 def test_a_planted_law_comes_back_exactly_with_lines_in_the_parameter():
     """1/(k0 (x + y) + k1 x y) with k0 = 0.5 + 1.5 a, k1 = 2 - a: the symmetric reciprocal template is
     exact at every value, and its constants' lines, polished together, are the planted ones."""
