@@ -169,7 +169,7 @@ def power_regress_record(env: dict) -> dict:
     sweep_seconds, _ = _pipeline(["sweep", "configs/sweeps/power.toml"], env)
     rows = []
     for path in sorted(outputs.glob("power/*/energy_all_n.csv")):
-        m = json.loads((path.parent / "results.json").read_text())["config"]["lobe"]["power"]
+        m = json.loads((path.parent / "results.json").read_text())["config"]["lobe.power"]
         with open(path) as f:
             rows += [(float(r["n"]), float(m), float(r["y"])) for r in csv.DictReader(f)]
     joined = outputs / "coef_n_m.csv"
