@@ -180,7 +180,7 @@ def power_regress_record(env: dict) -> dict:
     with open(outputs / "regress_coef_n_m" / "front.csv") as f:
         front = list(csv.DictReader(f))
     chosen = next(r for r in front if r["selected"].lower() in ("true", "1", "yes"))
-    constants = [float(c) for c in re.findall(r"[-+]?\d+(?:\.\d*)?(?:e[-+]?\d+)?", chosen["constants"])]
+    constants = [float(c) for c in re.findall(r"(?<![\w.])\d+\.\d+(?:e[-+]?\d+)?", chosen["expression"])]
     return dict(sweep=dict(command="pipeline sweep configs/sweeps/power.toml", wall_seconds=round(sweep_seconds, 1),
                            powers=sorted({m for _, m, _ in rows}), rows=len(rows),
                            y_min=min(y for *_, y in rows), y_max=max(y for *_, y in rows)),

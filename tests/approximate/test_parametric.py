@@ -54,6 +54,24 @@ def test_an_anchors_numbers_refitted_on_the_box_come_back_exactly():
     assert parametric.measure_box(target.anchor_expressions()["off"], target, target.numpy())["max_rel_error"] > 0.05
 
 
+def test_a_pairs_anchor_is_refitted_as_one_keeping_its_shared_number_shared():
+    """A pair whose anchor writes one number (1.2) in both parts: refitted together, the number stays
+    one, and the planted pair (1 / (1 + a x), x / (2 (1 + a x))) comes back exactly."""
+    from pipeline.approximate.targets import Anchor
+
+    def part(name, law, anchor):
+        return parametric.check(ParametricTarget(name, law, (Axis("x", 0.0, 1.0),), Axis("a", 0.5, 1.0), "abs",
+                                                 anchors=(Anchor("off", anchor, "planted"),)))
+
+    pair = parametric.PairTarget("planted", part("s", "1/(1 + a*x)", "1/(1 + 1.2*a*x)"),
+                                 part("b", "x/(2*(1 + a*x))", "0.4*x/(1 + 1.2*a*x)"))
+    (found,) = parametric.refitted_pair_anchors(pair, lambda s: None)
+    assert found["name"] == "off_refitted"
+    assert max(e["max_abs_error"] for e in found["errors"].values()) < 1e-9
+    shared = {float(v) for v in found["scale"].atoms(sp.Float)} & {float(v) for v in found["bias"].atoms(sp.Float)}
+    assert len(shared) == 1 and abs(shared.pop() - 1.0) < 1e-9
+
+
 def test_a_planted_law_comes_back_exactly_with_lines_in_the_parameter():
     """1/(k0 (x + y) + k1 x y) with k0 = 0.5 + 1.5 a, k1 = 2 - a: the symmetric reciprocal template is
     exact at every value, and its constants' lines, polished together, are the planted ones."""
@@ -240,6 +258,7 @@ def test_pairs_take_the_larger_error_and_share_the_push_constants(monkeypatch):
                   part({"b1": (nov * r, 0.02, "pixel"), "b2": (c0 + nov, 0.04, "material")},
                        nov * nov * r * r * r)])
     monkeypatch.setattr(parametric, "derive", lambda *args, **kwargs: next(parts))
+    monkeypatch.setattr(parametric, "refitted_pair_anchors", lambda *args: [])     # (the real anchors' refit)
     targets = parametric.env_brdf_targets()
     pair = parametric.PairTarget("planted", targets["env_brdf_scale"], targets["env_brdf_bias"])
     monkeypatch.setattr(parametric, "check_pair", lambda t: t)
