@@ -26,7 +26,8 @@ def shaders():
     """The vertex shader; one shader of each kind the machine-code stage compiles (a registry lobe
     alone, with a normalization, the family at power 3, its NDF, another NDF, the wrappers); each
     registry lobe in the instruction-count shader; random grammar forms of the ten operations with
-    numbers and with per-material uniforms (the cost tables). Each validator run costs 0.1 s."""
+    numbers and with per-material push constants (the one costing's shader, `form_shader`). Each
+    validator run costs 0.1 s."""
     p = registry.Parameters(Q=0.64, slope=0.448, intercept=0.099, coef_scale=0.214, coef_offset=0.807)
     out = [("vertex", radv.VERTEX, "vert")]
     kinds = {}
@@ -38,10 +39,9 @@ def shaders():
     forms = grammar.enumerate_forms(6, gpu_costs.OPERATIONS)
     for i in rng.choice(len(forms), 3, replace=False):
         e, c = forms[i], rng.uniform(0.5, 1.5, grammar.constants(forms[i]))
-        out.append((f"form {grammar.show(e)}", gpu_costs.UNIFORM.format(body=f"return {grammar.glsl(e, c)};",
-                                                                       count=gpu_costs.MAX_CONSTANTS), "frag"))
-        out.append((f"form {grammar.show(e)}, uniforms", gpu_costs.UNIFORM_CONSTANTS.format(
-            body=f"return {grammar.glsl(e, c, uniforms='c')};", count=gpu_costs.MAX_CONSTANTS), "frag"))
+        for label, text in (("", grammar.glsl(e, c)), (", uniforms", grammar.glsl(e, c, uniforms="c"))):
+            (body, used), = gpu_costs._bodies({"form": text}).values()
+            out.append((f"form {grammar.show(e)}{label}", machine_code.form_shader(["t"], used, body), "frag"))
     return out
 
 
