@@ -34,11 +34,15 @@ COST_MODEL = "aco-perfinfo"
 VERTEX = """#version 450
 layout(location = 0) out float t_out;
 layout(location = 1) out float n_out;
+layout(location = 2) out float third_out;
+layout(location = 3) out float fourth_out;
 void main()
 {
     vec2 p = vec2(gl_VertexIndex & 1, gl_VertexIndex >> 1);
     t_out = p.x;
     n_out = 1.0 + 999.0 * p.y;
+    third_out = 0.5 + 0.25 * p.x;
+    fourth_out = 0.25 + 0.5 * p.y;
     gl_Position = vec4(2.0 * p - 1.0, 0.0, 1.0);
 }
 """

@@ -65,12 +65,15 @@ FORM_PUSH = " ".join(f"float c{i};" for i in range(FORM_CONSTANTS)) + " float F0
 def form_shader(names, used, body: str | None, push: str = FORM_PUSH) -> str:
     """A fragment shader with one input per name of `names` (location i; those a form does not read are
     never interpolated), the push constants `push` (a block's members, as "float c0; float c1;"), and a
-    function of the inputs `used` whose GLSL statements are `body`, written to all four components of
-    the output as the lobes' shaders write theirs (`UNIFORM`, `PER_PIXEL`). body None: the wrapper,
-    which computes nothing and writes the inputs `used` (one of them to all four components), as
-    `WRAPPER_UNIFORM` and `WRAPPER_PER_PIXEL` do. A form's cycles are net of the wrapper of the same
-    inputs: their interpolation does not count, the form's arithmetic does. The one shader of every
-    derived form and every lobe family's fit."""
+    function of the inputs `used` whose GLSL statements are `body`. body None: the wrapper, which
+    computes nothing and writes the inputs `used`. A form's cycles are net of the wrapper of the same
+    inputs, and both write alike, so that neither the inputs' interpolation nor the export counts,
+    the form's arithmetic does: with one input, the value to all four components (as the lobes'
+    shaders `UNIFORM` and `WRAPPER_UNIFORM` write theirs); with several, the form in the first input's
+    place and the other inputs beside it (written as the wrapper writes them, so that the export is
+    the same four values but one; a broadcast form against a wrapper of distinct values would net
+    the export's difference out of the form). The one shader of every derived form and every lobe
+    family's fit."""
     inputs = "\n".join(f"layout(location = {i}) in float {n}_in;" for i, n in enumerate(names))
     head = f"#version 450\n{inputs}\nlayout(location = 0) out vec4 color;\n"
     if body is None:
@@ -78,8 +81,10 @@ def form_shader(names, used, body: str | None, push: str = FORM_PUSH) -> str:
         return head + f"void main() {{ color = vec4({written}); }}\n"
     block = f"layout(push_constant) uniform Material {{ {push} }};\n" if push else ""
     arguments = ", ".join(f"float {n}" for n in used)
+    value = f"form({', '.join(f'{n}_in' for n in used)})"
+    written = value if len(used) == 1 else ", ".join([value] + [f"{n}_in" for n in used[1:]] + ["0.0"] * (4 - len(used)))
     return (head + block + f"float form({arguments})\n{{\n    {body}\n}}\n"
-            f"void main() {{ color = vec4(form({', '.join(f'{n}_in' for n in used)})); }}\n")
+            f"void main() {{ color = vec4({written}); }}\n")
 
 
 def glsl_expression(expr) -> str:

@@ -126,6 +126,25 @@ def test_every_row_has_the_fields_every_vendor_gives(compiled):
     assert pixel and all(r["n_per"] == "pixel" for r in pixel)
 
 
+def test_every_input_of_a_form_is_interpolated_none_folded():
+    """A form of three inputs (the most a derived form reads: two variables and the parameter) costs
+    what its arithmetic costs on every architecture: 1 / (0.7 z (x + y)) holds a reciprocal, a multiply
+    and an add. RADV links each fragment shader to `radv.VERTEX`, which writes four outputs: an input
+    it did not write would be a constant, the form folded to nothing (as rcp(0))."""
+    from pipeline.approximate import engine
+
+    available = [a for a in ("rdna3", "gcn5", "sm_89", "xe_hpg", "g610", "a740") if a in engine.available_architectures()]
+    if not available:
+        pytest.skip("no GPU compiler runs here")
+    names = ["x", "y", "z"]
+    cycles, missing, _ = machine_code.form_cycles({"three": ("return 1.0 / (0.7 * z * (x + y));", names)},
+                                                  names, available)
+    assert not missing
+    for a in available:
+        assert cycles[a]["three"] >= 3, (a, cycles[a])            # (at least its three operations' issue)
+    assert radv.VERTEX.count("layout(location") >= 3
+
+
 def test_an_unknown_architecture_is_named():
     with pytest.raises(ValueError, match="unknown GPU architecture 'gfx1100'; the architectures are rdna3, rdna2"):
         machine_code.compile_shaders({"w": machine_code.WRAPPER_UNIFORM}, {}, ("gfx1100",))
