@@ -980,7 +980,8 @@ def derive(target: ParametricTarget, gpu=None, seconds: float = 60.0, max_cycles
             continue
         members[m.name] = dict(kind=m.kind, family=m.family, source=m.source, converged=True,
                                expression=_text(m, record, target), **errors[m.name],
-                               **record.get(m.name, {}).get("formulas", {}))
+                               **(dict(parameter_per=per_of[m.name][1] if target.parameter is not None else "")
+                                  | record.get(m.name, {}).get("formulas", {})))
     return dict(target=dict(name=target.name, expression=target.expression, variable=target.variable,
                             variables=[dataclasses.asdict(a) for a in target.variables],
                             parameter=dataclasses.asdict(target.parameter) if target.parameter else None,

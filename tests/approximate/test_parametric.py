@@ -130,8 +130,7 @@ def test_bad_targets_are_named(target, message):
 def test_pipeline_derive_on_the_smith_ggx_visibility(tmp_path):
     """The whole command once, on RDNA3 with a small budget: the columns range and parameter_per,
     material rows with their constants' formulas, Hammon's V placed and beaten by a pixel form at no
-    more cycles (measured: 0.166 at 8 cycles against 0.286 at 10), the twins equal to the members'
-    values, and a rerun that keeps the search."""
+    more cycles, the twins equal to the members' values, and a rerun that keeps the search."""
     if "rdna3" not in engine.available_architectures():
         pytest.skip("Mesa's RADV does not run here: pipeline derive was not run")
     out = tmp_path / "v"
@@ -150,7 +149,8 @@ def test_pipeline_derive_on_the_smith_ggx_visibility(tmp_path):
     assert hammon["verdict"] == "beaten", hammon
     by = results["members"][hammon["by"]]
     assert by["parameter_per"] == "pixel" and by["max_rel_error"] < hammon["error"]
-    assert by["per_value_error"] <= by["max_rel_error"] * (1 + 1e-9)
+    if by["family"] != "anchor_refit":          # (a template's: fitted per value first)
+        assert by["per_value_error"] <= by["max_rel_error"] * (1 + 1e-9)
     spec = importlib.util.spec_from_file_location("derive_twin", out / "derive_twin.py")
     twin = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(twin)
