@@ -17,7 +17,9 @@ pixel. Its error is the largest over the whole box, variables and parameter
 2. Per value: each template's constants fitted by minimax (`minimax.slp_points`) at every value of
    the parameter's grid (`PARAMETER_VALUES` Chebyshev values and the values halfway between them,
    where the worst value is checked), each start from the neighbour's constants. The largest of
-   these errors is the template's per-value optimum: no formula of the parameter does better.
+   these errors is the template's per-value optimum: no formula of the parameter does better, so a
+   template whose optimum is no better than the best constant's error goes no further (no form at
+   that error is on a front).
 3. Formulas: each constant a formula of the parameter p (`KINDS`: a line, a quadratic, a + b p + c / p
    where p's range excludes 0, and cheaper mixes: `formula_variants`), fitted by least squares to
    the grid's values, then all the formulas' coefficients polished together by minimax on the points
@@ -736,7 +738,8 @@ def material_forms(templates, target, f, log, formula_complexity: int = 0) -> li
     uniforms = [sp.Symbol(f"c{i}", real=True) for i in range(MAX_CONSTANTS)]
     from . import engine
 
-    floor = engine.rounding_floor(target, _constant_error(target, f))
+    constant = _constant_error(target, f)
+    floor = engine.rounding_floor(target, constant)
     fits = []
     for template in templates:
         per_value = fit_per_value(template, target, f)
@@ -746,6 +749,12 @@ def material_forms(templates, target, f, log, formula_complexity: int = 0) -> li
         fits.append((template, per_value))
     out = []
     for template, per_value in fits:
+        if per_value.errors.max() >= constant:
+            # no formula beats the per-value optimum, and no form at least the best constant's error is
+            # on a front: nothing to fit
+            log(f"  {template.name}: per value {per_value.errors.max():.4g}, no better than a constant "
+                f"({constant:.4g}); no formulas")
+            continue
         started = time.perf_counter()
         reduce = not any(other.count <= template.count and other_fit.errors.max() < per_value.errors.max()
                          for other, other_fit in fits if other is not template)
