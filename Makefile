@@ -149,8 +149,9 @@ graph: $(INSTALLED)
 # The generated pages (config keys, results.json keys, command help, the README's results table and
 # the numbers marked in docs/, from outputs/paper/results.json where it exists), then the site in
 # strict mode into docs/_build/.
-# The derive runs docs/derive.md states, recorded in docs/measured/ (about 10 minutes; `make docs` then
-# fills the page's numbers from them).
+# The slow runs the pages state (derive runs, the cost tables, example refits, the lobe refits, the
+# power regression, the grammar's counts), recorded in docs/measured/ (about 25 minutes; `make docs`
+# then fills the pages' numbers from them).
 measure: $(INSTALLED) $(LLVM_READY) $(RADV_READY) $(NVIDIA_READY) $(INTEL_READY) $(MOBILE_READY)
 	$(BIN)/python scripts/measure.py
 

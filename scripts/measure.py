@@ -16,7 +16,7 @@ typed by hand. The records:
 - `grammar`: how many forms the grammars hold at the complexities docs/regress.md names.
 
 A record no page reads fails a test (`tests/docs/test_generated.py`): a run added here is also
-marked in a page. `python scripts/measure.py [NAME ...]` runs the named ones (default all, about 20
+marked in a page. `python scripts/measure.py [NAME ...]` runs the named ones (default all, about 25
 minutes here); each runs cold, in its own process with its own empty caches (the machine code
 compiled before is kept in `.cache/machine_code/` for the derive runs, which do not time it).
 """
