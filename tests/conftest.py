@@ -79,6 +79,13 @@ def pytest_sessionstart(session):
     assert jax.config.jax_enable_x64 and jax.numpy.zeros(1).dtype == jax.numpy.float64
 
 
+def pytest_sessionfinish(session):
+    # The search rates the session measured go with it (the controller's end; its workers share the file).
+    if not hasattr(session.config, "workerinput") and os.environ["PIPELINE_RATES"].endswith(
+            f"pipeline-test-rates-{os.getppid()}.json"):
+        Path(os.environ["PIPELINE_RATES"]).unlink(missing_ok=True)
+
+
 @pytest.fixture(scope="session")
 def shared_root(tmp_path_factory) -> Path:
     """A folder shared by the session's worker processes (each worker's own base folder otherwise)."""
