@@ -25,7 +25,7 @@ import time
 import numpy as np
 
 from . import families, measure, minimax
-from .forms import Form, glsl, predicted_cycles
+from .forms import Form, free_numbers, glsl, predicted_cycles
 from .targets import DeriveError, check, numpy_function
 
 SEARCH_POINTS = 129
@@ -255,11 +255,9 @@ def refitted_anchors(target, f, log) -> list[Form]:
     symbol = target.symbol()
     out = []
     for anchor, expr in zip(target.anchors, target.anchor_expressions().values()):
-        numbers = sorted(expr.atoms(sp.Float), key=sp.default_sort_key)
+        (free,), q, numbers = free_numbers(expr)
         if not numbers:
             continue
-        q = [sp.Symbol(f"q_{i}", real=True) for i in range(len(numbers))]
-        free = expr.xreplace(dict(zip(numbers, q)))
         g = sp.lambdify([q, symbol], free, "numpy")
 
         def model(c, s, g=g):

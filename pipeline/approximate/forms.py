@@ -29,6 +29,15 @@ SQUARINGS_MAX = 64
 DIGITS = 17
 
 
+def free_numbers(*exprs) -> tuple[list, list, list]:
+    """The expressions with each decimal number (a sympy Float; integers such as exponents stay)
+    replaced by a symbol q_i, one symbol for a number they share: (the expressions, the symbols, the
+    numbers as they were)."""
+    numbers = sorted(set().union(*(e.atoms(sp.Float) for e in exprs)), key=sp.default_sort_key)
+    q = [sp.Symbol(f"q_{i}", real=True) for i in range(len(numbers))]
+    return [e.xreplace(dict(zip(numbers, q))) for e in exprs], q, numbers
+
+
 def gpu_form(expr):
     """expr with exp(a) written exp2(a log2 e) (the factor folded into a's numbers), evaluated to
     numbers of 17 digits."""

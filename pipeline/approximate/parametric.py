@@ -52,7 +52,7 @@ import numpy as np
 
 from ..isa.shaders import FORM_CONSTANTS
 from . import minimax
-from .forms import Form, gpu_form
+from .forms import Form, free_numbers, gpu_form
 from .targets import METRICS, Anchor, DeriveError, paper_lobes, parse
 
 AXIS_POINTS = 13            # Chebyshev-Lobatto points per variable: the fits' grid
@@ -846,9 +846,7 @@ def _polished(expression, target, f, values):
     (`minimax_on_box`, from their values), {each number: its polished value})."""
     import sympy as sp
 
-    numbers = sorted(expression.atoms(sp.Float), key=sp.default_sort_key)
-    q = [sp.Symbol(f"q_{i}", real=True) for i in range(len(numbers))]
-    free = expression.xreplace(dict(zip(numbers, q)))
+    (free,), q, numbers = free_numbers(expression)
     model = Model(free, target.symbols(), q)
     a, _ = minimax_on_box(model, model.jacobian, [float(v) for v in numbers], target, f, values)
     polished = {v: sp.Float(x, 17) for v, x in zip(numbers, a)}
@@ -1477,11 +1475,9 @@ def refitted_pair_anchors(target: PairTarget, log) -> list[dict]:
         if name not in b_anchors:
             continue
         exprs = (a_expr, b_anchors[name])
-        numbers = sorted(exprs[0].atoms(sp.Float) | exprs[1].atoms(sp.Float), key=sp.default_sort_key)
+        free, q, numbers = free_numbers(*exprs)
         if not numbers:
             continue
-        q = [sp.Symbol(f"q_{i}", real=True) for i in range(len(numbers))]
-        free = [e.xreplace(dict(zip(numbers, q))) for e in exprs]
         models = [Model(e, t.symbols(), q) for e, t in zip(free, (scale, bias))]
         a, _ = minimax_on_box_parts([(m, m.jacobian, t, g) for m, t, g in zip(models, (scale, bias), fs)],
                                     [float(v) for v in numbers], values)
