@@ -27,7 +27,8 @@ pixel. Its error is the largest over the whole box, variables and parameter
    measured over the whole box. A reciprocal template's pixel form is also written with one
    single-term formula's factor in the numerator (`_scaled`: the same function, cheaper on NVIDIA).
    With `formula_complexity` > 0, the templates on the per-value front also take formulas the
-   symbolic regression finds from each constant's values (`corrected`, as the paper found coef(n)).
+   symbolic regression finds from each constant's values and from their residual from their line
+   (`corrected`, as the paper found coef(n)).
 4. Per pixel: the grammar's forms in the variables and the parameter together, by the ladder; and
    each anchor's own form with its decimal numbers refitted by minimax on the box
    (`refitted_anchors`: the same operations, so mostly the same cost).
@@ -75,16 +76,17 @@ CHECK_POINTS = 33           # per axis: the grid on which a target must be finit
 @dataclasses.dataclass(frozen=True)
 class Axis:
     """A variable or the parameter: its name and range. A variable's lower end may move with the
-    parameter (`lo_of`, sympy text in the parameter's name: cos^n's epicenter zone, t >= L^(1/n));
-    `lo` is then the lowest it reaches, for the checks."""
+    parameter (`lo_of`, sympy text in the parameter's name: cos^n's epicenter zone, t >= L^(1/n); or,
+    where it has no closed form, a hashable numpy function of the parameter's values, named by its
+    str: Beckmann's zone); `lo` is then the lowest it reaches, for the checks."""
 
     name: str
     lo: float
     hi: float
-    lo_of: str = ""
+    lo_of: object = ""
 
     def text(self) -> str:
-        return f"{self.name} in [{self.lo_of.replace('**', '^') if self.lo_of else format(self.lo, 'g')}, {self.hi:g}]"
+        return f"{self.name} in [{str(self.lo_of).replace('**', '^') if self.lo_of else format(self.lo, 'g')}, {self.hi:g}]"
 
 
 class Table:
@@ -381,10 +383,15 @@ def _mesh(axes, count: int) -> list[np.ndarray]:
     return [g.ravel() for g in grids]
 
 
+@functools.lru_cache(maxsize=64)
 def _lower_end(axis: Axis, parameter: Axis):
-    """The variable's lower end as a numpy function of the parameter (`Axis.lo_of`)."""
+    """The variable's lower end as a numpy function of the parameter (`Axis.lo_of`; made once per
+    axis: the measures place their points thousands of times)."""
     import sympy as sp
 
+    if not isinstance(axis.lo_of, str):
+        return lambda values: np.broadcast_to(np.asarray(axis.lo_of(np.asarray(values, dtype=np.float64)),
+                                                         dtype=np.float64), np.shape(values))
     p = sp.Symbol(parameter.name, real=True)
     end = sp.lambdify([p], parse(axis.lo_of, (parameter.name,)), "numpy")
     return lambda values: np.broadcast_to(np.asarray(end(np.asarray(values, dtype=np.float64)), dtype=np.float64),
@@ -630,7 +637,8 @@ def _cheapest(per_value: PerValue, count: int) -> tuple:
 def polish_formulas(template: Template, per_value: PerValue, kinds, target: ParametricTarget, f, zero=None):
     """Step 3: (coefficients (count, len(POWERS)), error over the box) of the template's constants as
     the formulas `kinds` (one of KINDS per constant) of the parameter; the coefficients marked in
-    `zero` (a boolean array of their shape) held at 0."""
+    `zero` (a boolean array of their shape) held at 0. A template may read the parameter itself
+    (the lobe search's forms in w = n (1 - t))."""
     from ..optics import brdf
 
     coefficients = _start_coefficients(per_value, kinds)
@@ -641,8 +649,10 @@ def polish_formulas(template: Template, per_value: PerValue, kinds, target: Para
         mask &= ~zero
         coefficients[zero] = 0.0
     symbols = target.symbols()
-    variables = symbols[:len(target.variables)]
+    reads_parameter = symbols[-1] in template.expression.free_symbols and target.parameter is not None
+    variables = symbols if reads_parameter else symbols[:len(target.variables)]
     model = Model(template.expression, variables, constant_symbols(template.count))
+    axes = slice(None) if reads_parameter else slice(0, -1)
     used = mask.any(axis=0)                 # (the powers some formula has: 1 / p only where one has it)
     powers = np.array(POWERS, dtype=float)[used]
 
@@ -655,11 +665,11 @@ def polish_formulas(template: Template, per_value: PerValue, kinds, target: Para
         shape = np.shape(x[0])
         x = [np.ravel(c) for c in x]
         k = np.power.outer(x[-1], powers) @ full(a)[:, used].T        # (points, count)
-        return model(list(k.T), x[:-1]).reshape(shape)
+        return model(list(k.T), x[axes]).reshape(shape)
 
     def jacobian(a, x):
         P = np.power.outer(x[-1], powers)
-        J = model.jacobian(list((P @ full(a)[:, used].T).T), x[:-1])   # (points, count)
+        J = model.jacobian(list((P @ full(a)[:, used].T).T), x[axes])  # (points, count)
         return (J[:, :, None] * P[:, None, :])[:, mask[:, used]]
 
     a, error = minimax_on_box(joint, jacobian, coefficients[mask], target, f, per_value.values)
@@ -793,43 +803,52 @@ def material_forms(templates, target, f, log, formula_complexity: int = 0) -> li
     return out
 
 
-FORMULA_OPERATIONS = "+,-,*,/,log,sqrt"     # of a constant's correction in the parameter (as the lobe search's)
+FORMULA_OPERATIONS = "+,-,*,/,log,sqrt"     # of a constant's formula in the parameter (per material: any is free)
 
 
 def corrected(line: Fitted, target, f, complexity: int, log) -> Fitted | None:
     """The template's constants as formulas the symbolic regression finds, as the paper found coef(n):
     each constant's values at the per-value optima searched (`symbolic.search`, FORMULA_OPERATIONS,
-    up to `complexity`, least squares); at each complexity level every constant takes its front's
-    member at or below it (its line, from `line`, where it has none that holds its values better by
-    RMS), the formulas' numbers are polished together by minimax on the box (`_polished`: equal
-    numbers are one), the box's error is measured, and the level of least error is kept where it
-    beats the lines. None where no level does."""
+    up to `complexity`, least squares), and so is their residual from their least-squares line (a
+    formula is then that line plus the member: a line with a small correction, c / p say, is found
+    at the correction's complexity; the polished line of `line` is no base, minimax lines being many
+    where one value sets the error); at each complexity level every constant takes the member of least RMS
+    at or below it (its line, from `line`, where none holds its values better), the formulas'
+    numbers are polished together by minimax on the box (`_polished`: equal numbers are one), the
+    box's error is measured, and the level of least error is kept where it beats the lines. None
+    where no level does."""
     import sympy as sp
 
     from ..symbolic import grammar, search
 
     parameter = target.symbols()[-1]
     values = line.per_value.values
-    lines = np.power.outer(values, np.array(POWERS, dtype=float)) @ line.coefficients.T      # (values, count)
+    line_expressions = formula_expressions(line.coefficients, parameter)
     fronts = []
     for j in range(line.template.count):
         y = line.per_value.constants[:, j]
-        found = search.search(values, y, int(complexity), FORMULA_OPERATIONS)
-        line_rms = float(np.sqrt(np.mean((lines[:, j] - y) ** 2)))
-        # a member that holds the constant's values no better than its line leaves the line in place
-        fronts.append([(int(found["complexity"][i]), found["forms"][i],
-                        [float(c) for c in found["constants"][i][:grammar.constants(found["forms"][i])]])
-                       for i in found["front"] if found["rms"][i] < line_rms])
+        slope, intercept = np.polyfit(values, y, 1)
+        residual = y - (slope * values + intercept)
+        line_rms = float(np.sqrt(np.mean(residual ** 2)))
+        members = []
+        for base, base_values in ((sp.Integer(0), 0.0),
+                                  (sp.Float(float(slope), 17) * parameter + sp.Float(float(intercept), 17), y - residual)):
+            found = search.search(values, y - base_values, int(complexity), FORMULA_OPERATIONS)
+            # a member that holds the constant's values no better than its line leaves the line in place
+            members += [(int(found["complexity"][i]), float(found["rms"][i]),
+                         base + grammar.substitute(found["forms"][i],
+                                                   [sp.Float(float(c), 17) for c in
+                                                    found["constants"][i][:grammar.constants(found["forms"][i])]],
+                                                   [parameter], _SYMPY_FUNCTIONS()))
+                        for i in found["front"] if found["rms"][i] < line_rms]
+        fronts.append(members)
     k = constant_symbols(line.template.count)
     key = _error_key(target)
     best = None
     for level in sorted({c for front in fronts for c, _, _ in front}):
-        formulas = []
-        for expression, front in zip(formula_expressions(line.coefficients, parameter), fronts):
-            chosen = max((m for m in front if m[0] <= level), key=lambda m: m[0], default=None)
-            formulas.append(expression if chosen is None else
-                            grammar.substitute(chosen[1], [sp.Float(c, 17) for c in chosen[2]], [parameter],
-                                               _SYMPY_FUNCTIONS()))
+        formulas = [expression if not any(c <= level for c, _, _ in front) else
+                    min((m for m in front if m[0] <= level), key=lambda m: m[1])[2]
+                    for expression, front in zip(line_expressions, fronts)]
         pixel, polished = _polished(line.template.expression.xreplace(dict(zip(k, formulas))), target, f, values)
         formulas = [e.xreplace(polished) for e in formulas]
         errors = measure_box(pixel, target, f)

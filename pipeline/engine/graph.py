@@ -387,11 +387,11 @@ STAGES: tuple[Stage, ...] = (
                  "families, dense grids for the grammar's forms) and the fit's error on the zone's points at each n "
                  "of n_grid [list]",
         "members": "per form and range: formula, max d and D over the grid's n, the grid check, the parameters "
-                   "as lines in n and the max d and D of those lines over every integer n, whether it is a lobe "
-                   "(admissible: >= 0 on the whole hemisphere at every n); where a line is not enough and "
-                   "formula_complexity > 0, the parameters as lines plus corrections (formulas, "
-                   "parameter_corrections, formula_complexity, d_formula, D_formula; the lines' values otherwise) "
-                   "[list]",
+                   "as lines in n (derive's polish on the box; line_box_error, its error there) and the max d and D "
+                   "of those lines over every integer n, whether it is a lobe (admissible: >= 0 on the whole "
+                   "hemisphere at every n); where a line is not enough and formula_complexity > 0, the parameters "
+                   "as derive's formulas (formulas, parameter_formulas in full precision, formula_complexity, "
+                   "d_formula, D_formula; the lines' values otherwise) [list]",
         "line_enough": "a line in n is enough where its max d is at most this times the per-n optimum's [ratio]",
         "candidates": "the members per architecture with compiled cycles, predicted cycles and on_front [list]",
         "front": "per architecture and range, the members no cheaper or equal-cost member beats on d: architecture, "

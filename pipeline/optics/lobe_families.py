@@ -144,6 +144,41 @@ def zone_w(n, level, target: str = "cos_n") -> float:
     return brentq(lambda w: float(target_u(np, target, w / n, n)) - level, 0.0, 0.95 * n, xtol=1e-14, rtol=1e-14)
 
 
+NEWTON_STEPS = 12      # Newton steps to Beckmann's zone edge (quadratic convergence from the left)
+
+
+@dataclasses.dataclass(frozen=True)
+class ZoneStart:
+    """t at the edge of the epicenter zone {target >= level}, a numpy function of n (arrays): the
+    lower end of t in the search's box (`approximate.parametric.Axis.lo_of`). cos^n: level^(1/n).
+    Beckmann: the root of g(t) = (n + 2) (1 - 1 / t^2) / 2 - 4 log t - log level, by Newton's method
+    from the root without its 4 log t (g is increasing and concave in t <= 1 for n >= 2: every step
+    after the first lands left of the root and climbs to it); `zone_w`'s root where Newton's does
+    not hold g to 1e-12."""
+
+    level: float
+    target: str = "cos_n"
+
+    def __str__(self) -> str:
+        return f"t_L(n), {self.target} >= {self.level:g}"
+
+    def __call__(self, n):
+        n = np.asarray(n, dtype=np.float64)
+        if self.target == "cos_n":
+            return self.level ** (1.0 / n)
+        log_level = math.log(self.level)
+        t = 1.0 / np.sqrt(1.0 - 2.0 * log_level / (n + 2.0))
+        for _ in range(NEWTON_STEPS):
+            g = 0.5 * (n + 2.0) * (1.0 - 1.0 / (t * t)) - 4.0 * np.log(t) - log_level
+            t = t - g / ((n + 2.0) / t ** 3 - 4.0 / t)
+        g = 0.5 * (n + 2.0) * (1.0 - 1.0 / (t * t)) - 4.0 * np.log(t) - log_level
+        off = ~(np.abs(g) <= 1e-12)
+        if np.any(off):
+            t = np.array(t, copy=True)
+            t[off] = [1.0 - zone_w(float(x), self.level, self.target) / float(x) for x in np.broadcast_to(n, t.shape)[off]]
+        return t
+
+
 def zone_points(n, level, count: int = ZONE_POINTS, target: str = "cos_n") -> np.ndarray:
     """u at `count` Chebyshev points of the zone [0, u_L] (its ends included)."""
     w = zone_w(n, level, target) * 0.5 * (1.0 - np.cos(np.linspace(0.0, np.pi, count)))

@@ -798,8 +798,10 @@ def lobe_search_section(config, r, figures) -> list[str]:
             lines.append(row)
     widest = max(s["ranges"], key=lambda x: x[1] - x[0])
     lines += ["", f"Each form over n in [{widest[0]:g}, {widest[1]:g}]: its worst d and D with the best parameters per "
-              "n, and with each shader parameter a line in n (least squares through the per-n optima, as the paper "
-              "fits k), measured at every integer n:", "",
+              "n, and with each shader parameter a line in n (as the paper gives k; fitted as `derive` fits a "
+              "parameter's formulas: from least squares through the per-n optima, polished by minimax of d over zone "
+              "and range), measured at every integer n. Where the range's worst n sets the per-n optimum's d, a line "
+              "reaches it, and lines that do are many: the one given is where the polish stopped:", "",
               f"| form | cycles ({', '.join(dict.fromkeys(c['architecture'] for c in s['candidates']))}; predicted) | "
               "max d | max D | parameters as lines in n | "
               "max d with the lines | max D with the lines |", "|---|---|---|---|---|---|---|"]
@@ -814,8 +816,9 @@ def lobe_search_section(config, r, figures) -> list[str]:
     corrected = [m for m in s["members"] if m["n_range"] == widest and m.get("formula_complexity", 0) > 0]
     if corrected:
         lines += ["", f"Where a line is not enough (its d more than {s['line_enough']:g}x the per-n optimum's), each parameter as "
-                  "its line plus the symbolic regression's correction of its residual (`lobe_search.formula_complexity`; "
-                  "the complexity level that lowers d most, measured at every integer n):", "",
+                  "a formula in n the symbolic regression finds from its per-n optima (`lobe_search.formula_complexity`; "
+                  "`derive`'s formulas, polished on the box, at the complexity level that lowers d most), measured at "
+                  "every integer n:", "",
                   "| form | parameters | max d | max D |", "|---|---|---|---|"]
         lines += [f"| {m['family']} | " + "; ".join(f"{k} = {v}" for k, v in m["formulas"].items())
                   + f" | {pct_small(m['d_formula'])} | {m['D_formula']:.4g} |" for m in corrected]

@@ -9,16 +9,18 @@ the run's epicenter zone; its d and D at those parameters are then measured exac
 (`optics.extrema`). A family's error on a range is its worst n there. The grid is checked: the
 fit is repeated halfway between neighbouring points (geometric midpoints), and the largest error
 found there beyond the grid's maximum is reported (`grid_check`). Each family's shader parameters
-are also fitted by a line in n per range, as the paper does for k, and measured at every integer n
-of the range: what a per-material line costs in accuracy. Where a line is not enough (its d more
+are also given as lines in n per range, as the paper does for k, fitted as `pipeline derive` fits a
+parameter's formulas: the range is the registry's `cos_n` target (t over the zone, n over the
+range; `search_target`), the family its template (`template`), its lines started by least squares
+to the per-n optima and polished together by minimax of d over the box
+(`approximate.parametric.polish_formulas`); they are then measured exactly at every integer n of
+the range: what a per-material line costs in accuracy. Where a line is not enough (its d more
 than `LINE_ENOUGH` times the per-n optimum's) and `lobe_search.formula_complexity` > 0 (a refit: 0
-by default, for the run's time), each parameter's residual from its line, at the grid's and the
-midpoints' optima, is searched by the symbolic regression (`symbolic.search`, `FORMULA_OPERATIONS`,
-up to that complexity): the parameter is its line plus a correction from that front, a function of
-n computed once per material. The fronts fit the parameters, not d (the parameters err together),
-so every complexity level is measured (each parameter's best member at or below it) at every
-integer n of the range and the level of least d is kept, the line alone (level 0) among them: a
-correction is kept only where it lowers d.
+by default, for the run's time), the parameters take the formulas `derive` finds with the symbolic
+regression (`approximate.parametric.corrected`: each parameter's per-n optima at the grid's and the
+halfway exponents searched up to that complexity, each level's formulas polished on the box, the
+best level kept where it beats the lines), computed once per material; they are kept where their d,
+measured at every integer n, is below the lines'.
 
 Beside the families, the grammar's forms in w = n (1 - t) (`lobe_search.grammar_complexity`; 0 by
 default, for the run's time: a refit) are screened and the best kept and fitted alike; a form that
@@ -27,8 +29,8 @@ is reported, never on a front. The target is cos^n, or Beckmann's D over its pea
 (`lobe_search.target`: the same search for another function a shader approximates).
 
 Each family is compiled for every architecture of `pipeline.isa.architectures` whose compiler runs
-here (RADV for AMD, ptxas for NVIDIA; its parameters as uniforms) and its cycles by the vendor's
-cost model, net of the shader returning t, are its cost; the cost tables of
+here by `derive`'s costing (`isa.machine_code.form_cycles`, its parameters push constants) and
+its cycles by the vendor's cost model, net of the shader returning t, are its cost; the cost tables of
 `symbolic.gpu_costs` (fitted to `lobe_search.calibration_forms` random forms) give the predicted
 cost beside it. Per architecture and range the front is the families no other family beats at
 equal or lower cycles; the registry's lobes (the paper's f_Q2 with the run's line, the spherical
@@ -59,7 +61,6 @@ from .common import n_range, require_converged
 # written in w = n (1 - t), its constants of order 1 for every n (one multiply-add more than a form in t).
 BLOCK = 512        # exponents per exact measurement call (one compiled program)
 LINE_ENOUGH = 1.1  # a line is enough where its d is at most this times the per-n optimum's
-FORMULA_OPERATIONS = "+,-,*,/,log,sqrt"     # of a parameter's correction in n (per material: any is free)
 
 
 def n_grid(ranges, points: int) -> np.ndarray:
@@ -216,53 +217,119 @@ def exact_errors(name: str, n, P, level, cells: int, settings: SolverSettings, t
     return dict(d=d, D=D)
 
 
-def parameter_lines(n, P, count: int) -> tuple[np.ndarray, np.ndarray]:
-    """Least-squares lines (slope, intercept) in n of the first `count` shader parameters."""
-    fits = np.array([np.polyfit(n, P[:, j], 1) for j in range(count)])
-    return fits[:, 0], fits[:, 1]
+def search_target(target: str, level: float, lo: float, hi: float):
+    """The search's problem on the range [lo, hi] of n as `pipeline derive`'s parametric target (t
+    over the epicenter zone, which moves with n; the relative error): cos^n is the registry's `cos_n`
+    (`approximate.parametric.cos_n_target`) at the run's level; Beckmann's D over its peak,
+    exp((t^2 - 1) (n + 2) / (2 t^2)) / t^4 (`lobe_families.target_u`, whose t >= 0.05 holds in every
+    zone), with the zone's edge `lobe_families.ZoneStart`."""
+    from ..approximate import parametric
+    if target == "cos_n":
+        return parametric.with_range(parametric.cos_n_target(level), (lo, hi))
+    edge = lobe_families.ZoneStart(level, target)
+    return parametric.check(parametric.ParametricTarget(
+        target, "exp((t**2 - 1)*(n + 2)/(2*t**2))/t**4",
+        (parametric.Axis("t", float(np.min(edge(np.array([lo, hi])))), 1.0, lo_of=edge),), parametric.Axis("n", lo, hi),
+        "rel", description="Beckmann's D over its peak, its roughness matched to n"))
 
 
-def formula(names, slopes, intercepts) -> dict[str, str]:
-    """Each parameter's line as text: "1.44269 n - 0.377261"."""
-    return {p: f"{a:.6g} n {'-' if b < 0 else '+'} {abs(b):.6g}" for p, a, b in zip(names, slopes, intercepts)}
+def template(family: str, text: str = ""):
+    """The family (or the grammar form `text`, in w = n (1 - t)) as `pipeline derive`'s template
+    (`approximate.parametric.Template`) in t, its constants what is per material: a family's shader
+    parameters A, B, C (square_peak1's k alone: A = k, B = 1 - k), a grammar form's c0, c1, ...
+    (the form reads n)."""
+    import sympy as sp
 
-
-def residual_fronts(n, P, slopes, intercepts, complexity: int) -> dict:
-    """{"fronts": per parameter, the symbolic regression's front (`FORMULA_OPERATIONS`, up to
-    `complexity`) on its residual from its line, P[:, j] - (slope n + intercept), at the exponents
-    n: members {"complexity", "form" (text in n), "constants"}, by complexity}."""
-    from ..symbolic import grammar, search
-    n = np.asarray(n, dtype=np.float64)
-    fronts = []
-    for j in range(len(slopes)):
-        found = search.search(n, np.asarray(P)[:, j] - (slopes[j] * n + intercepts[j]), complexity, FORMULA_OPERATIONS)
-        fronts.append([dict(complexity=int(found["complexity"][i]), form=grammar.show(found["forms"][i], "n"),
-                            constants=[float(c) for c in found["constants"][i][:found["constant_count"][i]]])
-                       for i in found["front"]])
-    return dict(fronts=fronts)
-
-
-def corrections_at(fronts, level: int) -> list[dict | None]:
-    """Each parameter's correction at a complexity level: its front's member of largest complexity at
-    or below it (the best there), None where there is none (the line alone)."""
-    return [max((m for m in front if m["complexity"] <= level), key=lambda m: m["complexity"], default=None)
-            for front in fronts]
-
-
-def on_formulas(corrections, slopes, intercepts, n) -> np.ndarray:
-    """The parameters at the exponents n: each its line plus its correction (`corrections_at`)."""
+    from ..approximate import parametric
     from ..symbolic import grammar
+    t, n = sp.Symbol("t", real=True), sp.Symbol("n", real=True)
+    if text:
+        form = grammar.parse(text)
+        k = parametric.constant_symbols(grammar.constants(form))
+        expression = grammar.substitute(form, k, [n * (1 - t)], parametric._SYMPY_FUNCTIONS())
+        return parametric.Template(family, "grammar", expression, len(k), text)
+    entry = lobe_families.FAMILIES[family]
+    symbols = {p: sp.Symbol(p, real=True) for p in "ABC"}
+    expression = sp.sympify(entry.python, locals=dict(symbols, t=t, max=sp.Max))
+    expression = expression.xreplace({v: sp.Integer(int(v)) for v in expression.atoms(sp.Float) if v == int(v)})
+    if family == "square_peak1":
+        expression = expression.xreplace({symbols["B"]: 1 - symbols["A"]})
+    count = len(entry.start)
+    k = parametric.constant_symbols(count)
+    return parametric.Template(family, "lobe", expression.xreplace(dict(zip([symbols[p] for p in "ABC"], k))), count,
+                               entry.formula)
+
+
+def shader_values(family: str, constants) -> np.ndarray:
+    """A family's shader parameters (A, B, C; C = 0 where it has none) from its template's constants
+    (rows per n; square_peak1's k is A = k, B = 1 - k); a grammar form's constants as they are."""
+    constants = np.asarray(constants, dtype=np.float64)
+    if family not in lobe_families.FAMILIES:
+        return constants
+    P = np.zeros((constants.shape[0], 3))
+    P[:, :constants.shape[1]] = constants
+    if family == "square_peak1":
+        P[:, 1] = 1.0 - constants[:, 0]
+    return P
+
+
+def parameter_formulas(family: str, text: str, values, constants, errors, on_grid, level: float, target: str,
+                       lo: float, hi: float, complexity: int = 0) -> dict:
+    """The template's constants as functions of n on [lo, hi], fitted as `pipeline derive` fits a
+    parameter's formulas (`approximate.parametric`): lines, by least squares to the per-n optima at
+    the grid's exponents, then every line's coefficients polished together by minimax of the relative
+    error over the box of zone and n, its worst point added (`polish_formulas`). With `complexity`
+    > 0, also the symbolic regression's formulas of the per-n optima at the grid's and the halfway
+    exponents (`corrected`: each level's formulas polished on the box, the best level kept where it
+    beats the lines). Returns the lines' slopes and intercepts, their error on the box, and the
+    formulas (sympy text in n, one per constant; empty where none beats the lines)."""
+    from ..approximate import parametric
+    form = template(family, text)
+    problem = search_target(target, level, lo, hi)
+    f = problem.numpy()
+    per_value = parametric.PerValue(np.asarray(values, dtype=np.float64), np.asarray(constants, dtype=np.float64),
+                                    np.asarray(errors, dtype=np.float64), np.asarray(on_grid, dtype=bool))
+    coefficients, box_error = parametric.polish_formulas(form, per_value, ("line",) * form.count, problem, f)
+    out = dict(slopes=coefficients[:, parametric.POWERS.index(1)], intercepts=coefficients[:, parametric.POWERS.index(0)],
+               box_error=float(box_error), formulas=[], formulas_box_error=float("nan"), formula_level=0)
+    if complexity > 0:
+        n = problem.symbols()[-1]
+        k = parametric.constant_symbols(form.count)
+        pixel = form.expression.xreplace(dict(zip(k, parametric.formula_expressions(coefficients, n))))
+        line = parametric.Fitted(form, "line", coefficients, per_value, parametric.measure_box(pixel, problem, f), pixel,
+                                 None)
+        better = parametric.corrected(line, problem, f, int(complexity), log=lambda _: None)
+        if better is not None:
+            out.update(formulas=[str(e) for e in better.formulas], formula_level=int(better.formula[len("found"):]),
+                       formulas_box_error=float(better.errors["max_rel_error"]))
+    return out
+
+
+def formulas_at(formulas, n) -> np.ndarray:
+    """The constants at the exponents n from their formulas (sympy text in n): (n, constants)."""
+    import sympy as sp
+    symbol = sp.Symbol("n", real=True)
     n = np.asarray(n, dtype=np.float64)
-    return np.stack([a * n + b + (grammar.evaluate_numpy(grammar.parse(m["form"], "n"), m["constants"], n) if m else 0.0)
-                     for a, b, m in zip(slopes, intercepts, corrections)], axis=1)
+    return np.stack([np.broadcast_to(np.asarray(sp.lambdify([symbol], sp.sympify(e, locals={"n": symbol}), "numpy")(n),
+                                                dtype=np.float64), n.shape) for e in formulas], axis=1)
 
 
-def formula_text(names, slopes, intercepts, corrections) -> dict[str, str]:
-    """Each parameter as text: its line, then its correction (if any) with the constants written in."""
-    from ..symbolic import grammar
-    lines = formula(names, slopes, intercepts)
-    return {p: lines[p] + (f" + ({grammar.show(grammar.parse(m['form'], 'n'), 'n', m['constants'])})" if m else "")
-            for p, m in zip(names, corrections)}
+def line_text(a: float, b: float) -> str:
+    """A line in n as text: "1.44269 n - 0.377261"."""
+    return f"{a:.6g} n {'-' if b < 0 else '+'} {abs(b):.6g}"
+
+
+def parameter_texts(family: str, names, slopes, intercepts, formulas=()) -> dict[str, str]:
+    """Each shader parameter as text: its line, or its formula (6 significant digits); square_peak1's
+    B is 1 - A."""
+    import sympy as sp
+    if formulas:
+        texts = [str(sp.sympify(e, locals={"n": sp.Symbol("n", real=True)}).evalf(6)) for e in formulas]
+    else:
+        texts = [line_text(a, b) for a, b in zip(slopes, intercepts)]
+    if family == "square_peak1":
+        texts.append(f"1 - ({texts[0]})" if formulas else line_text(-slopes[0], 1.0 - intercepts[0]))
+    return dict(zip(names, texts))
 
 
 @toolchains.uses(*toolchains.MACHINE_CODE)
@@ -360,8 +427,10 @@ def run(config, inputs, memo):
         fit = memo("lobe_family_fit", fit_family, family=name, n=n, level=level, zone_points=zone_points, target=target)
         exact = exact_errors(name, n, fit["grid_P"], level, cells, settings, target)
         family = lobe_families.FAMILIES[name]
-        forms[name] = dict(fit, d=exact["d"], D=exact["D"], params=fit["grid_P"][:, :len(family.parameters)],
-                           parameter_names=family.parameters, expression=family.formula)
+        count = len(family.start)           # (the template's constants: A, B, C, or square_peak1's k = A)
+        forms[name] = dict(fit, d=exact["d"], D=exact["D"], constants=fit["grid_P"][:, :count],
+                           mid_constants=fit["mid_P"][:, :count], parameter_names=family.parameters,
+                           expression=family.formula)
     reach = dict(searched=0, kept=[])
     if config["lobe_search.grammar_complexity"] > 0:
         from ..symbolic import grammar
@@ -374,23 +443,23 @@ def run(config, inputs, memo):
                        target=target, own_start=list(start))
             dense = dense_errors(text, n, fit["grid_q"], level, target)
             count = len(start)
-            forms[f"grammar_{i}"] = dict(fit, d=dense["d"], D=dense["D"], params=fit["grid_q"], grammar=text,
+            forms[f"grammar_{i}"] = dict(fit, d=dense["d"], D=dense["D"], constants=fit["grid_q"],
+                                         mid_constants=fit["mid_q"], grammar=text,
                                          admissible=bool(np.all(dense["lowest"] >= 0.0)),
                                          parameter_names=tuple(f"c{j}" for j in range(count)),
                                          expression=f"{grammar.show(grammar.parse(text), variable='w')}, "
                                                     "w = n (1 - t)")
 
-    # Per range: the form's worst n on the grid, the grid check, and the line in n of its parameters
-    # measured at every integer n of the range (and, where a line is not enough, the line corrected).
+    # Per range: the form's worst n on the grid, the grid check, and its constants as lines in n
+    # (derive's formulas) measured at every integer n of the range (and, where a line is not enough,
+    # the symbolic regression's formulas).
     members = []
     formula_complexity = config["lobe_search.formula_complexity"]
 
-    def measured(name, f, P_count, exponents):
+    def measured(name, f, constants, exponents):
         if "grammar" in f:
-            return dense_errors(f["grammar"], exponents, P_count, level, target)
-        P = np.zeros((exponents.size, 3))
-        P[:, :P_count.shape[1]] = P_count
-        return exact_errors(name, exponents, P, level, cells, settings, target)
+            return dense_errors(f["grammar"], exponents, constants, level, target)
+        return exact_errors(name, exponents, shader_values(name, constants), level, cells, settings, target)
 
     for lo, hi in ranges:
         inside = (n >= lo) & (n <= hi)
@@ -401,35 +470,41 @@ def run(config, inputs, memo):
             i = int(np.argmax(np.where(inside, f["d"], -np.inf)))
             grid_error = float(f["grid_zone_error"][inside].max())
             mid_error = float(f["mid_zone_error"][mid_inside].max()) if mid_inside.any() else grid_error
-            count = len(f["parameter_names"])
-            slopes, intercepts = parameter_lines(n[inside], f["params"][inside], count)
+            per_n = dict(values=np.r_[n[inside], mids[mid_inside]],
+                         constants=np.r_[f["constants"][inside], f["mid_constants"][mid_inside]],
+                         errors=np.r_[f["grid_zone_error"][inside], f["mid_zone_error"][mid_inside]],
+                         on_grid=np.r_[np.ones(inside.sum(), bool), np.zeros(mid_inside.sum(), bool)],
+                         family=name if "grammar" not in f else "grammar", text=f.get("grammar", ""), level=level,
+                         target=target, lo=lo, hi=hi)
+            fitted = memo("lobe_parameter_formulas", parameter_formulas, **per_n)
+            slopes, intercepts = np.asarray(fitted["slopes"]), np.asarray(fitted["intercepts"])
             line = measured(name, f, slopes * integers[:, None] + intercepts, integers)
             j = int(np.argmax(line["d"]))
-            corrected = dict(formulas=formula(f["parameter_names"], slopes, intercepts), d_formula=float(line["d"][j]),
-                             D_formula=float(line["D"].max()), formula_complexity=0, formula_searched=False,
-                             parameter_corrections=[None] * count)
+            if name == "square_peak1":          # B = 1 - A
+                slopes, intercepts = np.r_[slopes, -slopes], np.r_[intercepts, 1.0 - intercepts]
+            texts = parameter_texts(name, f["parameter_names"], slopes, intercepts)
+            corrected = dict(formulas=texts, d_formula=float(line["d"][j]), D_formula=float(line["D"].max()),
+                             formula_complexity=0, formula_searched=False, parameter_formulas=[])
             if formula_complexity > 0 and line["d"][j] > LINE_ENOUGH * f["d"][i]:
-                key = "grid_P" if "grid_P" in f else "grid_q"
-                both_n = np.concatenate([n[inside], mids[mid_inside]])
-                both_P = np.concatenate([f[key][inside], f["mid" + key[4:]][mid_inside]])[:, :count]
-                fronts = memo("lobe_parameter_fronts", residual_fronts, n=both_n, P=both_P, slopes=slopes,
-                              intercepts=intercepts, complexity=formula_complexity)["fronts"]
+                found = memo("lobe_parameter_formulas", parameter_formulas, **per_n, complexity=formula_complexity)
                 corrected["formula_searched"] = True
-                for k in sorted({m["complexity"] for front in fronts for m in front}):
-                    chosen = corrections_at(fronts, k)
-                    errors = measured(name, f, on_formulas(chosen, slopes, intercepts, integers), integers)
+                if found["formulas"]:
+                    errors = measured(name, f, formulas_at(found["formulas"], integers), integers)
                     if errors["d"].max() < corrected["d_formula"]:
-                        corrected.update(formulas=formula_text(f["parameter_names"], slopes, intercepts, chosen),
+                        full = list(found["formulas"]) + ([f"1 - ({found['formulas'][0]})"]
+                                                          if name == "square_peak1" else [])
+                        corrected.update(formulas=parameter_texts(name, f["parameter_names"], slopes, intercepts,
+                                                                  found["formulas"]),
                                          d_formula=float(errors["d"].max()), D_formula=float(errors["D"].max()),
-                                         formula_complexity=k, parameter_corrections=chosen)
+                                         formula_complexity=int(found["formula_level"]), parameter_formulas=full)
             members.append(dict(
                 family=name, expression=f["expression"], grammar=f.get("grammar", ""), n_range=[lo, hi],
                 admissible=f.get("admissible", True),
                 d=float(f["d"][i]), n_at_max=float(n[i]),
                 D=float(f["D"][inside].max()), D_n_at_max=float(n[inside][np.argmax(f["D"][inside])]),
                 grid_check=max(mid_error / grid_error - 1.0, 0.0) if grid_error > 0 else 0.0,
-                parameters=formula(f["parameter_names"], slopes, intercepts),
-                parameter_slopes=[float(a) for a in slopes], parameter_intercepts=[float(b) for b in intercepts],
+                parameters=texts, parameter_slopes=[float(a) for a in slopes],
+                parameter_intercepts=[float(b) for b in intercepts], line_box_error=float(fitted["box_error"]),
                 d_line=float(line["d"][j]), d_line_n_at_max=float(integers[j]), D_line=float(line["D"].max()),
                 **corrected))
 

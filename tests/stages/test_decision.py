@@ -107,15 +107,20 @@ def test_the_spherical_gaussian_s_class_at_24_cycles_flips_rdna3_to_f_Q2_s_famil
     assert rdna3 not in before
 
 
-def test_a_budget_of_a_tenth_of_a_percent_flips_every_full_range_answer_to_the_reference(made, paper_run, paper_config):
-    again = redecide(made, max_d=0.001)
+def test_a_budget_of_a_hundredth_of_a_percent_flips_every_full_range_answer_to_the_reference(made, paper_run,
+                                                                                              paper_config):
+    """Below every candidate's max d over [2, 1000] but the reference's (exp2((A t + B) t + C) with its
+    lines errs 0.037 % there), every full-range answer is cos^n (Beckmann for the NDF)."""
+    lowest = min(c["d"] for c in made["candidates"] if c["n_range"] == [2.0, 1000.0] and c["d"] > 0)
+    assert lowest > 1e-4
+    again = redecide(made, max_d=1e-4)
     full = [r for r in again["table"] if r["n_range"] == [2.0, 1000.0] and r["precision"] == "fp32"
             and r["reason"].split(":")[0] != "not decided"]
     assert full and all(r["winner_lobe"] == ("Beckmann" if r["use"] == "ndf" else registry.REFERENCE) for r in full)
     assert any(r["winner_lobe"] != registry.REFERENCE for r in made["table"] if r["n_range"] == [2.0, 1000.0]
                and r["use"] != "ndf" and r["precision"] == "fp32")
     text = summary_text(paper_run, paper_config, again)
-    assert "max d <= 0.1 %" in text
+    assert "max d <= 0.01 %" in text
     for line in text.splitlines():
         if line.startswith("| AMD rdna3"):
             assert line.split(" | ")[-1].startswith(("f_b: 12 cycles", "f_b: 12-"))  # rdna3 12, a group from 12
