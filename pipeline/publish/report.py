@@ -288,5 +288,7 @@ def write(path: Path, config, doc, r, checks, figures, baseline=None, summary_li
     lines += ["## Files", "", "- `results.json`: every number (`headline` holds the main ones, as fractions)",
               "- `newenergy.csv`: the sample, like the paper's newenergy.txt; `energy_all_n.csv`: every n",
               "- `symbolic_front.csv`: the exhaustive symbolic-regression front; `regression_front.csv`: "
-              "the pysindy front", ""]
+              "the pysindy front",
+              "- `lobe_search_front.csv`: the lobe search's forms per architecture and range, and the registry's "
+              "lobes placed among them, in the columns of `pipeline derive`'s front.csv", ""]
     path.write_text(at_power("\n".join(lines), config["lobe.power"]))

@@ -398,3 +398,27 @@ def test_the_zone_s_edge_in_closed_form_and_by_newton_is_the_root_zone_w_finds()
         box = search_target(target, 0.6, 10.0, 100.0)
         assert (box.parameter.lo, box.parameter.hi) == (10.0, 100.0)
         assert box.variables[0].lo == pytest.approx(float(edge(np.array([10.0]))[0]), abs=1e-13)
+
+
+def test_the_search_s_rows_are_written_as_derive_writes_its_fronts(search, tmp_path):
+    """`lobe_search_front.csv` has derive's front.csv columns first (`approximate.publish.COLUMNS`); its
+    rows on a front are the search's front (architecture, range, form, cycles, d to the 6 digits
+    written), each a material row whose expression carries its lines; the registry's lobes are
+    anchors whose on_front is their placement's."""
+    import csv
+
+    from pipeline.approximate.publish import COLUMNS, write_csv
+    from pipeline.publish.tables import lobe_search_rows
+    write_csv(tmp_path / "front.csv", lobe_search_rows(search))
+    with open(tmp_path / "front.csv") as f:
+        reader = csv.DictReader(f)
+        assert tuple(reader.fieldnames[:len(COLUMNS)]) == COLUMNS
+        rows = list(reader)
+    on = {(r["architecture"], r["range"], r["name"], float(r["cycles"])): float(r["max_rel_error"])
+          for r in rows if r["kind"] == "found" and r["on_front"] == "True"}
+    assert on == {(c["architecture"], f"n in [{c['n_range'][0]:g}, {c['n_range'][1]:g}]", c["family"], c["cycles"]):
+                  pytest.approx(c["d"], rel=1e-5) for c in search["front"]}      # (6 digits written)
+    assert all(r["parameter_per"] == "material" and " n " in r["expression"] for r in rows if r["kind"] == "found")
+    anchors = {(r["architecture"], r["range"], r["name"]): r["on_front"] == "True" for r in rows if r["kind"] == "anchor"}
+    assert anchors == {(p["architecture"], f"n in [{p['n_range'][0]:g}, {p['n_range'][1]:g}]", p["lobe"]): p["on_front"]
+                       for p in search["placements"]}
