@@ -353,13 +353,14 @@ def grammar_templates(target: ParametricTarget, f, seconds: float, max_complexit
     out = []
     for i, (tree, c, _, _, engine, _) in enumerate(chosen):
         k = constant_symbols(grammar.constants(tree))
-        out.append(Template(f"grammar_{i + 1}", "grammar", grammar.substitute(tree, k, symbols, _SYMPY_FUNCTIONS()),
+        out.append(Template(f"grammar_{i + 1}", "grammar", grammar.substitute(tree, k, symbols, sympy_functions()),
                             len(k), f"grammar ({engine}): {grammar.show(tree, [s.name for s in symbols])}",
                             start=np.asarray(c, dtype=float)))
     return out, dict(rungs=[r.row() for r in rungs], points=int(y.size), loss=loss)
 
 
-def _SYMPY_FUNCTIONS():
+def sympy_functions():
+    """The grammar's functions as sympy's (`symbolic.grammar.substitute` into sympy)."""
     import sympy as sp
 
     return {"exp": sp.exp, "log": sp.log, "sqrt": sp.sqrt, "sin": sp.sin, "cos": sp.cos, "abs": sp.Abs}
@@ -839,7 +840,7 @@ def corrected(line: Fitted, target, f, complexity: int, log) -> Fitted | None:
                          base + grammar.substitute(found["forms"][i],
                                                    [sp.Float(float(c), 17) for c in
                                                     found["constants"][i][:grammar.constants(found["forms"][i])]],
-                                                   [parameter], _SYMPY_FUNCTIONS()))
+                                                   [parameter], sympy_functions()))
                         for i in found["front"] if found["rms"][i] < line_rms]
         fronts.append(members)
     k = constant_symbols(line.template.count)

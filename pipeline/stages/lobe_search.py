@@ -246,7 +246,7 @@ def template(family: str, text: str = ""):
     if text:
         form = grammar.parse(text)
         k = parametric.constant_symbols(grammar.constants(form))
-        expression = grammar.substitute(form, k, [n * (1 - t)], parametric._SYMPY_FUNCTIONS())
+        expression = grammar.substitute(form, k, [n * (1 - t)], parametric.sympy_functions())
         return parametric.Template(family, "grammar", expression, len(k), text)
     entry = lobe_families.FAMILIES[family]
     symbols = {p: sp.Symbol(p, real=True) for p in "ABC"}
