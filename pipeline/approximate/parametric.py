@@ -33,10 +33,10 @@ pixel. Its error is the largest over the whole box, variables and parameter
    each anchor's own form with its decimal numbers refitted by minimax on the box
    (`refitted_anchors`: the same operations, so mostly the same cost).
 5. Costs: every form compiled for each architecture, a fragment shader with one input per variable
-   and the parameter (`isa.machine_code.form_cycles`, net of the shader writing the inputs the form
-   reads): `parameter_per = "material"`, the constants push constants that
+   and the parameter (`isa.machine_code.form_cycles`, net of the shader writing the variables the
+   form reads): `parameter_per = "material"`, the constants push constants that
    the CPU computes once per material from the formulas; `pixel`, the formulas compiled into the
-   shader with the parameter per pixel (textured roughness). The fronts are read off per
+   shader with the parameter per pixel (textured roughness), the parameter's read paid by the form. The fronts are read off per
    architecture and per `parameter_per`; the anchors, which engines evaluate with the parameter per
    pixel, are pixel rows, held against the pixel front (`engine.verdict`).
 """
@@ -914,7 +914,11 @@ def glsl_text(expr) -> str:
 def compile_forms(forms: dict, target: ParametricTarget, architectures) -> tuple[dict, dict]:
     """({architecture: {name: cycles}}, {what: why not}) of `forms` ({name: (sympy, parameter_per)}),
     by `isa.machine_code.form_cycles`: a material form reads the variables, a pixel form the parameter
-    too (each only those its expression holds)."""
+    too (each only those its expression holds). Both are net of the shader that reads and writes the
+    variables alone: a pixel form pays the read of its parameter (an interpolated input, where a
+    renderer fetches a texture). Netted of its parameter's read too, a form whose arithmetic hides
+    that read behind its own latency would cost less per pixel than per material (pow(t, n): 6
+    cycles against 12 on RDNA3, both shaders 16)."""
     from ..isa.machine_code import form_cycles
 
     names = list(target.names)
@@ -928,7 +932,7 @@ def compile_forms(forms: dict, target: ParametricTarget, architectures) -> tuple
             continue
         read = {s.name for s in expr.free_symbols}
         used = [n for n in (names if per == "pixel" else variables) if n in read] or names[:1]
-        bodies[name] = (f"return {text};", used)
+        bodies[name] = (f"return {text};", used, [n for n in used if n in variables] or used)
     cycles, more, _ = form_cycles(bodies, names, architectures)
     return cycles, missing | more
 
