@@ -260,17 +260,22 @@ def template(family: str, text: str = ""):
                                entry.formula)
 
 
+def shader_parameters(family: str, constants) -> list:
+    """The shader parameters (A, B, ...; a grammar form's c0, c1, ...) from the template's constants
+    (one per constant: numbers, arrays or sympy expressions): the constants themselves, but for
+    square_peak1, whose one constant k is A = k, B = 1 - k. Every map is affine in the constants."""
+    constants = list(constants)
+    return [constants[0], 1 - constants[0]] if family == "square_peak1" else constants
+
+
 def shader_values(family: str, constants) -> np.ndarray:
-    """A family's shader parameters (A, B, C; C = 0 where it has none) from its template's constants
-    (rows per n; square_peak1's k is A = k, B = 1 - k); a grammar form's constants as they are."""
+    """`shader_parameters` of constants given per n (rows): a family's (A, B, C), C = 0 where it has
+    none, as `exact_errors` reads them; a grammar form's constants as they are."""
     constants = np.asarray(constants, dtype=np.float64)
+    P = np.stack(shader_parameters(family, constants.T), axis=1)
     if family not in lobe_families.FAMILIES:
-        return constants
-    P = np.zeros((constants.shape[0], 3))
-    P[:, :constants.shape[1]] = constants
-    if family == "square_peak1":
-        P[:, 1] = 1.0 - constants[:, 0]
-    return P
+        return P
+    return np.concatenate([P, np.zeros((P.shape[0], 3 - P.shape[1]))], axis=1)
 
 
 def parameter_formulas(family: str, text: str, values, constants, errors, on_grid, level: float, target: str,
@@ -319,17 +324,27 @@ def line_text(a: float, b: float) -> str:
     return f"{a:.6g} n {'-' if b < 0 else '+'} {abs(b):.6g}"
 
 
-def parameter_texts(family: str, names, slopes, intercepts, formulas=()) -> dict[str, str]:
-    """Each shader parameter as text: its line, or its formula (6 significant digits); square_peak1's
-    B is 1 - A."""
+def shader_lines(family: str, slopes, intercepts) -> tuple[np.ndarray, np.ndarray]:
+    """The shader parameters' lines in n from the template constants' lines (`shader_parameters` is
+    affine: its values at n = 0 and n = 1 give them)."""
+    at_0 = np.asarray(shader_parameters(family, np.asarray(intercepts, dtype=np.float64)), dtype=np.float64)
+    at_1 = np.asarray(shader_parameters(family, np.add(slopes, intercepts)), dtype=np.float64)
+    return at_1 - at_0, at_0
+
+
+def shader_formulas(family: str, formulas) -> list[str]:
+    """The shader parameters' formulas (sympy text in n, full precision) from the template constants'."""
+    import sympy as sp
+    symbol = sp.Symbol("n", real=True)
+    return [str(e) for e in shader_parameters(family, [sp.sympify(e, locals={"n": symbol}) for e in formulas])]
+
+
+def parameter_texts(names, slopes, intercepts, formulas=()) -> dict[str, str]:
+    """Each shader parameter as text: its line, or its formula (6 significant digits)."""
     import sympy as sp
     if formulas:
-        texts = [str(sp.sympify(e, locals={"n": sp.Symbol("n", real=True)}).evalf(6)) for e in formulas]
-    else:
-        texts = [line_text(a, b) for a, b in zip(slopes, intercepts)]
-    if family == "square_peak1":
-        texts.append(f"1 - ({texts[0]})" if formulas else line_text(-slopes[0], 1.0 - intercepts[0]))
-    return dict(zip(names, texts))
+        return {p: str(sp.sympify(e, locals={"n": sp.Symbol("n", real=True)}).evalf(6)) for p, e in zip(names, formulas)}
+    return {p: line_text(a, b) for p, a, b in zip(names, slopes, intercepts)}
 
 
 @toolchains.uses(*toolchains.MACHINE_CODE)
@@ -480,9 +495,8 @@ def run(config, inputs, memo):
             slopes, intercepts = np.asarray(fitted["slopes"]), np.asarray(fitted["intercepts"])
             line = measured(name, f, slopes * integers[:, None] + intercepts, integers)
             j = int(np.argmax(line["d"]))
-            if name == "square_peak1":          # B = 1 - A
-                slopes, intercepts = np.r_[slopes, -slopes], np.r_[intercepts, 1.0 - intercepts]
-            texts = parameter_texts(name, f["parameter_names"], slopes, intercepts)
+            slopes, intercepts = shader_lines(name, slopes, intercepts)
+            texts = parameter_texts(f["parameter_names"], slopes, intercepts)
             corrected = dict(formulas=texts, d_formula=float(line["d"][j]), D_formula=float(line["D"].max()),
                              formula_complexity=0, formula_searched=False, parameter_formulas=[])
             if formula_complexity > 0 and line["d"][j] > LINE_ENOUGH * f["d"][i]:
@@ -491,10 +505,8 @@ def run(config, inputs, memo):
                 if found["formulas"]:
                     errors = measured(name, f, formulas_at(found["formulas"], integers), integers)
                     if errors["d"].max() < corrected["d_formula"]:
-                        full = list(found["formulas"]) + ([f"1 - ({found['formulas'][0]})"]
-                                                          if name == "square_peak1" else [])
-                        corrected.update(formulas=parameter_texts(name, f["parameter_names"], slopes, intercepts,
-                                                                  found["formulas"]),
+                        full = shader_formulas(name, found["formulas"])
+                        corrected.update(formulas=parameter_texts(f["parameter_names"], slopes, intercepts, full),
                                          d_formula=float(errors["d"].max()), D_formula=float(errors["D"].max()),
                                          formula_complexity=int(found["formula_level"]), parameter_formulas=full)
             members.append(dict(
