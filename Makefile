@@ -24,7 +24,7 @@ CONFIG ?= configs/paper.toml
 SET ?=
 ONLY ?=
 
-.PHONY: reproduce test test-isa bench refit clean keys graph docs measure
+.PHONY: reproduce test test-isa bench refit clean keys graph docs measure fuzz
 
 $(INSTALLED): pyproject.toml constraints.txt
 	$(PYTHON) -m venv $(VENV)
@@ -136,6 +136,18 @@ test-isa: $(TEST_INSTALLED) $(LLVM_READY) $(RADV_READY) $(NVIDIA_READY) $(INTEL_
 	done; \
 	if [ -n "$$failed" ]; then echo "test-isa: failed under$$failed"; exit 1; fi; \
 	echo "test-isa: passed under $(ISA_LEVELS)"
+
+# A coverage-guided fuzz run (atheris) of the one reader of expression text, for FUZZ_SECONDS; it
+# fails on any input that is not read or refused in one line within a second (scripts/fuzz_expressions.py),
+# and records its numbers in docs/measured/fuzz.json.
+FUZZ_SECONDS ?= 600
+FUZZ_INSTALLED := $(VENV)/.installed-fuzz
+$(FUZZ_INSTALLED): $(INSTALLED)
+	$(PIP) -e ".[fuzz]"
+	touch $(FUZZ_INSTALLED)
+
+fuzz: $(FUZZ_INSTALLED)
+	$(BIN)/python scripts/fuzz_expressions.py --record docs/measured/fuzz.json -max_total_time=$(FUZZ_SECONDS)
 
 bench: $(TEST_INSTALLED) $(LLVM_READY) $(RADV_READY) $(NVIDIA_READY) $(INTEL_READY) $(MOBILE_READY)
 	$(BIN)/python bench/bench.py

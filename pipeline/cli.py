@@ -153,6 +153,7 @@ def _regress(args) -> int:
 
 def _derive(args) -> int:
     from .approximate import api
+    from .engine import escape
     from .engine.cache import XLA
     from .isa.machine_code import CompilerMissing
     from .optics.numerics import use_compilation_cache
@@ -161,7 +162,7 @@ def _derive(args) -> int:
     start = time.perf_counter()
     target = api.resolve(args.target, args.expr, args.var, args.metric, args.floor, args.table, args.x, args.parameter,
                          args.y, args.parameter_range)
-    out = Path(args.out) if args.out else paths.OUTPUTS / "derive" / target.name
+    out = Path(args.out) if args.out else paths.OUTPUTS / "derive" / escape.folder_name(target.name)
     use_compilation_cache(paths.XLA_CACHE or paths.CACHE / XLA)
     try:
         found = api.derive(target, gpu=args.gpu, seconds=args.seconds, max_cycles=args.max_cycles,

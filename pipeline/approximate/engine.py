@@ -162,40 +162,41 @@ def _searched(target, f, seconds: float, max_complexity: int, log):
     """(the families' members, the grammar's trees, constants, losses and coverage): kept in
     `paths.DERIVE_CACHE` by the target, the budget and this code, so that a rerun (another --gpu,
     --max-cycles) skips the search; an entry that cannot be read is searched again."""
-    import json
-    import os
-
-    import sympy as sp
+    from . import kept as keeping
 
     kept = _kept_search(target, seconds, max_complexity)
-    symbol = target.symbol()
+    symbols = {target.variable: target.symbol()}
+    entry = keeping.read(kept, log)
     try:
-        entry = json.loads(kept.read_text())
-        found = [Form(m["name"], m["kind"], m["family"], sp.sympify(m["expression"], locals={target.variable: symbol}),
-                     m["source"], m["converged"]) for m in entry["families"]]
+        if entry is not None:
+            found = [Form(m["name"], m["kind"], m["family"], keeping.expression(m["expression"], symbols),
+                          m["source"], m["converged"]) for m in entry["families"]]
 
-        def tree(node):
-            return tuple(tree(a) if isinstance(a, list) else a for a in node)
+            def tree(node):
+                return tuple(tree(a) if isinstance(a, list) else a for a in node)
 
-        trees = [tree(t) for t in entry["trees"]]
-        fitted = [np.array(c, dtype=float) for c in entry["constants"]]
-        losses = np.array([float(v) for v in entry["losses"]], dtype=float)
-        log(f"the search of an earlier run, kept in {kept.parent} (families, grammar to complexity "
-            f"{entry['coverage']['exhaustive_complexity']})")
-        return found, trees, fitted, losses, entry["coverage"] | dict(kept=True)
-    except (OSError, ValueError, KeyError, TypeError, sp.SympifyError):
-        pass
+            trees = [tree(t) for t in entry["trees"]]
+            fitted = [np.array(c, dtype=float) for c in entry["constants"]]
+            losses = np.array([float(v) for v in entry["losses"]], dtype=float)
+            log(f"the search of an earlier run, kept in {kept.parent} (families, grammar to complexity "
+                f"{entry['coverage']['exhaustive_complexity']})")
+            return found, trees, fitted, losses, entry["coverage"] | dict(kept=True)
+    except keeping.Unusable as e:
+        log(f"the kept search {kept.name} is not used ({e}): searched again")
+    except (ValueError, KeyError, TypeError) as e:
+        log(f"the kept search {kept.name} is not readable ({type(e).__name__}): searched again")
     log("families (minimax):")
     found = families.fit_families(target, f, lambda s: log(s))
     trees, fitted, losses, coverage = _grammar_search(target, f, seconds, max_complexity, log)
-    entry = dict(families=[dict(name=m.name, kind=m.kind, family=m.family, expression=sp.srepr(m.expression),
-                                source=m.source, converged=m.converged) for m in found],
-                 trees=trees, constants=[np.asarray(c, dtype=float).tolist() for c in fitted],
-                 losses=[repr(float(v)) for v in losses], coverage=coverage)
-    kept.parent.mkdir(parents=True, exist_ok=True)
-    partial = kept.with_suffix(f".{os.getpid()}.tmp")
-    partial.write_text(json.dumps(entry))
-    os.replace(partial, kept)
+    try:
+        texts = [keeping.text(m.expression, symbols) for m in found]
+    except keeping.Unusable as e:
+        log(f"the search is not kept ({e})")
+    else:
+        keeping.write(kept, dict(families=[dict(name=m.name, kind=m.kind, family=m.family, expression=text,
+                                                source=m.source, converged=m.converged) for m, text in zip(found, texts)],
+                                 trees=trees, constants=[np.asarray(c, dtype=float).tolist() for c in fitted],
+                                 losses=[repr(float(v)) for v in losses], coverage=coverage))
     return found, trees, fitted, losses, coverage | dict(kept=False)
 
 

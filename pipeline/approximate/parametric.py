@@ -51,6 +51,7 @@ import time
 
 import numpy as np
 
+from ..engine import expressions
 from ..isa.shaders import FORM_CONSTANTS
 from . import minimax
 from .forms import Form, free_numbers, gpu_form
@@ -190,7 +191,7 @@ class ParametricTarget:
         return self.parameter.text() if self.parameter else ""
 
     def anchor_expressions(self) -> dict:
-        return {a.name: parse(a.expression, self.names) for a in self.anchors}
+        return {a.name: parse(a.expression, self.names, f"anchor {a.name!r}") for a in self.anchors}
 
 
 def _numpy_of(expr, symbols):
@@ -221,8 +222,11 @@ def check(target: ParametricTarget) -> ParametricTarget:
     if len(set(names)) != len(names):
         raise DeriveError(f"{target.name}: the names {', '.join(names)} repeat one")
     for a in target.axes:
-        if not a.name.isidentifier() or a.name in ("c", "pi", "E") or a.name.startswith("k_"):
-            raise DeriveError(f"variable {a.name!r}: give a name (letters, digits, _), not c, pi, E or k_...")
+        fault = expressions.name_fault(a.name) or (
+            "c, c0, c1, ... and k_... name the constants" if a.name == "c" or a.name.startswith("k_")
+            or (a.name[0] == "c" and a.name[1:].isdigit()) else None)
+        if fault:
+            raise DeriveError(f"variable {a.name!r}: {fault}")
         if not (math.isfinite(a.lo) and math.isfinite(a.hi) and a.lo < a.hi):
             raise DeriveError(f"{a.name} in [{a.lo}, {a.hi}]: give finite numbers lo < hi")
     if not (math.isfinite(target.floor) and target.floor >= 0):
@@ -253,7 +257,7 @@ def check(target: ParametricTarget) -> ParametricTarget:
             at = ", ".join(f"{a.name} = {m[bad][0]:.6g}" for a, m in zip(target.axes, mesh))
             raise DeriveError(f"{target.expression} {why} at {at}: narrow the ranges")
     for anchor in target.anchors:
-        parse(anchor.expression, names)
+        parse(anchor.expression, names, f"anchor {anchor.name!r}")
     return target
 
 
@@ -272,6 +276,15 @@ class Template:
     start: np.ndarray | None = None
     outer: str = "identity"          # the families' outer function: identity or reciprocal
     basis: tuple = ()                # ... and their monomials, for the linear start
+
+
+def kept_symbols(target) -> list:
+    """Every symbol a found form may hold: the target's, the push constants c0, c1, ... and the
+    template constants k_0, k_1, ... (real, as the forms make them)."""
+    import sympy as sp
+
+    return (target.symbols() + [sp.Symbol(f"c{i}", real=True) for i in range(PUSH_CONSTANTS)]
+            + constant_symbols(MAX_CONSTANTS))
 
 
 def constant_symbols(count: int) -> list:
@@ -394,7 +407,7 @@ def _lower_end(axis: Axis, parameter: Axis):
         return lambda values: np.broadcast_to(np.asarray(axis.lo_of(np.asarray(values, dtype=np.float64)),
                                                          dtype=np.float64), np.shape(values))
     p = sp.Symbol(parameter.name, real=True)
-    end = sp.lambdify([p], parse(axis.lo_of, (parameter.name,)), "numpy")
+    end = sp.lambdify([p], parse(axis.lo_of, (parameter.name,), f"{axis.name}'s lower end"), "numpy")
     return lambda values: np.broadcast_to(np.asarray(end(np.asarray(values, dtype=np.float64)), dtype=np.float64),
                                           np.shape(values))
 
@@ -1188,33 +1201,36 @@ def _text(m: Form, record: dict, target) -> str:
     return sp.sstr(sp.N(m.expression, 9))
 
 
-def _kept(key: list, compute, log, what: str):
+def _kept(key: list, compute, log, what: str, target):
     """compute() -> (records, coverage), kept in `paths.DERIVE_CACHE` under `key` and this code; an
     entry that cannot be read is computed again."""
     import hashlib
     import json
-    import os
-
-    import sympy as sp
 
     from ..engine import paths
     from . import engine
+    from . import kept as keeping
 
     text = json.dumps([engine._code_version(), *key])
+    symbols = {s.name: s for s in kept_symbols(target)}
     kept = paths.DERIVE_CACHE / f"{hashlib.sha256(text.encode()).hexdigest()[:32]}.json"
+    entry = keeping.read(kept, log)
     try:
-        entry = json.loads(kept.read_text())
-        found = [r | dict(expression=sp.sympify(r["expression"])) for r in entry["found"]]
-        log(f"the {what} of an earlier run, kept in {kept.parent}")
-        return found, entry["coverage"] | dict(kept=True)
-    except (OSError, ValueError, KeyError, TypeError, sp.SympifyError):
-        pass
+        if entry is not None:
+            found = [r | dict(expression=keeping.expression(r["expression"], symbols)) for r in entry["found"]]
+            log(f"the {what} of an earlier run, kept in {kept.parent}")
+            return found, entry["coverage"] | dict(kept=True)
+    except keeping.Unusable as e:
+        log(f"the kept {what} {kept.name} is not used ({e}): computed again")
+    except (ValueError, KeyError, TypeError) as e:
+        log(f"the kept {what} {kept.name} is not readable ({type(e).__name__}): computed again")
     found, coverage = compute()
-    kept.parent.mkdir(parents=True, exist_ok=True)
-    partial = kept.with_suffix(f".{os.getpid()}.tmp")
-    partial.write_text(json.dumps(dict(found=[r | dict(expression=sp.srepr(r["expression"])) for r in found],
-                                       coverage=coverage)))
-    os.replace(partial, kept)
+    try:
+        texts = [keeping.text(r["expression"], symbols) for r in found]
+    except keeping.Unusable as e:
+        log(f"the {what} are not kept ({e})")
+    else:
+        keeping.write(kept, dict(found=[r | dict(expression=t) for r, t in zip(found, texts)], coverage=coverage))
     return found, coverage | dict(kept=False)
 
 
@@ -1228,15 +1244,15 @@ def _searched(target, f, seconds: float, max_complexity: int, log, formula_compl
     if target.parameter is not None:
         families, coverage["families"] = _kept([repr(target), "families", formula_complexity],
                                                lambda: _family_search(target, f, log, formula_complexity),
-                                               log, "families' fits")
+                                               log, "families' fits", target)
         found += families
     grammar_found, coverage["grammar"] = _kept([repr(target), "grammar", seconds, max_complexity, formula_complexity],
                                                lambda: _grammar_search(target, f, seconds, max_complexity, log,
                                                                        formula_complexity),
-                                               log, "grammar's search")
+                                               log, "grammar's search", target)
     found += grammar_found
     refits, coverage["anchors"] = _kept([repr(target), "anchors"], lambda: refitted_anchors(target, f, log), log,
-                                        "anchors' refits")
+                                        "anchors' refits", target)
     found += refits
     for part in ("families", "grammar", "anchors"):
         coverage.update({k: v for k, v in coverage.get(part, {}).items() if k != "kept"})

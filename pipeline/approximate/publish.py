@@ -21,10 +21,12 @@ from __future__ import annotations
 import csv
 import json
 import math
-import re
+import textwrap
 from pathlib import Path
 
+from ..engine import escape
 from .forms import glsl, hlsl, python
+from .targets import parse
 
 COLUMNS = ("architecture", "kind", "name", "family", "expression", "cycles", "cycles_predicted", "max_abs_error",
            "max_rel_error", "on_front", "source", "range", "parameter_per")
@@ -51,7 +53,23 @@ def shader_text(expr, arguments: str, language: str) -> str:
 
 
 def function_name(target_name: str, member: str) -> str:
-    return re.sub(r"\W", "_", f"{target_name}_{member}")
+    """A member's function name in derive.glsl, derive.hlsl and derive_twin.py: an identifier made
+    from the target's and the member's names (`escape.identifier`)."""
+    return escape.identifier(f"{target_name}_{member}")
+
+
+def function_names(results) -> dict[str, str]:
+    """Each exported member's function name, distinct (a name that two members' names sanitize to
+    takes a number)."""
+    out: dict[str, str] = {}
+    for name in exported(results):
+        fn = base = function_name(results["target"]["name"], name)
+        count = 1
+        while fn in out.values() or fn + "_constants" in out.values():
+            count += 1
+            fn = f"{base}_{count}"
+        out[name] = fn
+    return out
 
 
 def exported(results) -> list[str]:
@@ -81,32 +99,32 @@ def arguments_of(results, name: str) -> str:
 
 def shader_sources(results) -> dict[str, str]:
     """derive.glsl, derive.hlsl and derive_twin.py as text."""
-    import sympy as sp
-
     target = results["target"]
-    head = [f"// Forms of {target['expression']} for {domain_text(target)} found by "
-            f"pipeline derive (error {target['metric']}, measured in float64 over the whole domain)", ""]
+    head = ["// " + escape.comment(f"Forms of {target['expression']} for {domain_text(target)} found by "
+                                   f"pipeline derive (error {target['metric']}, measured in float64 over the whole "
+                                   "domain)"), ""]
     glsl_lines, hlsl_lines = list(head), list(head)
-    py = [f'"""Python twin of derive.glsl: the forms of {target["expression"]}, for tests and plots."""', "",
-          "import math  # noqa: F401", "", ""]
+    py = [escape.python_string(f"Python twin of derive.glsl: the forms of {target['expression']}, for tests and plots."),
+          "", "import math  # noqa: F401", "", ""]
+    names_of = function_names(results)
     for name in exported(results):
         form = results["forms"][name]
         m = results["members"][name]
         doc = f"{m['expression']}: max abs error {m['max_abs_error']:.4g}, max rel error {m['max_rel_error']:.4g}"
-        fn = function_name(target["name"], name)
+        fn = names_of[name]
         expression, names = form.expression, arguments_of(results, name)
         if m.get("parameter_per") == "material":
             # the constants are the function's arguments; the twin computes them from the formulas
             parameter = target["parameter"]["name"]
-            values = ", ".join(python(sp.sympify(c, locals={parameter: sp.Symbol(parameter, real=True)}), parameter)
+            values = ", ".join(python(parse(c, (parameter,)), parameter)
                                for c in m["constants"])
             py += [f"def {fn}_constants({parameter}):", f'    """c0, c1, ... of {fn}, once per material."""',
                    f"    return [{values}]", "", ""]
         signature = ", ".join(f"float {n.strip()}" for n in names.split(","))
         for lines, language in ((glsl_lines, "glsl"), (hlsl_lines, "hlsl")):
-            lines += [f"// {doc}", f"float {fn}({signature})", "{",
+            lines += [f"// {escape.comment(doc)}", f"float {fn}({signature})", "{",
                       f"    return {shader_text(expression, names, language)};", "}", ""]
-        py += [f"def {fn}({names}):", f'    """{doc}"""', f"    return {shader_text(expression, names, 'python')}", "", ""]
+        py += [f"def {fn}({names}):", f"    {escape.python_string(doc)}", f"    return {shader_text(expression, names, 'python')}", "", ""]
     return {"derive.glsl": "\n".join(glsl_lines), "derive.hlsl": "\n".join(hlsl_lines),
             "derive_twin.py": "\n".join(py).rstrip() + "\n"}
 
@@ -184,9 +202,9 @@ def report(results) -> str:
     t, c = results["target"], results["coverage"]
     error = results["error"]
     measure = "largest absolute error" if error == "max_abs_error" else "largest relative error"
-    lines = [f"# pipeline derive: {t['name']}", "",
-             f"Target: `{t['expression']}` for {domain_text(t)}"
-             + (f" ({t['description']})" if t["description"] else "") + f"; ranked by the {measure} over the whole "
+    lines = [f"# pipeline derive: {escape.markdown(t['name'])}", "",
+             f"Target: {escape.code(t['expression'])} for {domain_text(t)}"
+             + (f" ({escape.markdown(t['description'])})" if t["description"] else "") + f"; ranked by the {measure} over the whole "
              "domain (float64, grid and refinement), against cycles compiled for each architecture.", "",
              "## What the search covered", ""]
     if "pairs" in c:            # a pair: each part's coverage, then the pairs
@@ -198,7 +216,8 @@ def report(results) -> str:
                   "two."]
     lines += [] if "pairs" in c else _parametric_coverage(results) if t.get("variables") else [
              f"- Families fitted by minimax on the whole interval: {', '.join(results['families'])} "
-             f"({len(results['family_members'])} members: {', '.join(results['family_members'])}).",
+             f"({len(results['family_members'])} members: "
+             f"{', '.join(escape.markdown(m) for m in results['family_members'])}).",
              f"- The grammar's ten operations ({' '.join(c['operations'])}), loss {c['loss']} on {c['points']} points, "
              "by the ladder of grammars: " + _rungs_text(c["rungs"])
              + ("" if any(r["engine"] == "operon" for r in c["rungs"]) or c["exhaustive_complexity"] >= c["max_complexity"]
@@ -215,10 +234,14 @@ def report(results) -> str:
     for a, verdicts in results["verdicts"].items():
         for name, v in verdicts.items():
             ratio = "-" if v["ratio"] is None or math.isinf(v["ratio"]) else f"{v['ratio']:.3g}"
-            by = f"{v['by']}: `{results['members'][v['by']]['expression']}`" if v["by"] else "-"
-            lines.append(f"| {a} | {name} | {v['cycles']:g} | {_error_text(v['error'])} | {v['verdict']} | {by} | "
+            by = (f"{escape.markdown(v['by'])}: {escape.code(results['members'][v['by']]['expression'])}"
+                  if v["by"] else "-")
+            lines.append(f"| {a} | {escape.markdown(name)} | {v['cycles']:g} | {_error_text(v['error'])} | {v['verdict']} | {by} | "
                          f"{ratio} |")
     parametric = bool(t.get("parameter"))
+    sources = {r["name"]: r.get("source", "") for r in results["rows"] if r["kind"] == "anchor"}
+    lines += ["", "The anchors' sources: " + "; ".join(f"{escape.markdown(name)}: {escape.markdown(source)}"
+                                                     for name, source in sources.items()) + "."] if sources else []
     lines += ["", "A verdict compares the anchor with the most accurate found form at no more cycles on that "
               "architecture" + (" among the forms with the parameter per pixel (as engines evaluate the anchors)"
                                 if parametric else "")
@@ -241,13 +264,14 @@ def report(results) -> str:
         for r in sorted(rows, key=lambda r: (r["cycles"], r[error])):
             if parametric:
                 optimum = results["members"].get(r["name"], {}).get("per_value_error")
-                lines.append(f"| {r['kind']} | {r['parameter_per']} | {r['name']} | {r['cycles']:g} | "
+                lines.append(f"| {r['kind']} | {r['parameter_per']} | {escape.markdown(r['name'])} | {r['cycles']:g} | "
                              f"{_error_text(r['max_abs_error'])} | {_error_text(r['max_rel_error'])} | "
-                             f"{'-' if optimum is None else _error_text(optimum)} | `{r['expression']}` |")
+                             f"{'-' if optimum is None else _error_text(optimum)} | {escape.code(r['expression'])} |")
                 continue
             predicted = "-" if r["cycles_predicted"] is None else f"{r['cycles_predicted']:g}"
-            lines.append(f"| {r['kind']} | {r['name']} | {r['cycles']:g} | {predicted} | "
-                         f"{_error_text(r['max_abs_error'])} | {_error_text(r['max_rel_error'])} | `{r['expression']}` |")
+            lines.append(f"| {r['kind']} | {escape.markdown(r['name'])} | {r['cycles']:g} | {predicted} | "
+                         f"{_error_text(r['max_abs_error'])} | {_error_text(r['max_rel_error'])} | "
+                         f"{escape.code(r['expression'])} |")
         lines.append("")
     lines += ["## Limits", "",
               "- Errors are those of each expression in float64; a shader computes in float32, whose rounding "
@@ -296,7 +320,7 @@ def figure(path: Path, results) -> None:
             anchors.setdefault((r["cycles"], float(f"{max(r[error], floor):.3g}")), []).append(r["name"])
         for k, ((cycles, value), names) in enumerate(anchors.items()):
             ax.plot(cycles, value, "s", color="C3", ms=7, label="anchors: the engines' fits" if k == 0 else None)
-            ax.annotate(" = ".join(names), (cycles, value), textcoords="offset points", xytext=(6, 4), fontsize=8,
+            ax.annotate(escape.mathtext(" = ".join(names)), (cycles, value), textcoords="offset points", xytext=(6, 4), fontsize=8,
                         color="C3")
         for r in (r for r in rows if r["kind"] == "exact"):
             ax.axvline(r["cycles"], color="0.4", ls="--", lw=1, label="the target itself (its cycles)")
@@ -312,10 +336,10 @@ def figure(path: Path, results) -> None:
     for ax in axes.flat:
         for h, label in zip(*ax.get_legend_handles_labels()):
             handles.setdefault(label, h)
-    ncol = 4 if columns > 2 else 2          # (two panels are too narrow for four long labels a row)
+    ncol = 4 if columns > 2 else columns    # (two panels are too narrow for four long labels a row, one for two)
     fig.legend(handles.values(), handles.keys(), loc="lower center", ncol=ncol, fontsize=9, frameon=False)
-    fig.suptitle(f"{t['name']} for {domain_text(t)}: error against compiled cycles, "
-                 "one panel per vendor", fontsize=11)
+    title = escape.mathtext(f"{t['name']} for {domain_text(t)}") + ": error against compiled cycles, one panel per vendor"
+    fig.suptitle("\n".join(textwrap.wrap(title, width=55 * columns)), fontsize=11)
     legend_rows = -(-len(handles) // ncol)
     fig.tight_layout(rect=(0, min(0.3, 0.25 * legend_rows / (3.9 * lines + 0.6)), 1, 1))
     fig.savefig(path, dpi=110)

@@ -21,8 +21,10 @@ besselj, ... even where no shader has it) or a TOML file (`from_file`):
     expression = "x * (0.97 - 0.19 * x * x)"
     source = "where it comes from"
 
-Expressions are read by sympy (`sympy.sympify`, Python's syntax; ^ is a power), with exp2, log2,
-rsqrt, saturate and clamp added as a shader writes them.
+Expressions are read by the one parser of outside text (`engine.expressions`: Python's syntax, ^ a
+power, numbers, the variable, pi, E, + - * / ** and calls of sympy's elementary and special
+functions by name, with exp2, log2, rsqrt, saturate, clamp and mix as a shader writes them); nothing
+in a file is ever run.
 """
 
 from __future__ import annotations
@@ -90,42 +92,21 @@ class Target:
 
     def anchor_expressions(self):
         """{anchor name: its sympy expression}."""
-        return {a.name: parse(a.expression, self.variable) for a in self.anchors}
+        return {a.name: parse(a.expression, self.variable, f"anchor {a.name!r}") for a in self.anchors}
 
 
-def _shader_functions():
-    import sympy as sp
-
-    return {"exp2": lambda a: sp.Integer(2) ** a, "log2": lambda a: sp.log(a) / sp.log(2),
-            "rsqrt": lambda a: 1 / sp.sqrt(a), "inversesqrt": lambda a: 1 / sp.sqrt(a),
-            "saturate": lambda a: sp.Min(sp.Max(a, 0), 1), "clamp": lambda a, lo, hi: sp.Min(sp.Max(a, lo), hi),
-            "max": sp.Max, "min": sp.Min, "pow": sp.Pow, "mix": lambda a, b, s: a + (b - a) * s}
-
-
-def parse(text: str, variable="x"):
+def parse(text: str, variable="x", what: str = "expression"):
     """The sympy expression of `text` in the real symbol `variable` (or in several, given as a tuple of
-    names). Raises DeriveError naming what is wrong: text sympy cannot read, a name that is neither a
-    variable nor a function."""
-    import sympy as sp
+    names), read by the one parser of outside text (`engine.expressions.parse`: nothing in it runs).
+    Raises DeriveError naming what is wrong: text that does not parse, a name that is neither a
+    variable nor a function, a construct outside the grammar, work beyond the parser's bounds."""
+    from ..engine import expressions
 
-    if not isinstance(text, str) or not text.strip():
-        raise DeriveError("an empty expression")
-    names = [variable] if isinstance(variable, str) else list(variable)
-    symbols = {name: sp.Symbol(name, real=True) for name in names}
+    names = (variable,) if isinstance(variable, str) else tuple(variable)
     try:
-        expr = sp.sympify(text, locals={**symbols, **_shader_functions()}, convert_xor=True)
-    except (sp.SympifyError, SyntaxError, TypeError, AttributeError, ValueError) as e:
-        raise DeriveError(f"{text!r} does not parse as an expression in {', '.join(names)} ({type(e).__name__})") from None
-    if not isinstance(expr, sp.Expr):
-        raise DeriveError(f"{text!r} is not an expression in {', '.join(names)}")
-    others = sorted(str(s) for s in expr.free_symbols if s not in symbols.values())
-    if others:
-        raise DeriveError(f"{text!r}: unknown name {others[0]!r} (the variable{'s are' if len(names) > 1 else ' is'} "
-                          f"{', '.join(names)})")
-    undefined = sorted({type(f).__name__ for f in expr.atoms(sp.core.function.AppliedUndef)})
-    if undefined:
-        raise DeriveError(f"{text!r}: unknown function {undefined[0]!r}")
-    return expr
+        return expressions.parse(text, names, what=what)
+    except expressions.ExpressionError as e:
+        raise DeriveError(str(e)) from None
 
 
 def numpy_function(expr, symbol):
@@ -144,9 +125,12 @@ def numpy_function(expr, symbol):
 
 
 def check(target: Target) -> Target:
-    """The target itself, checked: a known metric, a finite domain lo < hi, an expression in its
-    variable that is finite (and, for `rel` with floor 0, nonzero) over the domain. Raises
-    DeriveError naming the first fault."""
+    """The target itself, checked: a known metric, a finite domain lo < hi, a variable's name that the
+    grammar allows (`expressions.name_fault`, not c), an expression in its variable that is finite
+    (and, for `rel` with floor 0, nonzero) over the domain. Raises DeriveError naming the first
+    fault."""
+    from ..engine import expressions
+
     if target.metric not in METRICS:
         raise DeriveError(f"--metric {target.metric!r}: give one of {', '.join(METRICS)}")
     lo, hi = target.domain
@@ -154,8 +138,9 @@ def check(target: Target) -> Target:
         raise DeriveError(f"domain [{lo}, {hi}]: give finite numbers lo < hi")
     if not (math.isfinite(target.floor) and target.floor >= 0):
         raise DeriveError(f"floor {target.floor}: give a number >= 0")
-    if not target.variable.isidentifier() or target.variable in ("c", "pi", "E"):
-        raise DeriveError(f"variable {target.variable!r}: give a name (letters, digits, _), not c, pi or E")
+    fault = expressions.name_fault(target.variable) or ("c names the constants" if target.variable == "c" else None)
+    if fault:
+        raise DeriveError(f"variable {target.variable!r}: {fault}")
     x = np.linspace(lo, hi, CHECK_POINTS)
     f = target.numpy()(x)
     bad = ~np.isfinite(f)
@@ -166,7 +151,7 @@ def check(target: Target) -> Target:
         raise DeriveError(f"{target.expression} is 0 at {target.variable} = {x[f == 0][0]:.6g}: the relative error "
                           "divides by it; give a floor (--floor) or --metric abs")
     for anchor in target.anchors:
-        parse(anchor.expression, target.variable)
+        parse(anchor.expression, target.variable, f"anchor {anchor.name!r}")
     return target
 
 

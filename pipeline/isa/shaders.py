@@ -91,7 +91,8 @@ def glsl_expression(expr) -> str:
     """A sympy expression in n as GLSL, integer powers written as products (as a shader author
     writes them) and pi as a number."""
     from ..optics.coef_forms import glsl
-    return glsl(sp.sympify(expr).subs(sp.pi, sp.Float(float(sp.pi), 17)))
+    expr = expr if isinstance(expr, sp.Basic) else sp.Float(expr) if isinstance(expr, float) else sp.Integer(expr)
+    return glsl(expr.subs(sp.pi, sp.Float(float(sp.pi), 17)))
 
 
 def shader_sources(p: registry.Parameters, powers, registry_shaders: bool = True) -> dict[str, tuple[str, str, str, str]]:

@@ -5,6 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from ..engine import checks as checks_mod
+from ..engine import escape
 from .report_beyond import at_power, embed, family, ns, pct as _pct
 from .report_beyond import sections as beyond_sections
 from .results import HEADLINE, headline
@@ -215,7 +216,7 @@ def write_targeted(path: Path, config, doc, checks, figures) -> None:
     ran = [stage for stage in doc["stages"]]
     lines = [f"# Targeted run `{config.name}`", ""]
     if config["run.question"]:
-        lines += [f"**Question.** {config['run.question']}", ""]
+        lines += [f"**Question.** {escape.markdown(config['run.question'])}", ""]
     changed = [k for k in config.changed_from_file(config.values) if not k.startswith("run.")]
     if changed:
         lines += ["Settings changed from the config file: "
@@ -247,9 +248,9 @@ def write(path: Path, config, doc, r, checks, figures, baseline=None, summary_li
     changed = [k for k in config.changed_from_file(config.values) if not k.startswith("run.")]
     if config["run.question"] and changed and "run.question" not in config.changed_from_file(["run.question"]):
         lines += [f"**Question of `{config.source}`** (this run changes {', '.join(changed)}): "
-                  f"{config['run.question']}", ""]
+                  f"{escape.markdown(config['run.question'])}", ""]
     elif config["run.question"]:
-        lines += [f"**Question.** {config['run.question']}", ""]
+        lines += [f"**Question.** {escape.markdown(config['run.question'])}", ""]
     lines += [f"Config: `{config.source}`. Checks: {len(checks) - n_fail - n_diff - n_na} pass, {n_diff} differ "
               f"with a documented cause, {n_fail} fail, {n_na} not comparable (this run's settings differ from "
               "those the expected value was reported for).", "",

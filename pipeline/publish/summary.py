@@ -10,6 +10,7 @@ number is a field of the run's results (results.json).
 
 from __future__ import annotations
 
+from ..engine import escape
 from ..isa import machine_code
 from ..isa.architectures import ARCHITECTURES, VENDORS
 from .report_beyond import at_power
@@ -116,7 +117,7 @@ def fact_text(fact, decision) -> str:
 def lines(config, results) -> list[str]:
     d = results["decision"]
     out = ["## Summary: which specular lobe to use, per GPU and range of n", ""]
-    question = f"**Question.** {config['run.question']} " if config["run.question"] else ""
+    question = f"**Question.** {escape.markdown(config['run.question'])} " if config["run.question"] else ""
     out += [f"{question}**Rule** (`decision.*`): {d['rule']}. Candidates: cos^n, the registry's lobes, the family's "
             "powers and the lobe search's forms with their parameters as lines in n (`shader/lobe_search.glsl`).", ""]
     if not d["available"]:

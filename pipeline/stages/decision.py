@@ -243,7 +243,6 @@ def coef_float16_error(expr, n_values) -> float:
     """The largest relative error of a normalization coef(n) (sympy, in n) evaluated in float16 (one
     rounding per operation, integer powers as products), inf where it overflows."""
     import sympy as sp
-    expr = sp.sympify(expr)
     (n,) = expr.free_symbols
     expr = expr.doit()
     expr = expr.subs(sp.pi, sp.Float(math.pi, 17))
@@ -393,10 +392,11 @@ def shape_measures(descriptor, target: str, n) -> dict:
     return dict(peak_ratio=float(max(ratios, key=lambda r: abs(math.log(r)))), fp16_error=fp16, fp16_route=route)
 
 
-def coef_measure(expression: str, n) -> dict:
-    """`coef_float16_error` of a normalization given as sympy's srepr (memoized by its text)."""
-    import sympy as sp
-    return dict(error=coef_float16_error(sp.sympify(expression), n))
+def coef_measure(normalization: str, parameters: dict, n) -> dict:
+    """`coef_float16_error` of the normalization `normalization` (`optics.normalizations`) of the run's
+    `parameters` (`registry.Parameters`' fields; memoized by them): its expression made again from
+    them, not read from text."""
+    return dict(error=coef_float16_error(normalizations(registry.Parameters(**parameters))[normalization].expr, n))
 
 
 def ndf_per_pixel(rows, architecture: str, name: str, power: int):
@@ -423,7 +423,6 @@ def _cycles(rows, architecture: str, lobe: str, what: str, normalization: str = 
 
 
 def run(config, inputs, memo):
-    import sympy as sp
     n_all = np.asarray(n_range(config), dtype=np.float64)
     power = config["lobe.power"]
     budget = dict(max_d=config["decision.max_d"], max_D=config["decision.max_D"],
@@ -505,7 +504,7 @@ def run(config, inputs, memo):
                         label, key, px = pixel
                         measure["pixel"][arch] = [dict(
                             form="ndf", normalization=label, cycles=px, albedo_max=1.0,
-                            coef_fp16_error=memo("decision_coef", coef_measure, expression=sp.srepr(norms[key].expr),
+                            coef_fp16_error=memo("decision_coef", coef_measure, normalization=key, parameters=p._asdict(),
                                                  n=[float(x) for x in n_here])["error"])]
                 elif "search" in c:
                     cycles = next((r["cycles"] for r in inputs["lobe_search.candidates"] if r["architecture"] == arch
@@ -529,7 +528,7 @@ def run(config, inputs, memo):
                         measure["pixel"].setdefault(arch, []).append(dict(
                             form=form, normalization=key, cycles=px,
                             albedo_max=float(albedo.get((c["name"], form, key), np.nan)),
-                            coef_fp16_error=memo("decision_coef", coef_measure, expression=sp.srepr(norms[key].expr),
+                            coef_fp16_error=memo("decision_coef", coef_measure, normalization=key, parameters=p._asdict(),
                                                  n=[float(x) for x in n_here])["error"]))
             measures.append(measure)
 

@@ -50,7 +50,7 @@ import numpy as np
 
 from ..approximate import engine as derive_engine
 from ..approximate import minimax
-from ..engine import toolchains
+from ..engine import expressions, toolchains
 from ..isa import machine_code
 from ..optics import lobe_families, registry
 from ..optics.extrema import error_extrema
@@ -250,7 +250,7 @@ def template(family: str, text: str = ""):
         return parametric.Template(family, "grammar", expression, len(k), text)
     entry = lobe_families.FAMILIES[family]
     symbols = {p: sp.Symbol(p, real=True) for p in "ABC"}
-    expression = sp.sympify(entry.python, locals=dict(symbols, t=t, max=sp.Max))
+    expression = expressions.parse(entry.python, dict(symbols, t=t), what=f"the family {family}")
     expression = expression.xreplace({v: sp.Integer(int(v)) for v in expression.atoms(sp.Float) if v == int(v)})
     if family == "square_peak1":
         expression = expression.xreplace({symbols["B"]: 1 - symbols["A"]})
@@ -315,7 +315,7 @@ def formulas_at(formulas, n) -> np.ndarray:
     import sympy as sp
     symbol = sp.Symbol("n", real=True)
     n = np.asarray(n, dtype=np.float64)
-    return np.stack([np.broadcast_to(np.asarray(sp.lambdify([symbol], sp.sympify(e, locals={"n": symbol}), "numpy")(n),
+    return np.stack([np.broadcast_to(np.asarray(sp.lambdify([symbol], expressions.parse(e, {"n": symbol}), "numpy")(n),
                                                 dtype=np.float64), n.shape) for e in formulas], axis=1)
 
 
@@ -336,14 +336,14 @@ def shader_formulas(family: str, formulas) -> list[str]:
     """The shader parameters' formulas (sympy text in n, full precision) from the template constants'."""
     import sympy as sp
     symbol = sp.Symbol("n", real=True)
-    return [str(e) for e in shader_parameters(family, [sp.sympify(e, locals={"n": symbol}) for e in formulas])]
+    return [str(e) for e in shader_parameters(family, [expressions.parse(e, {"n": symbol}) for e in formulas])]
 
 
 def parameter_texts(names, slopes, intercepts, formulas=()) -> dict[str, str]:
     """Each shader parameter as text: its line, or its formula (6 significant digits)."""
     import sympy as sp
     if formulas:
-        return {p: str(sp.sympify(e, locals={"n": sp.Symbol("n", real=True)}).evalf(6)) for p, e in zip(names, formulas)}
+        return {p: str(expressions.parse(e, {"n": sp.Symbol("n", real=True)}).evalf(6)) for p, e in zip(names, formulas)}
     return {p: line_text(a, b) for p, a, b in zip(names, slopes, intercepts)}
 
 

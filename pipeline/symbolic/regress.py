@@ -34,6 +34,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..engine import escape
 from ..isa.architectures import ARCHITECTURES
 from . import grammar
 
@@ -310,7 +311,7 @@ def regress(path: Path, x_column, y_column: str, out: Path, max_complexity: int 
         compiled_cycles(front, fits, gpu, log)
     covered = "; ".join(f"{r.name}: {' '.join(r.operations) if len(r.operations) < 10 else 'the ten operations'} to "
                         f"{r.complexity}" for r in rungs)
-    _write(Path(out), front, f"{Path(path).name}: {y_column} against {', '.join(x_columns)}\n"
+    _write(Path(out), front, escape.mathtext(f"{Path(path).name}: {y_column} against {', '.join(x_columns)}") + "\n"
            + textwrap.fill(f"({covered})", TITLE_WIDTH), x, y, everything, loss, table is not None)
     return front
 
@@ -468,7 +469,8 @@ def symbolic_front_figure(path, front, found, title, loss="rms", costed=False) -
     if chosen:
         ax.plot(*chosen[0], "o", ms=15, mfc="none", mec="C3", mew=2, label="selected (least description length)")
     lines = [f"front (complexity, {LOSS_LABELS[loss]}, sympy's canonical form):"]
-    lines += [f"{m['complexity']:>2}  {m.get('loss', m['rms']):.3g}  {m['canonical'].replace('**', '^').replace('*', ' ')}" for m in front]
+    lines += [f"{m['complexity']:>2}  {m.get('loss', m['rms']):.3g}  "
+              f"{escape.mathtext(m['canonical'].replace('**', '^').replace('*', ' '))}" for m in front]
     ax.text(0.98, 0.97, "\n".join(lines), transform=ax.transAxes, fontsize=7.5, family="monospace", va="top",
             ha="right", multialignment="left", bbox=dict(facecolor="white", edgecolor="0.8", alpha=0.9))
     positive = [v for v in best if v > 0]

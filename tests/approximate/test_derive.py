@@ -11,7 +11,8 @@ import sys
 import numpy as np
 import pytest
 
-from pipeline.approximate import engine, targets
+from pipeline.approximate import engine, publish, targets
+from pipeline.engine import escape
 from tests.helpers import cli_env
 
 
@@ -87,15 +88,28 @@ def test_bad_input_is_one_line_and_exit_2(argv, message, capsys):
     assert message in err and len(err.splitlines()) == 1
 
 
+# A target file's text that must stay text in every output (`engine.escape`): the registered schlick,
+# named and described by a colleague who writes HTML, Markdown and mathtext into them
+HOSTILE_NAME = "</script><script>alert(1)</script>"
+HOSTILE_SOURCE = "Karis 2013 | $5.55$ `tick` </script>"
+
+
 def test_pipeline_derive_on_schlick(tmp_path):
-    """The whole command once, on RDNA3 with a small budget: its files, its columns, an anchor placed
-    and a found form at least as accurate at no more cycles (Karis's exp2 form: exp2 of a
-    minimax quadratic), each exported function compiled and its twin equal to the member's value."""
+    """The whole command once, on RDNA3 with a small budget, on schlick as a target file whose name,
+    description and anchor's source hold HTML, |, $ and backticks: its files, its columns, an anchor
+    placed and a found form at least as accurate at no more cycles (Karis's exp2 form: exp2 of a
+    minimax quadratic), each exported function compiled and its twin equal to the member's value,
+    the file's strings as text in every output (escaped where the format needs it)."""
     if "rdna3" not in engine.available_architectures():
         pytest.skip("Mesa's RADV does not run here: pipeline derive was not run")
+    schlick = targets.registry()["schlick"]
+    (karis,) = schlick.anchors
+    (tmp_path / "schlick.toml").write_text(
+        f'[target]\nname = "{HOSTILE_NAME}"\nexpression = "{schlick.expression}"\ndescription = "a | b $x$ `c`"\n'
+        f'[[anchor]]\nname = "Karis"\nexpression = "{karis.expression}"\nsource = "{HOSTILE_SOURCE}"\n')
     out = tmp_path / "schlick"
-    command = [sys.executable, "-m", "pipeline", "derive", "--target", "schlick", "--gpu", "rdna3", "--seconds", "12",
-               "--max-complexity", "6", "--out", str(out)]
+    command = [sys.executable, "-m", "pipeline", "derive", "--target", str(tmp_path / "schlick.toml"), "--gpu", "rdna3",
+               "--seconds", "12", "--max-complexity", "6", "--out", str(out)]
     env = cli_env(tmp_path, PIPELINE_DERIVE_CACHE=str(tmp_path / "derive"))
     done = subprocess.run(command, capture_output=True, text=True, env=env, timeout=600)
     assert done.returncode == 0, done.stdout + done.stderr
@@ -117,6 +131,15 @@ def test_pipeline_derive_on_schlick(tmp_path):
                for r in found)
     assert results["verdicts"]["rdna3"]["Karis"]["verdict"] in ("beaten", "matched")
     assert results["coverage"]["exhaustive_complexity"] >= 5
+    # the file's strings: as they are in results.json and front.csv; escaped in report.md (no HTML,
+    # no cell split, no math); the function names identifiers of their own
+    assert results["target"]["name"] == HOSTILE_NAME and karis["source"] == HOSTILE_SOURCE
+    report = (out / "report.md").read_text()
+    assert "<" not in report and escape.markdown(HOSTILE_NAME) in report and HOSTILE_NAME not in report
+    assert f"Karis: {escape.markdown(HOSTILE_SOURCE)}" in report and escape.markdown("a | b $x$ `c`") in report
+    assert all(line.count("|") == 8 for line in report.splitlines() if line.startswith("| rdna3 |"))
+    assert publish.function_name(HOSTILE_NAME, "polynomial_1") == "script_script_alert_1_script_polynomial_1"
+    assert "<" not in (out / "derive.glsl").read_text() + (out / "derive_twin.py").read_text()
     # Karis's error as measured, in the report as in results.json
     assert f"{results['verdicts']['rdna3']['Karis']['error']:.3g}" in (out / "report.md").read_text()
     spec = importlib.util.spec_from_file_location("derive_twin", out / "derive_twin.py")
@@ -127,17 +150,17 @@ def test_pipeline_derive_on_schlick(tmp_path):
         if member["kind"] != "found":
             continue
         value = targets.numpy_function(targets.parse(member["expression"]), targets.parse("x").free_symbols.pop())(x)
-        got = [getattr(twin, f"schlick_{name}")(float(v)) for v in x]
+        got = [getattr(twin, publish.function_name(HOSTILE_NAME, name))(float(v)) for v in x]
         np.testing.assert_allclose(got, value, rtol=1e-6, atol=1e-9)      # (the expression's text: 9 digits)
     from tests.approximate.test_targets_and_forms import _validator
     validator = _validator()
     if validator is None:
         pytest.skip("glslangValidator not found: the exported functions were not compiled")
-    first = next(n for n, m in results["members"].items() if m["kind"] == "found")
+    first = publish.function_name(HOSTILE_NAME, next(n for n, m in results["members"].items() if m["kind"] == "found"))
     (tmp_path / "a.frag").write_text("#version 450\n" + (out / "derive.glsl").read_text()
-                                     + f"\nlayout(location = 0) out vec4 c;\nvoid main() {{ c = vec4(schlick_{first}(0.5)); }}\n")
+                                     + f"\nlayout(location = 0) out vec4 c;\nvoid main() {{ c = vec4({first}(0.5)); }}\n")
     (tmp_path / "a.hlsl").write_text((out / "derive.hlsl").read_text()
-                                     + f"\nfloat4 main() : SV_Target {{ return schlick_{first}(0.5); }}\n")
+                                     + f"\nfloat4 main() : SV_Target {{ return {first}(0.5); }}\n")
     for args in ([str(tmp_path / "a.frag")], ["-D", "-e", "main", "-S", "frag", str(tmp_path / "a.hlsl")]):
         done = subprocess.run([validator, "-V", "-o", str(tmp_path / "o.spv"), *args], capture_output=True, text=True)
         assert done.returncode == 0, done.stdout + done.stderr
