@@ -27,6 +27,7 @@ from __future__ import annotations
 
 import ast
 import decimal
+import functools
 import keyword
 import math
 import warnings
@@ -46,6 +47,7 @@ class ExpressionError(ValueError):
     """Text refused by `parse` (one line: what, where, why)."""
 
 
+@functools.cache
 def _functions() -> dict:
     """name -> (sympy callable, fewest arguments, most arguments (None: any))."""
     import sympy as sp
@@ -68,6 +70,7 @@ def _functions() -> dict:
         "mix": (lambda a, b, s: a + (b - a) * s, 3, 3)}
 
 
+@functools.cache
 def _constants() -> dict:
     import sympy as sp
 
@@ -343,7 +346,7 @@ class _Reader:
 
 
 _SAME = {ast.Add: (ast.Add, ast.Sub), ast.Sub: (ast.Add, ast.Sub), ast.Mult: (ast.Mult, ast.Div),
-         ast.Div: (ast.Mult, ast.Div), ast.Pow: ()}
+         ast.Div: (ast.Mult, ast.Div)}
 _OPERATORS = {ast.Mod: "%", ast.FloorDiv: "//", ast.MatMult: "@", ast.LShift: "<<", ast.RShift: ">>",
               ast.BitOr: "|", ast.BitAnd: "&", ast.BitXor: "^", ast.Invert: "~", ast.Not: "not"}
 _KINDS = {ast.Attribute: "an attribute", ast.Subscript: "a subscript", ast.Lambda: "a lambda",

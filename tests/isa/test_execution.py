@@ -105,3 +105,17 @@ def test_float16_literals_are_the_nearest_float16_and_a_bad_form_is_one_line():
     with pytest.raises(execution.ExecutionError) as failed:
         execution.execute("foo(x)", h[:4], "fp16", name="planted")
     assert str(failed.value).startswith("planted: the shader does not compile") and len(str(failed.value).splitlines()) == 1
+
+
+def test_without_lavapipe_one_line_says_what_is_missing_and_the_emulation_runs(monkeypatch):
+    from pipeline.engine import toolchains
+
+    absent = toolchains.find_lavapipe(folders=("/nonexistent",))
+    assert not absent.found and "lvp_icd" in absent.missing and "emulation stands in" in absent.missing
+    monkeypatch.setattr(toolchains, "locate", lambda tool: absent)
+    assert execution.available() == absent.missing
+    with pytest.raises(execution.ExecutionError, match="^planted: not executed: Mesa's lavapipe is not installed"):
+        execution.execute("x*0.5", np.ones(4, np.float32), name="planted")
+    if spirv_tools_missing():
+        pytest.skip(spirv_tools_missing())
+    assert np.array_equal(execution.emulate("x*0.5 + 1.0", np.ones(4, np.float32)), np.full(4, 1.5, np.float32))
