@@ -19,6 +19,7 @@ RADV_READY := $(VENV)/.radv
 NVIDIA_READY := $(VENV)/.nvidia
 INTEL_READY := $(VENV)/.intel
 MOBILE_READY := $(VENV)/.mesa-arm64
+SOLLYA_READY := $(VENV)/.sollya
 MESA_ARM64 := $(or $(PIPELINE_MESA_ARM64),/opt/pipeline/mesa-arm64)
 CONFIG ?= configs/paper.toml
 SET ?=
@@ -68,6 +69,21 @@ $(RADV_READY): $(INSTALLED)
 	fi
 	touch $(RADV_READY)
 
+# Best effort: Sollya (Debian's sollya), whose fpminimax the test of the constants chosen in float16
+# is compared with; without it that test says so and skips.
+$(SOLLYA_READY): $(INSTALLED)
+	@if command -v sollya >/dev/null; then \
+		echo "Sollya found: the constants chosen in a format are compared with its fpminimax"; \
+	elif [ "$$(id -u)" = 0 ] && command -v apt-get >/dev/null; then \
+		echo "installing Debian's sollya for the fpminimax comparison ..."; \
+		DEBIAN_FRONTEND=noninteractive apt-get install -y -q sollya >/dev/null 2>&1 \
+		|| (apt-get update -q >/dev/null 2>&1 && DEBIAN_FRONTEND=noninteractive apt-get install -y -q sollya >/dev/null 2>&1) \
+		|| echo "sollya could not be installed: the fpminimax comparison is skipped"; \
+	else \
+		echo "no sollya and no apt-get as root: the fpminimax comparison is skipped"; \
+	fi
+	touch $(SOLLYA_READY)
+
 # Best effort: NVIDIA's offline compiler (ptxas) and SASS disassembler from PyPI, pinned in
 # constraints.txt (NVIDIA's EULA: installed here, never held in the repository); without them the
 # NVIDIA machine code is not measured and the tests that need it say so.
@@ -116,7 +132,7 @@ refit: $(INSTALLED) $(LLVM_READY) $(RADV_READY) $(NVIDIA_READY) $(INTEL_READY) $
 # HLO, the XLA flags and the jaxlib version): a later `make test` compiles only what changed.
 # `make test TEST_XLA_CACHE=` starts each session from an empty folder of its own (as a fresh clone does).
 TEST_XLA_CACHE ?= $(CURDIR)/.cache/stages/_xla
-test: $(TEST_INSTALLED) $(LLVM_READY) $(RADV_READY) $(NVIDIA_READY) $(INTEL_READY) $(MOBILE_READY)
+test: $(TEST_INSTALLED) $(LLVM_READY) $(RADV_READY) $(NVIDIA_READY) $(INTEL_READY) $(MOBILE_READY) $(SOLLYA_READY)
 	PIPELINE_XLA_CACHE_DIR="$(TEST_XLA_CACHE)" $(BIN)/python -m pytest -q -n 2 --dist loadfile
 
 # The numerical tests (optics, symbolic regression, the stages and the checks against the paper)

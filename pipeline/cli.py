@@ -166,7 +166,8 @@ def _derive(args) -> int:
     use_compilation_cache(paths.XLA_CACHE or paths.CACHE / XLA)
     try:
         found = api.derive(target, gpu=args.gpu, seconds=args.seconds, max_cycles=args.max_cycles,
-                           max_complexity=args.max_complexity, formula_complexity=args.formula_complexity)
+                           max_complexity=args.max_complexity, formula_complexity=args.formula_complexity,
+                           precision=args.precision)
     except (CompilerMissing, ToolMissing) as e:
         print(f"error: the GPU compilers cannot run here: {e}", file=sys.stderr)
         return faults.EXIT_ENVIRONMENT
@@ -391,6 +392,9 @@ def build_parser() -> argparse.ArgumentParser:
                      help="with --metric rel: |f| below F counts as F")
     der.add_argument("--gpu", default=None, metavar="ARCH[,ARCH...]",
                      help="architectures (default every one whose compiler runs here)")
+    der.add_argument("--precision", default=None, choices=("fp32", "fp16"),
+                     help="the format the shader computes in: every form costed and executed in it (default the "
+                          "target's, fp32)")
     der.add_argument("--max-cycles", type=float, default=None, metavar="N", help="leave out forms above N cycles")
     der.add_argument("--seconds", type=float, default=60.0, metavar="S", help="the grammar search's budget (default 60)")
     der.add_argument("--max-complexity", type=int, default=12, metavar="K",

@@ -3,8 +3,10 @@
 are marked fields of these records (`make docs` fills them, a test fails where they differ), never
 typed by hand. The records:
 
-- `derive_<target>`: the `pipeline derive` runs of docs/derive.md (1 to 4 minutes each): the run's
-  results.json without the forms' internals, and `verdict_rows`, one row per architecture and anchor.
+- `derive_<name>`: the `pipeline derive` runs of docs/derive.md (1 to 4 minutes each; `DERIVE_RUNS`:
+  a registered target, or its arguments: schlick in fp16 on two phones, a cancelling expression): the
+  run's results.json without the forms' internals, and `verdict_rows`, one row per architecture and
+  anchor (and the exact target).
 - `costs`: `pipeline costs` with its default 400 forms on every architecture (docs/gpu.md): the
   tables, their held-out errors, the time announced and taken, and one compiled form (c ^ t).
 - `refits`: the example configs of docs/refits.md, each refitted up to its derivation's numbers, and
@@ -42,6 +44,8 @@ MEASURED = ROOT / "docs" / "measured"
 DERIVE_RUNS = {
     "schlick": dict(),
     "acos": dict(),
+    "schlick_fp16": dict(target="schlick", precision="fp16", gpu="g610,a740"),
+    "cancelling": dict(expr="sqrt(1 + x) - 1", var="x=1e-6:1e-3", metric="rel", gpu="rdna3"),
     "smith_ggx_visibility": dict(gpu="rdna3,sm_89,xe_hpg,g610,a740", seconds=10),
     "env_brdf": dict(gpu="rdna3,sm_89,xe_hpg,g610,a740", seconds=10),
 }
@@ -103,15 +107,19 @@ def derive_record(target: str) -> dict:
 
     with tempfile.TemporaryDirectory() as tmp:
         started = time.perf_counter()
-        found = pipeline.derive(target, log=lambda s: print(f"  {s}", flush=True), **DERIVE_RUNS[target])
+        arguments = dict(DERIVE_RUNS[target])
+        if "expr" not in arguments:
+            arguments["target"] = arguments.get("target", target)
+        found = pipeline.derive(log=lambda s: print(f"  {s}", flush=True), **arguments)
         seconds = time.perf_counter() - started
         found.write(Path(tmp) / "out")
         results = json.loads((Path(tmp) / "out" / "results.json").read_text())
     results.pop("forms", None)
     verdicts = [dict(architecture=a, anchor=name, **v) for a, anchors in results["verdicts"].items()
                 for name, v in anchors.items()]
-    arguments = " ".join(f"--{k} {v}" for k, v in DERIVE_RUNS[target].items())
-    return dict(command=f"pipeline derive --target {target} {arguments}".strip(), wall_seconds=round(seconds, 1),
+    named = {} if "expr" in DERIVE_RUNS[target] else {"target": target}
+    arguments = " ".join(f"--{k} {v!r}" if k == "expr" else f"--{k} {v}" for k, v in (named | DERIVE_RUNS[target]).items())
+    return dict(command=f"pipeline derive {arguments}".strip(), wall_seconds=round(seconds, 1),
                 verdict_rows=verdicts, results=results)
 
 

@@ -100,16 +100,17 @@ class Derivation:
 
     def glsl(self, name: str) -> str:
         """The member as a GLSL expression in the target's variables (and its parameter)."""
-        return publish.shader_text(self._form(name), self._arguments(name), "glsl")
+        return publish.shader_text(self._form(name), self._arguments(name), "glsl", self.raw.get("precision"))
 
     def hlsl(self, name: str) -> str:
-        return publish.shader_text(self._form(name), self._arguments(name), "hlsl")
+        return publish.shader_text(self._form(name), self._arguments(name), "hlsl", self.raw.get("precision"))
 
     def twin(self, name: str):
         """The member's Python twin: a function of the target's variables (and its parameter), floats,
         printed as derive_twin.py prints it."""
         arguments = self._arguments(name)
-        code = f"def twin({arguments}):\n    return {publish.shader_text(self._form(name), arguments, 'python')}\n"
+        code = (f"def twin({arguments}):\n    return "
+                f"{publish.shader_text(self._form(name), arguments, 'python', self.raw.get('precision'))}\n")
         scope = {"math": math}
         exec(compile(code, f"<twin of {name}>", "exec"), scope)
         return scope["twin"]
@@ -128,7 +129,7 @@ def derive(target=None, *, expr: str | None = None, var: str = "x=0:1", table: s
            x: str | None = None, parameter: str | None = None, y: str | None = None, gpu=None,
            metric: str | None = None, floor: float | None = None, seconds: float = engine.DEFAULT_SECONDS,
            max_cycles: float | None = None, max_complexity: int = engine.MAX_COMPLEXITY, parameter_range=None,
-           formula_complexity: int = 0, log=print) -> Derivation:
+           formula_complexity: int = 0, precision: str | None = None, log=print) -> Derivation:
     """The cheapest accurate forms of `target` (a registered name, a TOML file, a Target, a
     ParametricTarget), of `expr` in `var`, or of a CSV `table`'s column `y` over `x` and `parameter`
     (its range `parameter_range`, "LO:HI", where given; with `formula_complexity` > 0 the constants'
@@ -136,14 +137,23 @@ def derive(target=None, *, expr: str | None = None, var: str = "x=0:1", table: s
     ranked by compiled cycles on the architectures `gpu` (names, or one comma-separated string; default
     every one whose compiler runs here): `engine.derive`, `parametric.derive` (several variables or a
     parameter), `parametric.derive_pair` (env_brdf). Raises DeriveError for bad input, CompilerMissing
-    where no GPU compiler runs."""
+    where no GPU compiler runs. `precision` (fp32 or fp16; default the target's, fp32): the format
+    every form of a one-variable target is costed and executed in (`executed`)."""
+    from .targets import PRECISIONS
+
     chosen = resolve(target, expr, var, metric, floor, table, x, parameter, y, parameter_range)
+    if precision is not None and precision not in PRECISIONS:
+        raise DeriveError(f"--precision {precision!r}: give one of {', '.join(PRECISIONS)}")
     if isinstance(gpu, str):
         gpu = [g.strip() for g in gpu.split(",") if g.strip()]
     if isinstance(chosen, (parametric.ParametricTarget, parametric.PairTarget)):
+        if precision not in (None, "fp32"):
+            raise DeriveError(f"{chosen.name}: --precision {precision}: a target of several variables or a parameter "
+                              "is measured in float64 and costed in float32 only")
         run = parametric.derive if isinstance(chosen, parametric.ParametricTarget) else parametric.derive_pair
         return Derivation(chosen, run(chosen, gpu, seconds, max_cycles, max_complexity, log=log,
                                       formula_complexity=formula_complexity))
     if formula_complexity:
         raise DeriveError(f"{chosen.name} has no parameter: --formula-complexity applies to targets with one")
-    return Derivation(chosen, engine.derive(chosen, gpu, seconds, max_cycles, max_complexity, log=log))
+    return Derivation(chosen, engine.derive(chosen, gpu, seconds, max_cycles, max_complexity, log=log,
+                                            precision=precision or chosen.precision))

@@ -24,7 +24,7 @@ import time
 
 import numpy as np
 
-from . import families, measure, minimax
+from . import bounds, executed, families, measure, minimax, representable
 from .forms import Form, free_numbers, glsl, predicted_cycles
 from .targets import DeriveError, check, numpy_function
 
@@ -40,6 +40,7 @@ TIE = 1e-6                      # errors within this (relative) are equal on a f
 FAMILY_SECONDS = 12.0
 MEASURE_SECONDS = 6.0
 START_SECONDS = 6.0
+EXECUTE_SECONDS = {"fp32": 10.0, "fp16": 2.0}     # every form executed (about 60 forms; fp32: 5 M inputs)
 
 
 def constant_error(target, f) -> float:
@@ -73,10 +74,13 @@ def available_architectures() -> list[str]:
 FLOAT32 = 2.0 ** -23        # float32's rounding: errors below it (of the target's range, or relative) are equal
 
 
-def rounding_floor(target, constant: float) -> float:
-    """The error below which two forms are equal in a shader (float32 rounding): FLOAT32 of the
-    target's range (abs; the range is twice the best constant's error) or FLOAT32 (rel)."""
-    return FLOAT32 * (2 * constant if target.metric == "abs" else 1.0)
+def rounding_floor(target, constant: float, precision: str = "fp32") -> float:
+    """The error below which two forms are equal in a shader (the format's rounding): its unit
+    (`executed.UNIT`: float32 2^-23, float16 2^-10) of the target's range (abs; the range is twice the
+    best constant's error), or the unit itself (rel)."""
+    from .executed import UNIT
+
+    return UNIT[precision] * (2 * constant if target.metric == "abs" else 1.0)
 
 
 def front(rows: list[dict], error: str, floor: float = 0.0) -> list[dict]:
@@ -98,15 +102,15 @@ def front(rows: list[dict], error: str, floor: float = 0.0) -> list[dict]:
 def verdict(anchor_cycles: float, anchor_error: float, found: list[dict], error: str, floor: float = 0.0) -> dict:
     """How the found front places an anchor: the most accurate found form at no more cycles, and
     `beaten` (its error below the anchor's by more than MATCH), `matched` (within MATCH) or
-    `missed` (none as accurate at no more cycles; `ratio` says by how much); errors below `floor`
-    count as `floor`."""
+    `missed` (none as accurate at no more cycles; `ratio` says by how much), `by` that form and
+    `by_cycles` its cycles; errors below `floor` count as `floor`."""
     cheaper = [r for r in found if r["cycles"] <= anchor_cycles and np.isfinite(r[error])]
     if not cheaper:
-        return dict(verdict="missed", ratio=math.inf, by=None)
+        return dict(verdict="missed", ratio=math.inf, by=None, by_cycles=None)
     best = min(cheaper, key=lambda r: r[error])
     ratio = max(best[error], floor) / max(anchor_error, floor) if max(anchor_error, floor) > 0 else 1.0
     word = "beaten" if ratio < 1 - MATCH else "matched" if ratio <= 1 + MATCH else "missed"
-    return dict(verdict=word, ratio=float(ratio), by=best["name"])
+    return dict(verdict=word, ratio=float(ratio), by=best["name"], by_cycles=best["cycles"])
 
 
 def _grammar_search(target, f, seconds: float, max_complexity: int, log) -> tuple[list, list, np.ndarray, dict]:
@@ -283,27 +287,29 @@ def _measure(form: Form, target, f) -> dict:
     return measure.max_error(numpy_function(form.expression, target.symbol()), f, lo, hi, target.floor)
 
 
-def _compile(forms: list[Form], architectures, log) -> tuple[dict, dict]:
+def _compile(forms: list[Form], architectures, log, precision: str = "fp32") -> tuple[dict, dict]:
     """({architecture: {form name: cycles}}, {what: why not}) of every form, by `derive`'s one
-    costing (`isa.machine_code.form_cycles`: a shader reading t, net of the shader writing it); the
-    exact target per vendor, left out where a vendor's lowering lacks one of its functions."""
+    costing (`isa.machine_code.form_cycles`: a shader reading t, net of the shader writing it, in
+    `precision`, its numbers the format's); the exact target per vendor, left out where a vendor's
+    lowering lacks one of its functions."""
     from ..isa.architectures import ARCHITECTURES, vendor_groups
     from ..isa.machine_code import form_cycles
 
-    plain = {m.name: (f"return {glsl(m.expression, 't')};", ["t"]) for m in forms if m.kind != "exact"}
-    cycles, missing, _ = form_cycles(plain, ["t"], architectures) if plain else ({a: {} for a in architectures}, {}, {})
+    plain = {m.name: (f"return {glsl(m.expression, 't', precision)};", ["t"]) for m in forms if m.kind != "exact"}
+    cycles, missing, _ = (form_cycles(plain, ["t"], architectures, precision) if plain
+                          else ({a: {} for a in architectures}, {}, {}))
     for a in architectures:
         if plain and not cycles[a]:
             missing[ARCHITECTURES[a].vendor] = "its compiler did not run"
     for m in (m for m in forms if m.kind == "exact"):
         try:
-            text = glsl(m.expression, "t")
+            text = glsl(m.expression, "t", precision)
         except Exception as e:          # a function sympy's GLSL printer does not know
             missing["exact"] = f"{m.expression} has no GLSL form ({type(e).__name__})"
             continue
         for vendor, names in vendor_groups(list(architectures)):
             try:
-                found, failed, _ = form_cycles({m.name: (f"return {text};", ["t"])}, ["t"], names)
+                found, failed, _ = form_cycles({m.name: (f"return {text};", ["t"])}, ["t"], names, precision)
             except Exception as e:      # (no back end of this vendor runs here)
                 missing[f"exact on {vendor}"] = str(e).splitlines()[0][:200]
                 continue
@@ -338,16 +344,50 @@ def checked_options(gpu, seconds: float, max_cycles: float | None, max_complexit
     return list(dict.fromkeys(gpu))
 
 
+CHOSEN = " (constants chosen)"       # the name of a form's variant whose constants were chosen in the format
+
+
+def _executed(forms: list[Form], target, precision: str, real: dict, log, chosen: dict | None = None) -> dict:
+    """Every form executed in `precision` (`executed.measure`, around the extrema of its float64
+    errors `real`), and each form of `chosen` ({name: the form with its constants chosen in the
+    format, `representable.choose`}) as that variant too: dict(measured={name: its executed errors;
+    NaN where it was not executed; a chosen variant under name + CHOSEN}, and how it was executed:
+    how, inputs, truth, not_executed)."""
+    bodies, not_printed = {}, {}
+    variants = [(m.name, m.expression) for m in forms] + [(name + CHOSEN, e) for name, e in (chosen or {}).items()]
+    for name, expression in variants:
+        try:
+            bodies[name] = glsl(expression, target.variable, precision)
+        except Exception as e:          # (a function sympy's GLSL printer does not know)
+            not_printed[name] = f"{name}: no GLSL form ({type(e).__name__})"
+    extrema = sorted({r[k] for r in real.values() for k in ("x_abs", "x_rel")})
+    started = time.perf_counter()
+    log(f"executing {len(bodies)} forms in {precision} over the domain")
+    run = executed.measure(bodies, target, precision, extrema, log)
+    nan = dict(max_abs_error=math.nan, max_rel_error=math.nan, x_abs=math.nan, x_rel=math.nan)
+    measured = {name: run["errors"].get(name) or nan for name, _ in variants}
+    log(f"executed on {run['inputs']} inputs by {run['how']} in {time.perf_counter() - started:.1f} s")
+    return dict(measured={name: e for name, e in measured.items() if not name.endswith(CHOSEN)},
+                errors_chosen={name.removesuffix(CHOSEN): e for name, e in measured.items() if name.endswith(CHOSEN)},
+                how=run["how"], inputs=run["inputs"], truth=run["truth"],
+                not_executed=run["not_executed"] | not_printed, seconds=round(time.perf_counter() - started, 1))
+
+
 def derive(target, gpu=None, seconds: float = DEFAULT_SECONDS, max_cycles: float | None = None,
-           max_complexity: int = MAX_COMPLEXITY, log=print) -> dict:
+           max_complexity: int = MAX_COMPLEXITY, log=print, precision: str = "fp32") -> dict:
     """The derivation of the module docstring for a checked `target` on the architectures `gpu`
-    (names; default every one whose compiler runs here). Returns the results (`results.json`'s
-    content) with the forms' rows."""
+    (names; default every one whose compiler runs here), every form costed and executed in
+    `precision` (fp32 or fp16, `executed`). Returns the results (`results.json`'s content) with the
+    forms' rows."""
     from ..isa.machine_code import estimate_seconds
     from ..symbolic import gpu_costs, grammar, ladder
     from ..symbolic.grammar import TEN
 
     check(target)
+    try:
+        executed.check_precision(precision)
+    except executed.ExecutedError as e:
+        raise DeriveError(str(e)) from None
     architectures = checked_options(gpu, seconds, max_cycles, max_complexity)
     started = time.perf_counter()
     f = target.numpy()
@@ -360,9 +400,9 @@ def derive(target, gpu=None, seconds: float = DEFAULT_SECONDS, max_cycles: float
         search_estimate = FAMILY_SECONDS + ladder.plan_seconds(1, SEARCH_POINTS, max_complexity, TEN, seconds, loss)
     calibration = gpu_costs.not_kept(gpu_costs.calibration_expressions(CALIBRATION)[1], architectures)
     compile_estimate = estimate_seconds(CALIBRATION * calibration + 3 * PER_ARCHITECTURE, architectures)
-    estimate = START_SECONDS + search_estimate + compile_estimate + MEASURE_SECONDS
+    estimate = START_SECONDS + search_estimate + compile_estimate + MEASURE_SECONDS + EXECUTE_SECONDS[precision]
     log(f"{target.name}: {target.expression} on [{target.domain[0]:g}, {target.domain[1]:g}], error {target.metric}; "
-        f"{len(architectures)} architecture{'s' * (len(architectures) > 1)}; about {estimate:.0f} s")
+        f"{len(architectures)} architecture{'s' * (len(architectures) > 1)}, {precision}; about {estimate:.0f} s")
 
     found, trees, fitted, losses, coverage = _searched(target, f, seconds, max_complexity, log)
     found += refitted_anchors(target, f, log)
@@ -382,20 +422,21 @@ def derive(target, gpu=None, seconds: float = DEFAULT_SECONDS, max_cycles: float
     everything = found + anchors + [exact]
     log(f"measuring {len(everything)} forms over the whole domain and compiling them for {len(architectures)} "
         "architectures")
-    errors = {m.name: _measure(m, target, f) for m in everything}
-    cycles, missing = _compile(everything, architectures, log)
+    errors = {m.name: _measure(m, target, f) for m in everything}          # in float64 (the mathematics)
+    cycles, missing = _compile(everything, architectures, log, precision)
     error_key = "max_abs_error" if target.metric == "abs" else "max_rel_error"
 
     baseline = constant_error(target, f)
-    floor = rounding_floor(target, baseline)
+    floor = rounding_floor(target, baseline, precision)
 
-    def rows_of(a):
-        return [dict(name=m.name, cycles=cycles[a].get(m.name), **errors[m.name]) for m in found
+    def rows_of(a, measured):
+        return [dict(name=m.name, cycles=cycles[a].get(m.name), **measured[m.name]) for m in found
                 if m.name in cycles[a] and (max_cycles is None or cycles[a][m.name] <= max_cycles)
-                and errors[m.name][error_key] < baseline]
+                and measured[m.name][error_key] < baseline]
 
-    # the grammar's front members polished on the whole interval, measured and compiled again
-    on_fronts = {r["name"] for a in architectures for r in front(rows_of(a), error_key, floor)}
+    # the grammar's front members (of the float64 errors) polished on the whole interval, measured and
+    # compiled again
+    on_fronts = {r["name"] for a in architectures for r in front(rows_of(a, errors), error_key, floor)}
     weight = families.weight_of(target, f)
     polished = []
     for m in found:
@@ -409,16 +450,41 @@ def derive(target, gpu=None, seconds: float = DEFAULT_SECONDS, max_cycles: float
                 m.expression = candidate.expression
                 polished.append(m)
     if polished:
-        again, _ = _compile(polished, architectures, log)
+        again, _ = _compile(polished, architectures, log, precision)
         for a in architectures:
             cycles[a].update(again.get(a, {}))
     log(f"polished {len(polished)} grammar front members on the whole interval")
+    # each found form's constants chosen among the format's values (`representable`), executed beside
+    # the rounded ones, kept where the error as executed drops
+    chosen, searches = {}, {}
+    for m in found:
+        expression, searches[m.name] = representable.choose(m.expression, target, f, precision)
+        if searches[m.name]["chosen_error"] < searches[m.name]["rounded_error"]:
+            chosen[m.name] = expression
+    log(f"constants chosen in {precision} for {len(chosen)} of {len(found)} forms (the rest: rounded)")
+    run = _executed(everything, target, precision, errors, log, chosen)
+    real, errors, variants = errors, run.pop("measured"), run.pop("errors_chosen")
+    kept = []
+    for m in found:
+        rounded, better = errors[m.name][error_key], variants.get(m.name, {}).get(error_key, math.nan)
+        searches[m.name] |= dict(executed_rounded_error=rounded, executed_chosen_error=better if m.name in chosen else None,
+                                 kept=False)
+        if m.name in chosen and better < rounded:
+            m.expression = chosen[m.name]
+            errors[m.name] = variants[m.name]
+            searches[m.name]["kept"] = True
+            kept.append(m)
+    if kept:            # (a chosen constant may cost otherwise: 1.0, 0.5, an inline constant)
+        again, _ = _compile(kept, architectures, log, precision)
+        for a in architectures:
+            cycles[a].update(again.get(a, {}))
+    log(f"kept the chosen constants of {len(kept)} forms (their error as executed lower)")
 
     forms_by_name = {m.name: m for m in everything}
     rows, fronts, verdicts = [], {}, {}
     for a in architectures:
         table = tables.get(a, {})
-        best = front(rows_of(a), error_key, floor)
+        best = front(rows_of(a, errors), error_key, floor)
         fronts[a] = [r["name"] for r in best]
         for m in everything:
             if m.name not in cycles[a]:
@@ -428,10 +494,25 @@ def derive(target, gpu=None, seconds: float = DEFAULT_SECONDS, max_cycles: float
             rows.append(dict(architecture=a, kind=m.kind, name=m.name, family=m.family, expression=_text(m, target),
                              cycles=cycles[a][m.name], cycles_predicted=_predicted(m, table),
                              max_abs_error=errors[m.name]["max_abs_error"], max_rel_error=errors[m.name]["max_rel_error"],
-                             on_front=m.name in fronts[a], source=m.source, range="", parameter_per=""))
+                             on_front=m.name in fronts[a], source=m.source, range="", parameter_per="",
+                             max_abs_error_real=real[m.name]["max_abs_error"],
+                             max_rel_error_real=real[m.name]["max_rel_error"], precision=precision))
+        # each anchor's verdict, and the exact target's as the driver executes it (its own functions)
+        judged = anchors + [exact]
         verdicts[a] = {m.name: dict(cycles=cycles[a][m.name], error=errors[m.name][error_key],
                                     **verdict(cycles[a][m.name], errors[m.name][error_key], best, error_key, floor))
-                       for m in anchors if m.name in cycles[a]}
+                       for m in judged if m.name in cycles[a] and math.isfinite(errors[m.name][error_key])}
+    bound_columns(rows, forms_by_name, target, f, precision, error_key)
+    # why each row's executed error exceeds its float64 one by more than executed.GAP (the members of
+    # some front, the anchors, the exact target)
+    causes = {}
+    for r in rows:
+        m = forms_by_name[r["name"]]
+        if r["name"] in causes or not (math.isfinite(r[error_key])
+                                       and r[error_key] > executed.GAP * max(r[error_key + "_real"], floor)):
+            continue
+        causes[r["name"]] = executed.gap_cause(m.expression, glsl(m.expression, target.variable, precision), target,
+                                               precision, r[error_key], error_key)
     elapsed = time.perf_counter() - started
     log(f"done in {elapsed:.0f} s (estimated {estimate:.0f} s)")
     return dict(target=dict(name=target.name, expression=target.expression, variable=target.variable,
@@ -442,11 +523,49 @@ def derive(target, gpu=None, seconds: float = DEFAULT_SECONDS, max_cycles: float
                 families=sorted({m.family for m in found if m.family != "grammar"}),
                 family_members=[m.name for m in found if m.family != "grammar"],
                 fronts=fronts, verdicts=verdicts, rows=rows, error=error_key,
-                constant_error=baseline, rounding_floor=floor, cost_tables=tables, seconds=round(elapsed, 1), estimated_seconds=round(estimate, 1),
+                constant_error=baseline, rounding_floor=floor, precision=precision, execution=run,
+                special_functions=special_functions(rows, forms_by_name, precision), cost_tables=tables, seconds=round(elapsed, 1), estimated_seconds=round(estimate, 1),
                 members={m.name: dict(kind=m.kind, family=m.family, source=m.source, converged=m.converged,
-                                      expression=_text(m, target), **errors[m.name])
+                                      expression=_text(m, target), **errors[m.name],
+                                      max_abs_error_real=real[m.name]["max_abs_error"],
+                                      max_rel_error_real=real[m.name]["max_rel_error"],
+                                      **({"gap": causes[m.name]} if m.name in causes else {}),
+                                      **({"constants": searches[m.name]} if m.name in searches else {}))
                          for m in everything if m.kind != "found" or any(m.name in fr for fr in fronts.values())},
                 forms=forms_by_name)
+
+
+def bound_columns(rows: list[dict], forms_by_name: dict, target, f, precision: str, error_key: str) -> None:
+    """Each row's `max_error_bound` (`bounds`): its executed error plus its special functions'
+    documented accuracy on the row's architecture, propagated to first order."""
+    from ..isa.architectures import ARCHITECTURES
+
+    x = bounds.grid(target)
+    scale = bounds.scale_of(target, f, x)
+    calls: dict = {}
+    for r in rows:
+        if r["name"] not in calls:
+            calls[r["name"]] = bounds.sensitivities(forms_by_name[r["name"]].expression, target.symbol(), x)
+        vendor = ARCHITECTURES[r["architecture"]].vendor
+        r["max_error_bound"] = r[error_key] + bounds.propagated(calls[r["name"]], vendor, precision, scale)
+
+
+def special_functions(rows: list[dict], forms_by_name: dict, precision: str) -> dict:
+    """{architecture: [{function, accuracy, source, mesa}]} of every special function a row of that
+    architecture calls (`isa.special_functions`)."""
+    from ..isa import special_functions
+    from ..isa.architectures import ARCHITECTURES
+
+    out: dict = {}
+    used = {name: bounds.functions_used(m.expression) for name, m in forms_by_name.items()
+            if name in {r["name"] for r in rows}}
+    for r in rows:
+        listed = out.setdefault(r["architecture"], {})
+        for function in used[r["name"]]:
+            if function not in listed:
+                a = special_functions.accuracy(function, ARCHITECTURES[r["architecture"]].vendor, precision)
+                listed[function] = dict(function=function, accuracy=a.text(), source=a.source, mesa=a.mesa)
+    return {a: list(functions.values()) for a, functions in out.items()}
 
 
 def _text(m: Form, target) -> str:

@@ -9,6 +9,11 @@ a^-1 as 1.0 / a, an integer power up to `SQUARINGS_MAX` by squarings and multipl
 ((x x)(x x)) x: the repeated product is computed once by the compiler), any other power as
 pow(a, b).
 
+In a format (precision "fp32" or "fp16", `in_format`), every number is first rounded to the
+format's nearest value, and printed as exactly that value: float32 in 9 significant digits (which
+read back to the same float32; in the Python twin, a float64 program, its shortest float64 text),
+float16 as its exact decimal. With no precision, the 17 digits.
+
 `predicted_cycles(expr, table)` sums an architecture's cost table (`symbolic.gpu_costs`: cycles
 of each of the grammar's ten operations) over the form's operations, each repeated subexpression
 counted once: + and - as +, a product of k factors as k - 1 multiplies, exp2 and exp as exp, log2
@@ -19,7 +24,9 @@ general power as pow. None where the form calls a function the table does not co
 from __future__ import annotations
 
 import math
+from decimal import Decimal
 
+import numpy as np
 import sympy as sp
 from sympy.printing.c import C99CodePrinter
 from sympy.printing.glsl import GLSLPrinter
@@ -48,6 +55,37 @@ def gpu_form(expr):
     return sp.N(expr, DIGITS)
 
 
+FORMATS = {"fp32": np.float32, "fp16": np.float16}
+
+
+def in_format(expr, precision: str):
+    """`gpu_form(expr)` with each number rounded to the format's nearest value (module docstring):
+    the form a shader in that precision computes (its mathematics, before the arithmetic rounds)."""
+    dtype = FORMATS[precision]
+    expr = gpu_form(expr)
+    with np.errstate(over="ignore"):            # (beyond the format's range: inf)
+        return expr.xreplace({v: sp.Float(float(dtype(float(v))), DIGITS) for v in expr.atoms(sp.Float)})
+
+
+def number_text(value: float, precision: str | None, exact: bool = False) -> str:
+    """A number as the printers write it: the shortest float64 text (no precision), or the format's
+    nearest value exactly (float32: 9 significant digits, which a shader compiler reads back as that
+    float32, or with `exact` the shortest float64 text of it, for a float64 program such as the twin;
+    float16: its exact decimal)."""
+    if precision is None or not math.isfinite(value):
+        return repr(float(value))
+    with np.errstate(over="ignore"):            # (beyond the format's range: inf, as the shader reads it)
+        v = float(FORMATS[precision](value))
+    if not math.isfinite(v):
+        return repr(v)
+    if precision == "fp32":
+        text = repr(v) if exact else f"{v:.9g}"
+    else:
+        text = format(Decimal(v), "f") if v != 0 else "0"
+        text = text.rstrip("0").rstrip(".") if "." in text else text
+    return text if any(c in text for c in ".eE") or "inf" in text or "nan" in text else text + ".0"
+
+
 def _integer(e) -> int | None:
     if e.is_Integer or (e.is_Float and float(e).is_integer()):
         return int(e)
@@ -72,6 +110,7 @@ class _Powers:
     exp2 = "exp2({})"
     rsqrt = "inversesqrt({})"
     one = "1.0"
+    precision = None            # the format whose nearest values the numbers are printed as
 
     def _print_Pow(self, expr):
         base, e = expr.base, expr.exp
@@ -91,11 +130,21 @@ class _Powers:
     def _print_Integer(self, expr):
         return f"{int(expr)}.0"
 
+    infinity = "(1.0 / 0.0)"
+    exact = False               # the numbers as a float64 program reads them (number_text)
+
     def _print_Float(self, expr):
-        return repr(float(expr))
+        text = number_text(float(expr), self.precision, self.exact)
+        return text if "inf" not in text else ("-" if text.startswith("-") else "") + self.infinity
 
     def _print_Rational(self, expr):
-        return repr(float(expr))
+        return number_text(float(expr), self.precision, self.exact)
+
+    def _print_Infinity(self, expr):
+        return self.infinity
+
+    def _print_NegativeInfinity(self, expr):
+        return f"-{self.infinity}"
 
     def _min_max(self, expr, name):
         args = [self._print(a) for a in expr.args]
@@ -120,6 +169,8 @@ class _HLSL(_Powers, C99CodePrinter):
 
 
 class _Python(_Powers, PythonCodePrinter):
+    infinity = "math.inf"
+    exact = True
     exp2 = "2.0 ** ({})"
     rsqrt = "1.0 / math.sqrt({})"
 
@@ -138,19 +189,26 @@ def _rename(expr, variable: str):
     return expr.subs(symbol, sp.Symbol(variable, real=True))
 
 
-def glsl(expr, variable: str = "x") -> str:
-    """The form as a GLSL expression in the float `variable` (module docstring)."""
-    return _GLSL().doprint(gpu_form(_rename(expr, variable)))
+def _printed(printer, expr, variable: str, precision: str | None) -> str:
+    printer.precision = precision
+    return printer.doprint(gpu_form(_rename(expr, variable)) if precision is None else
+                           in_format(_rename(expr, variable), precision))
 
 
-def hlsl(expr, variable: str = "x") -> str:
+def glsl(expr, variable: str = "x", precision: str | None = None) -> str:
+    """The form as a GLSL expression in the float `variable` (module docstring), its numbers in
+    `precision`'s format where given."""
+    return _printed(_GLSL(), expr, variable, precision)
+
+
+def hlsl(expr, variable: str = "x", precision: str | None = None) -> str:
     """The form as an HLSL expression in the float `variable`."""
-    return _HLSL().doprint(gpu_form(_rename(expr, variable)))
+    return _printed(_HLSL(), expr, variable, precision)
 
 
-def python(expr, variable: str = "x") -> str:
+def python(expr, variable: str = "x", precision: str | None = None) -> str:
     """The form as a Python expression (the math module) in `variable`."""
-    return _Python().doprint(gpu_form(_rename(expr, variable)))
+    return _printed(_Python(), expr, variable, precision)
 
 
 FUNCTION_OPERATIONS = {sp.exp: "exp", sp.log: "log"}

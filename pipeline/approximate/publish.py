@@ -3,15 +3,18 @@ folder renamed into place, so that a failure leaves nothing half written):
 
 - `front.csv`: per architecture, its front's forms (kind `found`), every anchor (`anchor`) and the
   target itself (`exact`) where it compiles: architecture, kind, name, family, expression,
-  cycles, cycles_predicted, max_abs_error, max_rel_error, on_front, source, range (a parametric
-  target's parameter and its range) and parameter_per (`material`: the constants' formulas, in the
-  expression, computed once per material on the CPU; `pixel`: compiled into the shader);
+  cycles, cycles_predicted, max_abs_error, max_rel_error (a one-variable target's: as its shader
+  executes, in the run's `precision`), on_front, source, range (a parametric target's parameter and
+  its range) and parameter_per (`material`: the constants' formulas, in the expression, computed once
+  per material on the CPU; `pixel`: compiled into the shader), and, for a one-variable target,
+  max_abs_error_real and max_rel_error_real (the form's mathematics in float64) and precision;
 - `results.json`: the target, the search's coverage, the fronts, each anchor's verdict per
   architecture, the cost tables, the times (estimated and measured), the members' errors;
 - `report.md`: the same in words and tables, every number a field of results.json;
 - `front.png`: error against compiled cycles, one panel per vendor (its first architecture);
 - `derive.glsl`, `derive.hlsl`, `derive_twin.py`: each front member as a function of the
-  target's variables (a parametric target's pixel members of its parameter too, its material members
+  target's variables (in fp16, GLSL's explicit float16_t and HLSL's half; every number the format's
+  value that was executed) (a parametric target's pixel members of its parameter too, its material members
   of their constants c0, c1, ..., whose formulas the twin's `..._constants` computes), and its
   Python twin.
 """
@@ -25,11 +28,14 @@ import textwrap
 from pathlib import Path
 
 from ..engine import escape
+from .executed import GAP
 from .forms import glsl, hlsl, python
 from .targets import parse
 
 COLUMNS = ("architecture", "kind", "name", "family", "expression", "cycles", "cycles_predicted", "max_abs_error",
            "max_rel_error", "on_front", "source", "range", "parameter_per")
+TYPES = {None: ("float", "float"), "fp32": ("float", "float"), "fp16": ("float16_t", "half")}    # (GLSL, HLSL)
+GLSL_FLOAT16 = "#extension GL_EXT_shader_explicit_arithmetic_types_float16 : require"
 
 
 def domain_text(target: dict) -> str:
@@ -41,13 +47,21 @@ def domain_text(target: dict) -> str:
     return f"{target['variable']} in [{target['domain'][0]:g}, {target['domain'][1]:g}]"
 
 
-def shader_text(expr, arguments: str, language: str) -> str:
+def shader_text(expr, arguments: str, language: str, precision: str | None = None) -> str:
     """A form as a GLSL, HLSL or Python expression: in the one variable `arguments` (renamed to it),
-    or in its symbols' own names where `arguments` names several (comma-separated)."""
+    or in its symbols' own names where `arguments` names several (comma-separated); with
+    `precision`, its numbers the format's values (`forms.in_format`), in fp16 GLSL each a float16_t
+    and HLSL each a half, so that the arithmetic stays in 16 bits."""
     from . import forms
+    from ..isa.shaders import LITERAL, half_literals
 
     if "," not in arguments:
-        return {"glsl": glsl, "hlsl": hlsl, "python": python}[language](expr, arguments.strip())
+        text = {"glsl": glsl, "hlsl": hlsl, "python": python}[language](expr, arguments.strip(), precision)
+        if precision == "fp16" and language == "glsl":
+            return half_literals(text)
+        if precision == "fp16" and language == "hlsl":
+            return LITERAL.sub(lambda m: f"half({m.group(1)})", text)
+        return text
     printer = {"glsl": forms._GLSL, "hlsl": forms._HLSL, "python": forms._Python}[language]
     return printer().doprint(forms.gpu_form(expr))
 
@@ -100,17 +114,23 @@ def arguments_of(results, name: str) -> str:
 def shader_sources(results) -> dict[str, str]:
     """derive.glsl, derive.hlsl and derive_twin.py as text."""
     target = results["target"]
+    precision = results.get("precision")
+    measured = (f"as executed in {precision} over the domain" if precision else "measured in float64 over the whole domain")
     head = ["// " + escape.comment(f"Forms of {target['expression']} for {domain_text(target)} found by "
-                                   f"pipeline derive (error {target['metric']}, measured in float64 over the whole "
-                                   "domain)"), ""]
+                                   f"pipeline derive (error {target['metric']}, {measured})"), ""]
     glsl_lines, hlsl_lines = list(head), list(head)
+    if precision == "fp16":
+        glsl_lines[1:1] = [GLSL_FLOAT16]
+        hlsl_lines[1:1] = ["// half: 16 bits with dxc -enable-16bit-types (min16float otherwise)"]
+    kinds = TYPES[precision]
     py = [escape.python_string(f"Python twin of derive.glsl: the forms of {target['expression']}, for tests and plots."),
           "", "import math  # noqa: F401", "", ""]
     names_of = function_names(results)
     for name in exported(results):
         form = results["forms"][name]
         m = results["members"][name]
-        doc = f"{m['expression']}: max abs error {m['max_abs_error']:.4g}, max rel error {m['max_rel_error']:.4g}"
+        doc = (f"{m['expression']}: max abs error {m['max_abs_error']:.4g}, max rel error {m['max_rel_error']:.4g}"
+               + (f" (as executed in {precision})" if precision else ""))
         fn = names_of[name]
         expression, names = form.expression, arguments_of(results, name)
         if m.get("parameter_per") == "material":
@@ -120,11 +140,12 @@ def shader_sources(results) -> dict[str, str]:
                                for c in m["constants"])
             py += [f"def {fn}_constants({parameter}):", f'    """c0, c1, ... of {fn}, once per material."""',
                    f"    return [{values}]", "", ""]
-        signature = ", ".join(f"float {n.strip()}" for n in names.split(","))
-        for lines, language in ((glsl_lines, "glsl"), (hlsl_lines, "hlsl")):
-            lines += [f"// {escape.comment(doc)}", f"float {fn}({signature})", "{",
-                      f"    return {shader_text(expression, names, language)};", "}", ""]
-        py += [f"def {fn}({names}):", f"    {escape.python_string(doc)}", f"    return {shader_text(expression, names, 'python')}", "", ""]
+        for lines, language, kind in ((glsl_lines, "glsl", kinds[0]), (hlsl_lines, "hlsl", kinds[1])):
+            signature = ", ".join(f"{kind} {n.strip()}" for n in names.split(","))
+            lines += [f"// {escape.comment(doc)}", f"{kind} {fn}({signature})", "{",
+                      f"    return {shader_text(expression, names, language, precision)};", "}", ""]
+        py += [f"def {fn}({names}):", f"    {escape.python_string(doc)}",
+               f"    return {shader_text(expression, names, 'python', precision)}", "", ""]
     return {"derive.glsl": "\n".join(glsl_lines), "derive.hlsl": "\n".join(hlsl_lines),
             "derive_twin.py": "\n".join(py).rstrip() + "\n"}
 
@@ -194,6 +215,59 @@ def _parametric_coverage(results) -> list[str]:
     return lines
 
 
+def cause_text(gap: dict, precision: str) -> str:
+    """A gap's cause (`executed.gap_cause`) in words, with its numbers."""
+    if gap["cause"] == "constants":
+        return (f"its constants rounded to {precision}: with them, computed in float64, it errs "
+                f"{_error_text(gap['constants_error'])}")
+    if gap["cause"] == "function":
+        emulated = ("; with numpy's functions in the format it errs "
+                    f"{_error_text(gap['emulated_error'])}" if gap["emulated_error"] is not None else
+                    " (which the per-operation emulation does not compute)")
+        return f"the driver's {', '.join(gap['functions'])}{emulated}"
+    return (f"the arithmetic in {precision} (each operation's rounding, a cancellation): with the format's constants, "
+            f"computed in float64, it errs {_error_text(gap['constants_error'])}")
+
+
+def _gaps_text(results) -> list[str]:
+    error, precision = results["error"], results.get("precision")
+    members = [(name, m) for name, m in results["members"].items() if m.get("gap")]
+    if not members:
+        return []
+    lines = [f"## Where the executed error exceeds the float64 one more than {GAP:g} times", ""]
+    for name, m in members:
+        lines.append(f"- {escape.markdown(name)}: {_error_text(m[error])} as executed in {precision}, "
+                     f"{_error_text(m[error + '_real'])} in float64; the cause: {cause_text(m['gap'], precision)}.")
+    return lines + [""]
+
+
+def _special_text(results) -> list[str]:
+    """The documented accuracy of every special function a row calls, per architecture."""
+    special = results.get("special_functions") or {}
+    if not any(special.values()):
+        return []
+    lines = ["## The special functions' documented accuracy", "",
+             f"What each special function a row calls may err in {results['precision']} on each architecture: the "
+             "vendor's own figure where it publishes one, else Vulkan's minimum. The column `bound` of each "
+             "architecture's table (`max_error_bound`) is the executed error plus these, propagated to first order "
+             "through the form.", "", "| architecture | function | accuracy | source |", "|---|---|---|---|"]
+    for a, functions in special.items():
+        for entry in functions:
+            lines.append(f"| {a} | {entry['function']} | {entry['accuracy']} | {escape.markdown(entry['source'])} |")
+    mesa = sorted({a for a, functions in special.items() if any(e["mesa"] for e in functions)})
+    if mesa:
+        lines += ["", f"On {', '.join(mesa)}, acos, asin and atan are Mesa's lowering (a polynomial times a square "
+                  "root), the same in lavapipe, which executed the forms: their error is in the executed one, and "
+                  "the bound adds nothing for them there."]
+    return lines + [""]
+
+
+def _executed_text(results) -> str:
+    run = results["execution"]
+    return (f"as each form's shader executes in {results['precision']} ({escape.markdown(run['how'])}, "
+            f"{run['inputs']} inputs of the domain)")
+
+
 def report(results) -> str:
     """report.md: every number from `results` (results.json's fields)."""
     from ..isa.architectures import ARCHITECTURES
@@ -204,8 +278,10 @@ def report(results) -> str:
     measure = "largest absolute error" if error == "max_abs_error" else "largest relative error"
     lines = [f"# pipeline derive: {escape.markdown(t['name'])}", "",
              f"Target: {escape.code(t['expression'])} for {domain_text(t)}"
-             + (f" ({escape.markdown(t['description'])})" if t["description"] else "") + f"; ranked by the {measure} over the whole "
-             "domain (float64, grid and refinement), against cycles compiled for each architecture.", "",
+             + (f" ({escape.markdown(t['description'])})" if t["description"] else "") + f"; ranked by the {measure} "
+             + (_executed_text(results) if results.get("execution") else
+                "over the whole domain (float64, grid and refinement)")
+             + ", against cycles compiled for each architecture.", "",
              "## What the search covered", ""]
     if "pairs" in c:            # a pair: each part's coverage, then the pairs
         for part in ("scale", "bias"):
@@ -258,6 +334,10 @@ def report(results) -> str:
         if parametric:
             lines += ["| kind | per | name | cycles | max abs error | max rel error | per-value optimum | expression |",
                       "|---|---|---|---|---|---|---|---|"]
+        elif results.get("execution"):
+            lines += [f"| kind | name | cycles | predicted | max abs error ({results['precision']}) | max rel error "
+                      f"({results['precision']}) | max abs error (float64) | max rel error (float64) | bound on {a} | "
+                      "expression |", "|---|---|---|---|---|---|---|---|---|---|"]
         else:
             lines += ["| kind | name | cycles | predicted | max abs error | max rel error | expression |",
                       "|---|---|---|---|---|---|---|"]
@@ -269,24 +349,51 @@ def report(results) -> str:
                              f"{'-' if optimum is None else _error_text(optimum)} | {escape.code(r['expression'])} |")
                 continue
             predicted = "-" if r["cycles_predicted"] is None else f"{r['cycles_predicted']:g}"
+            real = (f"{_error_text(r['max_abs_error_real'])} | {_error_text(r['max_rel_error_real'])} | "
+                    f"{_error_text(r.get('max_error_bound'))} | " if "max_abs_error_real" in r else "")
             lines.append(f"| {r['kind']} | {escape.markdown(r['name'])} | {r['cycles']:g} | {predicted} | "
-                         f"{_error_text(r['max_abs_error'])} | {_error_text(r['max_rel_error'])} | "
+                         f"{_error_text(r['max_abs_error'])} | {_error_text(r['max_rel_error'])} | {real}"
                          f"{escape.code(r['expression'])} |")
         lines.append("")
-    lines += ["## Limits", "",
-              "- Errors are those of each expression in float64; a shader computes in float32, whose rounding "
-              "(about 1e-7 relative) is not included; on the fronts and in the verdicts, errors below "
-              f"{results['rounding_floor']:.3g} (float32's rounding of the target's range) count as equal.",
+    lines += _gaps_text(results)
+    lines += _special_text(results)
+    lines += ["## Limits", ""]
+    if results.get("execution"):
+        run = results["execution"]
+        lines += [f"- Errors are those of each form's shader executed in {results['precision']} ({run['how']}) at "
+                  f"{run['inputs']} inputs of the domain, against the target in "
+                  + run["truth"]["computed_by"]
+                  + f" (float64 checked against mpmath on {run['truth']['checked']} inputs: largest difference "
+                  f"{run['truth']['float64_difference']:.3g}); the float64 columns are each form's mathematics. On "
+                  f"the fronts and in the verdicts, errors below {results['rounding_floor']:.3g} ({results['precision']}'s "
+                  "rounding of the target's range) count as equal."]
+        if run["not_executed"]:
+            lines += ["- Not executed: " + "; ".join(escape.markdown(v) for v in run["not_executed"].values()) + "."]
+    else:
+        lines += ["- Errors are those of each expression in float64; a shader computes in float32, whose rounding "
+                  "(about 1e-7 relative) is not included; on the fronts and in the verdicts, errors below "
+                  f"{results['rounding_floor']:.3g} (float32's rounding of the target's range) count as equal."]
+    lines += [
               "- Cycles are each vendor's cost model of the machine code Mesa's, NVIDIA's or Intel's compilers "
               "make here, net of a shader returning the variable; `cycles_predicted` sums the architecture's "
               "cost table over the form's operations.", ""]
     return "\n".join(lines)
 
 
+def gaps(results, architecture: str) -> list[dict]:
+    """The rows of `architecture` whose executed error exceeds GAP times their float64 error (and the
+    format's rounding floor: below it both are the format's rounding)."""
+    error, floor = results["error"], results["rounding_floor"]
+    return [r for r in results["rows"] if r["architecture"] == architecture and r.get(error + "_real") is not None
+            and math.isfinite(r[error]) and r[error] > GAP * max(r[error + "_real"], floor)]
+
+
 def figure(path: Path, results) -> None:
     """front.png: per vendor (its first architecture), error against cycles, log error axis: the
-    found front joined, each anchor labelled, the exact target as a dashed line at its cycles;
-    errors below float32's rounding (`engine.rounding_floor`) drawn at it."""
+    found front joined, each anchor labelled, the exact target as a dashed line at its cycles (and
+    its executed error as a diamond); errors below the format's rounding (`engine.rounding_floor`)
+    drawn at it, the line drawn; a row whose executed error exceeds GAP times its float64 one with
+    its float64 error beside it, joined (`gaps`)."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -324,10 +431,21 @@ def figure(path: Path, results) -> None:
                         color="C3")
         for r in (r for r in rows if r["kind"] == "exact"):
             ax.axvline(r["cycles"], color="0.4", ls="--", lw=1, label="the target itself (its cycles)")
+            if math.isfinite(r[error]):
+                ax.plot(r["cycles"], max(r[error], floor), "D", color="0.3", ms=6,
+                        label="the target itself as executed (its own functions)")
+        for r in gaps(results, a):      # (executed more than GAP times its float64 error: both, joined)
+            real = max(r[error + "_real"], floor)
+            ax.plot([r["cycles"], r["cycles"]], [real, max(r[error], floor)], color="C1", lw=1)
+            ax.plot(r["cycles"], real, "o", mfc="none", color="C1", ms=6,
+                    label=f"its float64 error, where executed is > {GAP:g}x it")
         smallest = min((max(r[error], floor) for r in rows if r[error] is not None and math.isfinite(r[error])),
                        default=floor)
-        if smallest < 100 * floor:      # (drawn where an error comes near it; otherwise it only squeezes the axis)
-            ax.axhline(floor, color="0.7", lw=0.8, ls=":", label="float32 rounding (smaller errors drawn here)")
+        precision = results.get("precision", "fp32")
+        if smallest < 100 * floor or results.get("execution"):
+            # (drawn where an error comes near it, or where every error is executed: it is the format's floor)
+            ax.axhline(floor, color="0.5", lw=0.9, ls=":", label=f"{precision} rounding of the range (smaller errors "
+                       "drawn here)" if error == "max_abs_error" else f"{precision} rounding (smaller errors drawn here)")
         ax.set_yscale("log")
         ax.set_xlabel(f"{a}: {backend(a).UNIT}")
         ax.set_ylabel("largest absolute error" if error == "max_abs_error" else "largest relative error")
@@ -338,7 +456,9 @@ def figure(path: Path, results) -> None:
             handles.setdefault(label, h)
     ncol = 4 if columns > 2 else columns    # (two panels are too narrow for four long labels a row, one for two)
     fig.legend(handles.values(), handles.keys(), loc="lower center", ncol=ncol, fontsize=9, frameon=False)
-    title = escape.mathtext(f"{t['name']} for {domain_text(t)}") + ": error against compiled cycles, one panel per vendor"
+    measured = f"error as executed in {results['precision']}" if results.get("execution") else "error"
+    title = (escape.mathtext(f"{t['name']} for {domain_text(t)}") + f": {measured} against compiled cycles, one panel "
+             "per vendor")
     fig.suptitle("\n".join(textwrap.wrap(title, width=55 * columns)), fontsize=11)
     legend_rows = -(-len(handles) // ncol)
     fig.tight_layout(rect=(0, min(0.3, 0.25 * legend_rows / (3.9 * lines + 0.6)), 1, 1))

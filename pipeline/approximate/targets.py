@@ -16,6 +16,7 @@ besselj, ... even where no shader has it) or a TOML file (`from_file`):
     domain = [0, 1]
     metric = "abs"          # or "rel"
     floor = 0.0             # rel only: |f| below floor counts as floor
+    precision = "fp32"      # or "fp16": the format the shader computes in (`executed`)
     [[anchor]]
     name = "mine"
     expression = "x * (0.97 - 0.19 * x * x)"
@@ -37,6 +38,7 @@ from pathlib import Path
 import numpy as np
 
 METRICS = ("abs", "rel")
+PRECISIONS = ("fp32", "fp16")   # the formats a shader computes in (`executed`)
 CHECK_POINTS = 4097             # the domain's points on which a target must be finite
 
 
@@ -66,6 +68,7 @@ class Target:
     floor: float = 0.0
     anchors: tuple[Anchor, ...] = ()
     description: str = ""
+    precision: str = "fp32"
 
     def symbol(self):
         import sympy as sp
@@ -133,6 +136,8 @@ def check(target: Target) -> Target:
 
     if target.metric not in METRICS:
         raise DeriveError(f"--metric {target.metric!r}: give one of {', '.join(METRICS)}")
+    if target.precision not in PRECISIONS:
+        raise DeriveError(f"precision {target.precision!r}: give one of {', '.join(PRECISIONS)}")
     lo, hi = target.domain
     if not (math.isfinite(lo) and math.isfinite(hi) and lo < hi):
         raise DeriveError(f"domain [{lo}, {hi}]: give finite numbers lo < hi")
@@ -235,7 +240,7 @@ def from_expression(expression: str, var: str = "x=0:1", metric: str = "abs", fl
                         description=f"{expression} on [{domain[0]:g}, {domain[1]:g}]"))
 
 
-TARGET_KEYS = {"name", "expression", "variable", "domain", "metric", "floor", "description"}
+TARGET_KEYS = {"name", "expression", "variable", "domain", "metric", "floor", "description", "precision"}
 ANCHOR_KEYS = {"name", "expression", "source"}
 
 
@@ -257,7 +262,7 @@ def from_file(path: Path) -> Target:
         raise DeriveError(f"{path}: domain = {domain!r}: give [lo, hi]")
     return check(Target(str(table.get("name", path.stem)), str(table["expression"]), str(table.get("variable", "x")),
                         (float(domain[0]), float(domain[1])), str(table.get("metric", "abs")), read_floor(table, path),
-                        read_anchors(data, path), str(table.get("description", ""))))
+                        read_anchors(data, path), str(table.get("description", "")), str(table.get("precision", "fp32"))))
 
 
 def read_toml(path: Path) -> dict:

@@ -332,9 +332,10 @@ STAGES: tuple[Stage, ...] = (
     _stage("half_precision", "beyond", POWER + ("render.exponents",),
            ("linear_coefficient.slope_used", "linear_coefficient.intercept_used"), {
         "rows": "per n, lobe and route for 1 - cos x: distinct float16 values over the visible highlight, and "
-                "the largest absolute error against float64 [list]",
+                "the largest absolute error against float64, executed, and by numpy's per-operation emulation [list]",
         "samples": "angles sampled per n [count]",
-    }),
+        "executed_by": "what computed the lobes in float16: lavapipe, or the emulation and why [text]",
+    }, tools=("lavapipe",)),
     _stage("shader_cost", "beyond", POWER, (), {
         "available": "whether glslangValidator and spirv-opt were found [bool]",
         "tools": "their versions, or what is missing [text]",
@@ -518,6 +519,9 @@ STAGES: tuple[Stage, ...] = (
                   "on the candidates' d and D at that n (the search's forms at their per-n fit) [dict]",
         "paper_line_vs_per_n_optimum": "per range: f_Q2's max d with the run's line, the per-n minimax optimum of its "
                                        "own family (square_peak1, Beaudoin and Guardado's table) and their ratio [list]",
+        "fp16_executed_by": "what computed the candidates' float16 errors: lavapipe, or the emulation and why [text]",
+        "fp16_changed_by_execution": "the fp16 scenarios whose winner differs between the float16 errors as executed "
+                                     "and as numpy's per-operation emulation, with both winners [list]",
     }),
 )
 

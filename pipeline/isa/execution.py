@@ -4,8 +4,11 @@ per input, in float32 or float16 (explicit 16-bit types, as a phone's mediump co
 outputs read back.
 
 `execute(body, inputs, precision)` compiles the shader here (glslang) and runs the driver in a child
-process (`python -m pipeline.isa.execution FOLDER`, the ICD `engine.toolchains` finds), so that a driver's crash or hang (bounded by a
-timeout) is one ExecutionError naming the form, never a dead run. `available()` says why lavapipe
+process (`python -m pipeline.isa.execution FOLDER`, the ICD `engine.toolchains` finds), so that a
+driver's crash or hang (bounded by a timeout) is one ExecutionError naming the form, never a dead
+run. A form reads one variable (an array of inputs) or several (a dict of equal-length arrays, one
+buffer each: a parameter per invocation, as a uniform it would be, already rounded to the format);
+`execute_sets` runs several sets of forms, each with its own inputs, in one child process. `available()` says why lavapipe
 cannot run here, or None; there, `emulate` computes the form per operation in numpy in the format.
 
 What lavapipe computes: + - * / and sqrt correctly rounded per operation in the format (llvmpipe
@@ -18,6 +21,8 @@ bare float literal would promote the arithmetic to float32.
 
 from __future__ import annotations
 
+import json
+import math
 import os
 import re
 import subprocess
@@ -28,24 +33,28 @@ from pathlib import Path
 import numpy as np
 
 from ..engine import toolchains
+from .shaders import LITERAL, half_literals
 
 PRECISIONS = {"fp32": ("float", np.float32), "fp16": ("float16_t", np.float16)}
 LOCAL_SIZE = 64
-TIMEOUT = 120.0             # seconds of one child process (compile, dispatch, read back)
+MAX_GROUPS = 65535          # work groups per dimension (Vulkan's minimum maxComputeWorkGroupCount)
+TIMEOUT = 120.0             # seconds of one form in the child process (compile, dispatch, read back)
 _SHADER = """#version 450
 {extensions}layout(local_size_x = {local}) in;
-layout(std430, binding = 0) readonly buffer Inputs {{ {t} xs[]; }};
-layout(std430, binding = 1) writeonly buffer Outputs {{ {t} ys[]; }};
-{t} form({t} {variable})
+{buffers}
+layout(std430, binding = {out}) writeonly buffer Outputs {{ {t} ys[]; }};
+{t} form({arguments})
 {{
     return {body};
 }}
-void main() {{ uint i = gl_GlobalInvocationID.x; ys[i] = form(xs[i]); }}
+void main()
+{{
+    uint i = gl_GlobalInvocationID.y * gl_NumWorkGroups.x * {local} + gl_GlobalInvocationID.x;
+    ys[i] = form({values});
+}}
 """
 _FP16_EXTENSIONS = ("#extension GL_EXT_shader_explicit_arithmetic_types_float16 : require\n"
                     "#extension GL_EXT_shader_16bit_storage : require\n")
-# a numeric literal, not part of a name (x2, vec3)
-_LITERAL = re.compile(r"(?<![\w.])(\d+\.\d*(?:[eE][+-]?\d+)?|\.\d+(?:[eE][+-]?\d+)?|\d+[eE][+-]?\d+|\d+)(?![\w.])")
 
 
 class ExecutionError(RuntimeError):
@@ -58,16 +67,22 @@ def available() -> str | None:
     return None if found.found else found.missing
 
 
-def shader_source(body: str, precision: str = "fp32", variable: str = "x") -> str:
-    """The compute shader of a form's GLSL expression `body` in `variable` (module docstring)."""
+def shader_source(body: str, precision: str = "fp32", variable="x") -> str:
+    """The compute shader of a form's GLSL expression `body` in `variable` (a name, or several names:
+    one input buffer each, in that order) (module docstring)."""
     if precision not in PRECISIONS:
         raise ValueError(f"precision {precision!r}: give one of {', '.join(PRECISIONS)}")
     t, _ = PRECISIONS[precision]
+    names = [variable] if isinstance(variable, str) else list(variable)
     extensions = ""
     if precision == "fp16":
         extensions = _FP16_EXTENSIONS
-        body = _LITERAL.sub(lambda m: f"float16_t({float(np.float16(float(m.group(1))))!r})", body)
-    return _SHADER.format(extensions=extensions, local=LOCAL_SIZE, t=t, variable=variable, body=body)
+        body = half_literals(body)
+    buffers = "\n".join(f"layout(std430, binding = {b}) readonly buffer Input{b} {{ {t} in{b}[]; }};"
+                         for b in range(len(names)))
+    return _SHADER.format(extensions=extensions, local=LOCAL_SIZE, t=t, buffers=buffers, out=len(names),
+                          arguments=", ".join(f"{t} {n}" for n in names), body=body,
+                          values=", ".join(f"in{b}[i]" for b in range(len(names))))
 
 
 def execute(body: str, inputs, precision: str = "fp32", variable: str = "x", name: str = "form",
@@ -75,54 +90,137 @@ def execute(body: str, inputs, precision: str = "fp32", variable: str = "x", nam
     """The form's values at `inputs` (rounded to the format first) as lavapipe computes them: float32
     or float16, the shape of `inputs`. Raises ExecutionError naming `name` where lavapipe is absent,
     the shader does not compile, or the driver fails, crashes or takes longer than `timeout`."""
+    (outcome,) = execute_forms({name: body}, inputs, precision, variable, timeout=timeout).values()
+    if isinstance(outcome, ExecutionError):
+        raise outcome
+    return outcome
+
+
+def errors(values, inputs, truth, floor: float = 0.0) -> dict:
+    """{max_abs_error, max_rel_error, x_abs, x_rel} of `values` (a form's outputs in the format) at
+    `inputs` against `truth` (float64 at the same inputs): |value - truth|, and that over
+    max(|truth|, floor) (0 where both are equal); inf at the first input where a value is not finite
+    and the truth is."""
+    x = np.asarray(inputs, dtype=np.float64).ravel()
+    v = np.asarray(values, dtype=np.float64).ravel()
+    f = np.asarray(truth, dtype=np.float64).ravel()
+    with np.errstate(all="ignore"):
+        diff = np.abs(v - f)
+        rel = np.where(diff == 0, 0.0, diff / np.maximum(np.abs(f), floor))
+    out = {}
+    for key, where, e in (("max_abs_error", "x_abs", diff), ("max_rel_error", "x_rel", rel)):
+        bad = ~np.isfinite(e)
+        k = int(np.flatnonzero(bad)[0]) if bad.any() else int(np.argmax(e))
+        out[key], out[where] = (math.inf if bad.any() else float(e[k])), float(x[k])
+    return out
+
+
+def execute_forms(bodies: dict[str, str], inputs, precision: str = "fp32", variable: str = "x", truth=None,
+                  floor: float = 0.0, timeout: float = TIMEOUT) -> dict:
+    """Every form of `bodies` ({name: GLSL expression in `variable`, or in the names of `inputs` where
+    it is a dict of equal-length arrays}) executed by lavapipe at `inputs` (rounded to the format),
+    all in one child process: {name: its values (the format, the shape of the inputs)}, or with
+    `truth` (float64 at the inputs) {name: `errors` of its values (at the first variable)}, or an
+    ExecutionError (one line naming the form) where it did not compile or the driver failed. A child
+    that crashes or passes its time (`timeout` per form) is run again with each unfinished form alone,
+    so that one form's failure is that form's only."""
+    (out,) = execute_sets([(bodies, inputs, truth, floor)], precision, variable, timeout)
+    return out
+
+
+def execute_sets(sets, precision: str = "fp32", variable: str = "x", timeout: float = TIMEOUT) -> list[dict]:
+    """`execute_forms` of several sets [(bodies, inputs, truth, floor), ...], each with its own inputs,
+    in one child process: a list of its results, one dict per set."""
     from ..optics import glslang
 
+    if precision not in PRECISIONS:
+        raise ValueError(f"precision {precision!r}: give one of {', '.join(PRECISIONS)}")
     why = available()
     if why is not None:
-        raise ExecutionError(f"{name}: not executed: {why}")
-    _, dtype = PRECISIONS[precision] if precision in PRECISIONS else (None, None)
-    source = shader_source(body, precision, variable)
-    try:
-        code = glslang.spirv(source, stage="comp")
-    except glslang.GlslError as e:
-        first = next((line for line in str(e).splitlines() if "ERROR" in line), str(e).strip())
-        raise ExecutionError(f"{name}: the shader does not compile: {first}") from None
-    values = np.asarray(inputs, dtype=dtype)
+        return [{name: ExecutionError(f"{name}: not executed: {why}") for name in bodies} for bodies, *_ in sets]
+    _, dtype = PRECISIONS[precision]
+    outs: list[dict] = [{} for _ in sets]
+    jobs = []                       # (set, name, file stem)
     with tempfile.TemporaryDirectory(prefix="execute_") as folder:
         folder = Path(folder)
-        (folder / "form.spv").write_bytes(code)
-        np.save(folder / "inputs.npy", values.ravel())
-        env = dict(os.environ, VK_ICD_FILENAMES=toolchains.locate("lavapipe").path,
-                   XDG_RUNTIME_DIR=os.environ.get("XDG_RUNTIME_DIR") or tempfile.gettempdir())
-        try:
-            done = subprocess.run([sys.executable, "-m", "pipeline.isa.execution", str(folder)], env=env,
-                                  capture_output=True, text=True, timeout=timeout)
-        except subprocess.TimeoutExpired:
-            raise ExecutionError(f"{name}: lavapipe took longer than {timeout:g} s") from None
-        if done.returncode != 0 or not (folder / "outputs.npy").exists():
-            last = (done.stderr.strip().splitlines() or [f"exit status {done.returncode}"])[-1]
-            raise ExecutionError(f"{name}: lavapipe failed: {last}")
-        return np.load(folder / "outputs.npy").reshape(values.shape)
+        described = []
+        for j, (bodies, inputs, truth, floor) in enumerate(sets):
+            named = dict(inputs) if isinstance(inputs, dict) else {variable: inputs}
+            arrays = [np.asarray(a, dtype=dtype).ravel() for a in named.values()]
+            if len({a.size for a in arrays}) != 1:
+                raise ValueError("the inputs of a set have different lengths")
+            for b, a in enumerate(arrays):
+                np.save(folder / f"set{j}_in{b}.npy", a)
+            if truth is not None:
+                np.save(folder / f"set{j}_truth.npy", np.asarray(truth, dtype=np.float64).ravel())
+            described.append(dict(inputs=len(arrays), truth=truth is not None, floor=floor,
+                                  shape=list(np.shape(next(iter(named.values()))))))
+            for name, body in bodies.items():
+                try:
+                    code = glslang.spirv(shader_source(body, precision, list(named)), stage="comp")
+                except glslang.GlslError as e:
+                    first = next((line for line in str(e).splitlines() if "ERROR" in line), str(e).strip())
+                    outs[j][name] = ExecutionError(f"{name}: the shader does not compile: {first}")
+                    continue
+                stem = f"set{j}_form{len(jobs)}"
+                (folder / f"{stem}.spv").write_bytes(code)
+                jobs.append((j, name, stem))
+
+        def run(indices: list[int]) -> str | None:
+            (folder / "job.json").write_text(json.dumps(dict(sets=described, forms=[[jobs[k][0], jobs[k][2]]
+                                                                                   for k in indices])))
+            env = dict(os.environ, VK_ICD_FILENAMES=toolchains.locate("lavapipe").path,
+                       XDG_RUNTIME_DIR=os.environ.get("XDG_RUNTIME_DIR") or tempfile.gettempdir())
+            try:
+                done = subprocess.run([sys.executable, "-m", "pipeline.isa.execution", str(folder)], env=env,
+                                      capture_output=True, text=True, timeout=timeout * len(indices))
+            except subprocess.TimeoutExpired:
+                return f"lavapipe took longer than {timeout:g} s"
+            if done.returncode != 0:
+                return "lavapipe failed: " + (done.stderr.strip().splitlines() or [f"exit status {done.returncode}"])[-1]
+            return None
+
+        def result(k: int) -> Path:
+            j, _, stem = jobs[k]
+            return folder / (f"{stem}.errors.json" if described[j]["truth"] else f"{stem}.out.npy")
+
+        failures = {}
+        if jobs and run(list(range(len(jobs)))) is not None:
+            for k in [k for k in range(len(jobs)) if not result(k).exists()]:
+                alone = run([k])
+                if alone is not None:
+                    failures[k] = alone
+        for k, (j, name, _) in enumerate(jobs):
+            if k in failures:
+                outs[j][name] = ExecutionError(f"{name}: {failures[k]}")
+            elif not result(k).exists():
+                outs[j][name] = ExecutionError(f"{name}: lavapipe wrote no result")
+            elif described[j]["truth"]:
+                outs[j][name] = json.loads(result(k).read_text())
+            else:
+                outs[j][name] = np.load(result(k)).reshape(described[j]["shape"])
+    return [{name: out[name] for name in bodies} for out, (bodies, *_) in zip(outs, sets)]
 
 
 def emulate(body: str, inputs, precision: str = "fp32", variable: str = "x") -> np.ndarray:
-    """The form's values at `inputs` by a per-operation emulation in the format, where lavapipe
-    cannot run: its fragment shader's operations after spirv-opt (`lowering.operations`, what every
-    back end lowers) evaluated in numpy float32 or float16 (`lowering.evaluate`), each + - * / and
-    sqrt correctly rounded as lavapipe rounds them; the special functions numpy's in the format (not
-    a driver's: acos and pow are not those a GPU executes). Literals are the format's nearest, as
-    `shader_source` writes them."""
+    """The form's values at `inputs` (an array of `variable`, or a dict of arrays by name) by a
+    per-operation emulation in the format, where lavapipe cannot run: its fragment shader's
+    operations after spirv-opt (`lowering.operations`, what every back end lowers) evaluated in numpy
+    float32 or float16 (`lowering.evaluate`), each + - * / and sqrt correctly rounded as lavapipe
+    rounds them; the special functions numpy's in the format (not a driver's: acos and pow are not
+    those a GPU executes). Literals are the format's nearest, as `shader_source` writes them."""
     from ..optics.spirv import optimized_disassembly
     from . import lowering
-    from .shaders import UNIFORM
+    from .shaders import form_shader
 
     _, dtype = PRECISIONS[precision]
     if precision == "fp16":      # (the nearest float16 of each literal, exact in the float32 shader)
-        body = _LITERAL.sub(lambda m: repr(float(np.float16(float(m.group(1))))), body)
-    head = "" if variable == "t" else f"float {variable} = t; "
-    ops, result = lowering.operations(optimized_disassembly(UNIFORM.format(body=f"{head}return {body};")))
-    values = np.asarray(inputs, dtype=dtype)
-    return np.asarray(lowering.evaluate(ops, result, {"t": values}, {}, dtype), dtype=dtype).reshape(values.shape)
+        body = LITERAL.sub(lambda m: repr(float(np.float16(float(m.group(1))))), body)
+    named = dict(inputs) if isinstance(inputs, dict) else {variable: inputs}
+    ops, result = lowering.operations(optimized_disassembly(form_shader(list(named), list(named), f"return {body};", "")))
+    arrays = {name: np.asarray(a, dtype=dtype) for name, a in named.items()}
+    shape = next(iter(arrays.values())).shape
+    return np.asarray(lowering.evaluate(ops, result, arrays, {}, dtype), dtype=dtype).reshape(shape)
 
 
 def _memory_type(vk, physical, bits: int, flags: int) -> int:
@@ -134,15 +232,17 @@ def _memory_type(vk, physical, bits: int, flags: int) -> int:
 
 
 def run_folder(folder: Path) -> None:
-    """The child process: `folder/form.spv` dispatched over `folder/inputs.npy` on the first lavapipe
-    device, `folder/outputs.npy` written. The format is the inputs' dtype (float32 or float16)."""
+    """The child process: the forms `folder/job.json` names dispatched one after the other on the
+    first lavapipe device, each over its set's inputs (`setJ_inB.npy`, one buffer each), writing
+    `STEM.out.npy`, or where its set has a truth its `STEM.errors.json` against `setJ_truth.npy`. The
+    format is the inputs' dtype (float32 or float16)."""
     import vulkan as vk
 
-    code = (folder / "form.spv").read_bytes()
-    values = np.load(folder / "inputs.npy")
-    dtype = values.dtype
-    groups = max(1, -(-values.size // LOCAL_SIZE))
-    size = groups * LOCAL_SIZE * values.itemsize          # padded: the shader needs no bounds check
+    job = json.loads((folder / "job.json").read_text())
+    sets = job["sets"]
+    needed = sorted({j for j, _ in job["forms"]})
+    inputs = {j: [np.load(folder / f"set{j}_in{b}.npy") for b in range(sets[j]["inputs"])] for j in needed}
+    dtype = next(iter(inputs.values()))[0].dtype if inputs else np.float32
     destroy = []                                           # (function, arguments), in the order made
     try:
         app = vk.VkApplicationInfo(pApplicationName="pipeline execution", apiVersion=vk.VK_MAKE_VERSION(1, 2, 0))
@@ -163,8 +263,37 @@ def run_folder(folder: Path) -> None:
                                    None)
         destroy.append((vk.vkDestroyDevice, (device, None)))
         queue = vk.vkGetDeviceQueue(device, family, 0)
-        buffers, memories = [], []
-        for _ in range(2):
+        commands = vk.vkCreateCommandPool(device, vk.VkCommandPoolCreateInfo(
+            queueFamilyIndex=family, flags=vk.VK_COMMAND_POOL_CREATE_RESET_COMMAND_BUFFER_BIT), None)
+        destroy.append((vk.vkDestroyCommandPool, (device, commands, None)))
+        command = vk.vkAllocateCommandBuffers(device, vk.VkCommandBufferAllocateInfo(
+            commandPool=commands, level=vk.VK_COMMAND_BUFFER_LEVEL_PRIMARY, commandBufferCount=1))[0]
+        fence = vk.vkCreateFence(device, vk.VkFenceCreateInfo(), None)
+        destroy.append((vk.vkDestroyFence, (device, fence, None)))
+        for j in needed:
+            forms = [stem for set_index, stem in job["forms"] if set_index == j]
+            _run_set(vk, physical, device, queue, command, fence, folder, forms, inputs[j], sets[j],
+                     np.load(folder / f"set{j}_truth.npy") if sets[j]["truth"] else None)
+    finally:
+        for function, arguments in reversed(destroy):
+            function(*arguments)
+
+
+def _run_set(vk, physical, device, queue, command, fence, folder: Path, forms: list[str], arrays, described, truth):
+    """One set's forms over its inputs (`run_folder`): its buffers, layout and pipelines, made and
+    destroyed here."""
+    values = arrays[0]
+    dtype = values.dtype
+    groups = max(1, -(-values.size // LOCAL_SIZE))
+    width = min(groups, MAX_GROUPS)
+    height = -(-groups // width)
+    size = width * height * LOCAL_SIZE * values.itemsize   # padded: the shader needs no bounds check
+    count = len(arrays) + 1
+    destroy = []
+    try:
+        memories = []
+        buffers = []
+        for _ in range(count):
             buffer = vk.vkCreateBuffer(device, vk.VkBufferCreateInfo(
                 size=size, usage=vk.VK_BUFFER_USAGE_STORAGE_BUFFER_BIT, sharingMode=vk.VK_SHARING_MODE_EXCLUSIVE), None)
             destroy.append((vk.vkDestroyBuffer, (device, buffer, None)))
@@ -177,59 +306,63 @@ def run_folder(folder: Path) -> None:
             vk.vkBindBufferMemory(device, buffer, memory, 0)
             buffers.append(buffer)
             memories.append(memory)
-        mapped = vk.vkMapMemory(device, memories[0], 0, size, 0)       # a cffi buffer; numpy views it
-        view = np.frombuffer(mapped, dtype=dtype)
-        view[:values.size] = values
-        view[values.size:] = 0
-        del view, mapped                                                # (no view outlives the mapping)
-        vk.vkUnmapMemory(device, memories[0])
+        for b, array in enumerate(arrays):
+            mapped = vk.vkMapMemory(device, memories[b], 0, size, 0)   # a cffi buffer; numpy views it
+            view = np.frombuffer(mapped, dtype=dtype)
+            view[:array.size] = array
+            view[array.size:] = 0
+            del view, mapped                                           # (no view outlives the mapping)
+            vk.vkUnmapMemory(device, memories[b])
         bindings = [vk.VkDescriptorSetLayoutBinding(binding=b, descriptorType=vk.VK_DESCRIPTOR_TYPE_STORAGE_BUFFER,
                                                     descriptorCount=1, stageFlags=vk.VK_SHADER_STAGE_COMPUTE_BIT)
-                    for b in range(2)]
+                    for b in range(count)]
         set_layout = vk.vkCreateDescriptorSetLayout(device, vk.VkDescriptorSetLayoutCreateInfo(pBindings=bindings), None)
         destroy.append((vk.vkDestroyDescriptorSetLayout, (device, set_layout, None)))
         layout = vk.vkCreatePipelineLayout(device, vk.VkPipelineLayoutCreateInfo(pSetLayouts=[set_layout]), None)
         destroy.append((vk.vkDestroyPipelineLayout, (device, layout, None)))
-        module = vk.vkCreateShaderModule(device, vk.VkShaderModuleCreateInfo(codeSize=len(code), pCode=code), None)
-        destroy.append((vk.vkDestroyShaderModule, (device, module, None)))
-        stage = vk.VkPipelineShaderStageCreateInfo(stage=vk.VK_SHADER_STAGE_COMPUTE_BIT, module=module, pName="main")
-        pipeline = vk.vkCreateComputePipelines(device, None, 1, [vk.VkComputePipelineCreateInfo(
-            stage=stage, layout=layout)], None)[0]
-        destroy.append((vk.vkDestroyPipeline, (device, pipeline, None)))
         pool = vk.vkCreateDescriptorPool(device, vk.VkDescriptorPoolCreateInfo(maxSets=1, pPoolSizes=[
-            vk.VkDescriptorPoolSize(type=vk.VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, descriptorCount=2)]), None)
+            vk.VkDescriptorPoolSize(type=vk.VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, descriptorCount=count)]), None)
         destroy.append((vk.vkDestroyDescriptorPool, (device, pool, None)))
         descriptors = vk.vkAllocateDescriptorSets(device, vk.VkDescriptorSetAllocateInfo(
             descriptorPool=pool, pSetLayouts=[set_layout]))[0]
         # (the package's VK_WHOLE_SIZE is -1, which cffi refuses: the buffers' size instead)
-        vk.vkUpdateDescriptorSets(device, 2, [vk.VkWriteDescriptorSet(
+        vk.vkUpdateDescriptorSets(device, count, [vk.VkWriteDescriptorSet(
             dstSet=descriptors, dstBinding=b, descriptorCount=1, descriptorType=vk.VK_DESCRIPTOR_TYPE_STORAGE_BUFFER,
-            pBufferInfo=[vk.VkDescriptorBufferInfo(buffer=buffers[b], offset=0, range=size)]) for b in range(2)],
+            pBufferInfo=[vk.VkDescriptorBufferInfo(buffer=buffers[b], offset=0, range=size)]) for b in range(count)],
             0, None)
-        commands = vk.vkCreateCommandPool(device, vk.VkCommandPoolCreateInfo(queueFamilyIndex=family), None)
-        destroy.append((vk.vkDestroyCommandPool, (device, commands, None)))
-        command = vk.vkAllocateCommandBuffers(device, vk.VkCommandBufferAllocateInfo(
-            commandPool=commands, level=vk.VK_COMMAND_BUFFER_LEVEL_PRIMARY, commandBufferCount=1))[0]
-        vk.vkBeginCommandBuffer(command, vk.VkCommandBufferBeginInfo(flags=vk.VK_COMMAND_BUFFER_USAGE_ONE_TIME_SUBMIT_BIT))
-        vk.vkCmdBindPipeline(command, vk.VK_PIPELINE_BIND_POINT_COMPUTE, pipeline)
-        vk.vkCmdBindDescriptorSets(command, vk.VK_PIPELINE_BIND_POINT_COMPUTE, layout, 0, 1, [descriptors], 0, None)
-        vk.vkCmdDispatch(command, groups, 1, 1)
-        vk.vkCmdPipelineBarrier(command, vk.VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, vk.VK_PIPELINE_STAGE_HOST_BIT, 0,
-                                1, [vk.VkMemoryBarrier(srcAccessMask=vk.VK_ACCESS_SHADER_WRITE_BIT,
-                                                       dstAccessMask=vk.VK_ACCESS_HOST_READ_BIT)], 0, None, 0, None)
-        vk.vkEndCommandBuffer(command)
-        fence = vk.vkCreateFence(device, vk.VkFenceCreateInfo(), None)
-        destroy.append((vk.vkDestroyFence, (device, fence, None)))
-        vk.vkQueueSubmit(queue, 1, [vk.VkSubmitInfo(pCommandBuffers=[command])], fence)
-        vk.vkWaitForFences(device, 1, [fence], vk.VK_TRUE, int(TIMEOUT * 1e9))
-        mapped = vk.vkMapMemory(device, memories[1], 0, size, 0)
-        outputs = np.frombuffer(mapped, dtype=dtype)[:values.size].copy()
-        del mapped
-        vk.vkUnmapMemory(device, memories[1])
+        for stem in forms:
+            code = (folder / f"{stem}.spv").read_bytes()
+            module = vk.vkCreateShaderModule(device, vk.VkShaderModuleCreateInfo(codeSize=len(code), pCode=code), None)
+            stage = vk.VkPipelineShaderStageCreateInfo(stage=vk.VK_SHADER_STAGE_COMPUTE_BIT, module=module, pName="main")
+            pipeline = vk.vkCreateComputePipelines(device, None, 1, [vk.VkComputePipelineCreateInfo(
+                stage=stage, layout=layout)], None)[0]
+            vk.vkBeginCommandBuffer(command, vk.VkCommandBufferBeginInfo(
+                flags=vk.VK_COMMAND_BUFFER_USAGE_ONE_TIME_SUBMIT_BIT))
+            vk.vkCmdBindPipeline(command, vk.VK_PIPELINE_BIND_POINT_COMPUTE, pipeline)
+            vk.vkCmdBindDescriptorSets(command, vk.VK_PIPELINE_BIND_POINT_COMPUTE, layout, 0, 1, [descriptors], 0, None)
+            vk.vkCmdDispatch(command, width, height, 1)
+            vk.vkCmdPipelineBarrier(command, vk.VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, vk.VK_PIPELINE_STAGE_HOST_BIT, 0,
+                                    1, [vk.VkMemoryBarrier(srcAccessMask=vk.VK_ACCESS_SHADER_WRITE_BIT,
+                                                           dstAccessMask=vk.VK_ACCESS_HOST_READ_BIT)], 0, None, 0, None)
+            vk.vkEndCommandBuffer(command)
+            vk.vkQueueSubmit(queue, 1, [vk.VkSubmitInfo(pCommandBuffers=[command])], fence)
+            vk.vkWaitForFences(device, 1, [fence], vk.VK_TRUE, int(TIMEOUT * 1e9))
+            vk.vkResetFences(device, 1, [fence])
+            vk.vkResetCommandBuffer(command, 0)
+            vk.vkDestroyPipeline(device, pipeline, None)
+            vk.vkDestroyShaderModule(device, module, None)
+            mapped = vk.vkMapMemory(device, memories[-1], 0, size, 0)
+            outputs = np.frombuffer(mapped, dtype=dtype)[:values.size].copy()
+            del mapped
+            vk.vkUnmapMemory(device, memories[-1])
+            if truth is None:
+                np.save(folder / f"{stem}.partial.npy", outputs)
+                os.replace(folder / f"{stem}.partial.npy", folder / f"{stem}.out.npy")
+            else:
+                (folder / f"{stem}.errors.json").write_text(json.dumps(errors(outputs, values, truth, described["floor"])))
     finally:
         for function, arguments in reversed(destroy):
             function(*arguments)
-    np.save(folder / "outputs.npy", outputs)
 
 
 if __name__ == "__main__":

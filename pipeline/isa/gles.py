@@ -3,8 +3,9 @@
 compiling a run's shaders on their drm-shim null devices, in an arm64 Debian user space run by
 qemu-user (`toolchains.find_mesa_mobile`).
 
-The shader reads the varyings (t, n) as highp inputs and the per-material uniforms as highp
-uniforms of the default block (constant registers, as Vulkan's push constants are), and writes
+The shader reads the varyings (t, n) as highp inputs (mediump, and writes mediump, where it
+computes in float16: explicit 16-bit types print as mediump, which Mesa's ir3 and panfrost compute
+in 16 bits) and the per-material uniforms as highp uniforms of the default block (constant registers, as Vulkan's push constants are), and writes
 vec4(result, every input it read): the wrapper reads the same inputs, so interpolation and output
 cancel in the net count. Each shader is its own separable program (`glCreateShaderProgramv`), so
 no vertex shader is linked with it and no arithmetic moves across the stage boundary. These are
@@ -64,13 +65,15 @@ def fragment_shader(ops: list[Op], result: str) -> str:
     inputs = sorted({op.op for op in ops if op.kind == "input"})
     body, names = c_statements(ops, input_expr=lambda name: f"in_{name}", uniform_expr=lambda k: f"u{k}",
                                constant=_c, function=_function, divide=lambda x, y: f"{x} / {y}",
-                               float_type="highp float", bool_type="bool")
+                               float_type="highp float", bool_type="bool", half_type="mediump float")
     outputs = [names[result]] + [f"in_{i}" for i in inputs]
     outputs += ["0.0"] * (4 - len(outputs))
+    # a shader computing in float16 reads and writes mediump, as a phone's mediump shader does
+    io = "mediump" if any(op.width == 16 for op in ops) else "highp"
     head = ["#version 310 es", "precision highp float;"]
-    head += [f"in highp float in_{i};" for i in inputs]
+    head += [f"in {io} float in_{i};" for i in inputs]
     head += [f"uniform highp float u{i};" for i in range(len(uniforms))]
-    head += ["layout(location = 0) out highp vec4 color;", "void main()", "{"]
+    head += [f"layout(location = 0) out {io} vec4 color;", "void main()", "{"]
     return "\n".join(head + body + [f"  color = vec4({', '.join(outputs[:4])});", "}"]) + "\n"
 
 

@@ -67,7 +67,8 @@ def kernel(name: str, ops: list[Op], result: str) -> str:
     inputs = sorted({op.op for op in ops if op.kind == "input"})
     body, names = c_statements(ops, input_expr=lambda name: f"in[i + {1024 * inputs.index(name)}]",
                                uniform_expr=lambda k: f"u{k}", constant=_c, function=_function,
-                               divide=lambda x, y: f"native_divide({x}, {y})", float_type="float", bool_type="int")
+                               divide=lambda x, y: f"native_divide({x}, {y})", float_type="float", bool_type="int",
+                               half_type="half")
     params = ", ".join(["__global const float *in", "__global float *out"] + [f"float u{i}" for i in range(len(uniforms))])
     return ("__attribute__((intel_reqd_sub_group_size(16)))\n"
             f"__kernel void {name}({params})\n{{\n  int i = get_global_id(0);\n" + "\n".join(body)
@@ -88,7 +89,12 @@ def _function(name: str, a: list[str]) -> str:
 
 
 def program(kernels: dict[str, tuple[list[Op], str]]) -> str:
-    return "\n".join(kernel(name, *k) for name, k in kernels.items())
+    """The kernels as one OpenCL C program; cl_khr_fp16 enabled where one computes in float16 (its
+    16-bit values `half`; the native functions, which OpenCL defines on float, take and give float
+    between conversions)."""
+    half = any(op.width == 16 for ops, _ in kernels.values() for op in ops)
+    head = "#pragma OPENCL EXTENSION cl_khr_fp16 : enable\n" if half else ""
+    return head + "\n".join(kernel(name, *k) for name, k in kernels.items())
 
 
 def tools() -> str:

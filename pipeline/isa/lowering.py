@@ -6,10 +6,13 @@ scalars, the form each back end lowers to its own instructions (as Mesa's driver
 varyings t and n, by name), per-material uniforms (`uniform`: by their place in the push-constant
 block, e.g. (0,) for n, (2, 3) for c[3] of a block whose third member is an array), constants, the
 GLSL.std.450 functions (by their SPIR-V names: Pow, Exp, FMax, ...), arithmetic (FAdd, FSub, FMul,
-FDiv, FNegate), comparisons and selections. A structured branch of one level (a GLSL `?:` or
+FDiv, FNegate), comparisons, selections and conversions between float32 and float16 (`convert`). Each
+operation's `width` is its result's: 16 for a float16 value (a shader with explicit 16-bit types),
+else 32. A structured branch of one level (a GLSL `?:` or
 `if`) becomes a select of both sides, as drivers if-convert short branches. The value written to
 the output is `result`. `evaluate(ops, inputs, uniforms)` computes the list in numpy float32 (or
-float16), so that each back end's printing is tested against the same values.
+float16; a width-16 operation always in float16), so that each back end's printing is tested against
+the same values.
 """
 
 from __future__ import annotations
@@ -48,6 +51,7 @@ class Op:
     op: str | tuple
     args: tuple[str, ...] = ()
     value: float = 0.0
+    width: int = 32
 
 
 def _constants(disassembly: str) -> dict[str, float]:
@@ -71,6 +75,10 @@ def operations(disassembly: str) -> tuple[list[Op], str]:
     `spirv-dis` of an optimized fragment shader. Raises LoweringError naming an operation it does
     not know."""
     constants = _constants(disassembly)
+    halves = set(re.findall(r"(%\S+) = OpTypeFloat 16", disassembly))
+    half_constants = {m.group(1): float.fromhex(m.group(3)) if "0x" in m.group(3) else float(m.group(3))
+                      for m in re.finditer(r"(%\S+) = OpConstant (%\S+) (\S+)", disassembly) if m.group(2) in halves}
+    constants.update(half_constants)
     ops: list[Op] = []
     chains: dict[str, tuple] = {}
     seen_constants: set[str] = set()
@@ -79,7 +87,7 @@ def operations(disassembly: str) -> tuple[list[Op], str]:
     def use(arg: str) -> str:
         if arg in constants and arg not in seen_constants:
             seen_constants.add(arg)
-            ops.append(Op(arg, "constant", "constant", (), float(constants[arg])))
+            ops.append(Op(arg, "constant", "constant", (), float(constants[arg]), 16 if arg in half_constants else 32))
         return arg
 
     for line in _function(disassembly):
@@ -88,6 +96,7 @@ def operations(disassembly: str) -> tuple[list[Op], str]:
             name, opcode, rest = words[0], words[2], words[3:]
         else:
             name, opcode, rest = None, words[0], words[1:]
+        width = 16 if rest and rest[0] in halves else 32
         if opcode in ("OpLabel", "OpSelectionMerge", "OpBranch", "OpReturn"):
             pass
         elif opcode == "OpBranchConditional":
@@ -103,23 +112,26 @@ def operations(disassembly: str) -> tuple[list[Op], str]:
             else:
                 ops.append(Op(name, "input", source.lstrip("%").removesuffix("_in")))
         elif opcode in ARITHMETIC:
-            ops.append(Op(name, "arithmetic", ARITHMETIC[opcode], tuple(use(a) for a in rest[1:])))
+            ops.append(Op(name, "arithmetic", ARITHMETIC[opcode], tuple(use(a) for a in rest[1:]), width=width))
         elif opcode == "OpExtInst":
             function = rest[2]
             if function not in FUNCTIONS:
                 raise LoweringError(f"no lowering for the GLSL.std.450 function {function}")
-            ops.append(Op(name, "function", function, tuple(use(a) for a in rest[3:])))
+            ops.append(Op(name, "function", function, tuple(use(a) for a in rest[3:]), width=width))
         elif opcode in COMPARISONS:
             ops.append(Op(name, "compare", COMPARISONS[opcode], tuple(use(a) for a in rest[1:])))
         elif opcode == "OpSelect":
-            ops.append(Op(name, "select", "select", tuple(use(a) for a in rest[1:])))
+            ops.append(Op(name, "select", "select", tuple(use(a) for a in rest[1:]), width=width))
         elif opcode == "OpPhi":
             if branch is None:
                 raise LoweringError("a phi without a branch")
             incoming = dict(zip(rest[2::2], rest[1::2]))        # label -> value
             condition, true_label, false_label = branch
-            ops.append(Op(name, "select", "select", (condition, use(incoming[true_label]), use(incoming[false_label]))))
+            ops.append(Op(name, "select", "select", (condition, use(incoming[true_label]), use(incoming[false_label])),
+                          width=width))
             branch = None
+        elif opcode == "OpFConvert":
+            ops.append(Op(name, "convert", "FConvert", (use(rest[1]),), width=width))
         elif opcode == "OpCompositeConstruct":
             result = use(rest[1])
         elif opcode == "OpStore":
@@ -137,9 +149,9 @@ def evaluate(ops: list[Op], result: str, inputs: dict[str, np.ndarray], uniforms
     float16: numpy's + - * / and sqrt are correctly rounded per operation in either): `inputs` by
     name (t, n), `uniforms` by place."""
     values: dict[str, np.ndarray] = {}
-    f32 = dtype
     with np.errstate(all="ignore"):
         for op in ops:
+            f32 = np.float16 if op.width == 16 else dtype
             a = [values[x] for x in op.args]
             if op.kind == "input":
                 values[op.name] = np.asarray(inputs[op.op], f32)
@@ -147,6 +159,8 @@ def evaluate(ops: list[Op], result: str, inputs: dict[str, np.ndarray], uniforms
                 values[op.name] = f32(uniforms[op.op])
             elif op.kind == "constant":
                 values[op.name] = f32(op.value)
+            elif op.kind == "convert":
+                values[op.name] = np.asarray(a[0], f32)
             elif op.kind == "arithmetic":
                 values[op.name] = {"FAdd": lambda: a[0] + a[1], "FSub": lambda: a[0] - a[1], "FMul": lambda: a[0] * a[1],
                                    "FDiv": lambda: a[0] / a[1], "FNegate": lambda: -a[0]}[op.op]()
@@ -165,11 +179,13 @@ INFIX = {"FAdd": "+", "FSub": "-", "FMul": "*", "gt": ">", "ge": ">=", "lt": "<"
 
 
 def c_statements(ops: list[Op], *, input_expr, uniform_expr, constant, function, divide, float_type: str,
-                 bool_type: str) -> tuple[list[str], dict[str, str]]:
+                 bool_type: str, half_type: str | None = None) -> tuple[list[str], dict[str, str]]:
     """The operations as C-like statements, one variable each (`v0`, `v1`, ...), for the back ends
     that print a C-family language (OpenCL C, GL ES): the language's own words come from the
     callables (an input's, a uniform's by its index among the sorted uniforms, a constant's, a
-    function's, a division's). Returns (the statements, {op id: its variable})."""
+    function's, a division's); a width-16 value is declared `half_type` (a conversion is the
+    assignment). Returns (the statements, {op id: its variable}). Raises LoweringError for a width-16
+    value where the language has no `half_type`."""
     uniforms = sorted({op.op for op in ops if op.kind == "uniform"})
     names: dict[str, str] = {}
     body = []
@@ -187,8 +203,13 @@ def c_statements(ops: list[Op], *, input_expr, uniform_expr, constant, function,
             expr = function(op.op, a)
         elif op.kind == "compare":
             expr = f"{a[0]} {INFIX[op.op]} {a[1]}"
+        elif op.kind == "convert":
+            expr = a[0]
         else:
             expr = f"{a[0]} ? {a[1]} : {a[2]}"
+        if op.width == 16 and half_type is None:
+            raise LoweringError("no 16-bit float type in this back end's language")
         names[op.name] = f"v{index}"
-        body.append(f"  {bool_type if op.kind == 'compare' else float_type} v{index} = {expr};")
+        kind = bool_type if op.kind == "compare" else half_type if op.width == 16 else float_type
+        body.append(f"  {kind} v{index} = {expr};")
     return body, names

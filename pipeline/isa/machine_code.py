@@ -143,27 +143,29 @@ def compile_shaders(sources: dict[str, str], wrappers: dict[str, str], architect
     return dict(rows=rows, devices=devices, missing=missing)
 
 
-def form_sources(bodies: dict, names) -> tuple[dict, dict, dict]:
+def form_sources(bodies: dict, names, precision: str = "fp32") -> tuple[dict, dict, dict]:
     """(sources, wrappers, {source key: form name}) of `form_cycles`'s shaders."""
     sources, wrappers, keys = {}, {}, {}
     for i, (name, (body, used, *netted)) in enumerate(bodies.items()):
         netted = list(netted[0]) if netted else used
-        wrapper = "wrapper_" + "_".join(netted)
-        sources.setdefault(wrapper, form_shader(names, netted, None))
+        wrapper = ("wrapper16_" if precision == "fp16" else "wrapper_") + "_".join(netted)
+        sources.setdefault(wrapper, form_shader(names, netted, None, precision=precision))
         key = f"form_{i:03d}"
-        sources[key], wrappers[key], keys[key] = form_shader(names, used, body), wrapper, name
+        sources[key], wrappers[key], keys[key] = form_shader(names, used, body, precision=precision), wrapper, name
     return sources, wrappers, keys
 
 
-def form_cycles(bodies: dict, names, architectures=ALL) -> tuple[dict, dict, dict]:
+def form_cycles(bodies: dict, names, architectures=ALL, precision: str = "fp32") -> tuple[dict, dict, dict]:
     """({architecture: {name: cycles}}, {what: why not}, {architecture: what compiled it}) of `bodies`
     ({name: (GLSL statements returning a form, the inputs of `names` it reads[, the inputs it is
     netted of])}), each in `shaders.form_shader` (push constants c0 ... c15 and F0), net of the
     wrapper of the inputs it reads (or of those given: a pixel form of `pipeline derive` pays the
     read of its parameter), clipped at 0. A form a back end cannot lower is left out (named in the second dict, as is a
     vendor whose back end does not run); raises CompilerMissing where none runs. The one costing of
-    every form: `pipeline derive`'s, the lobe search's families and the cost tables' forms."""
-    sources, wrappers, keys = form_sources(bodies, names)
+    every form: `pipeline derive`'s, the lobe search's families and the cost tables' forms. precision
+    "fp16": each form computed in float16 with explicit 16-bit types (`shaders.form_shader`), net of
+    the wrapper converting its inputs alike."""
+    sources, wrappers, keys = form_sources(bodies, names, precision)
     cycles: dict = {a: {} for a in architectures}
     missing: dict = {}
     devices: dict = {}

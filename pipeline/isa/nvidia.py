@@ -1,7 +1,7 @@
 """NVIDIA machine code (SASS) of a fragment shader's arithmetic, by NVIDIA's own offline compiler.
 
 The shader's operations (`pipeline.isa.lowering`, from glslang's optimized SPIR-V) are printed as a
-PTX kernel with the instructions an NVIDIA GLSL driver lowers them to under graphics precision:
+PTX kernel (a shader computing in float16: `_half`) with the instructions an NVIDIA GLSL driver lowers them to under graphics precision:
 pow x^y as lg2.approx, mul, ex2.approx; exp as a multiply by log2(e) and ex2.approx; log2 and sqrt,
 1/sqrt, sin and cos as their .approx instructions; a division as div.approx (MUFU.RCP and a
 multiply); max, min and abs; every float instruction with .ftz (without it ptxas adds range
@@ -12,7 +12,8 @@ graphics uniform is) and the result is stored, so nothing folds at compile time.
 `cuobjdump -sass` (pip `nvidia-cuda-cuobjdump`, which runs `nvidia-cuda-nvdisasm`; 13.x reads
 sm_75 and newer) prints the SASS.
 
-Counted by the pipe that runs them: `fma` (FADD, FMUL, FFMA, and their FTZ forms), `alu` (FMNMX,
+Counted by the pipe that runs them: `fma` (FADD, FMUL, FFMA, and their FTZ forms; HADD2, HMUL2,
+HFMA2 in float16), `alu` (FMNMX,
 FSEL, FSETP: compare, minimum and maximum), `mufu` (the special-function unit: MUFU.EX2, .LG2,
 .RCP, .RSQ, .SQRT, .SIN, .COS), `other` (moves, conversions); the harness's own instructions (the
 loads, the store, the thread index and its address) are left out, and every count is net of the
@@ -55,7 +56,7 @@ LOG2_E = 1.4426950408889634
 LN_2 = 0.6931471805599453
 INV_2PI = 0.15915494309189535
 TIMEOUT_S = 60
-PIPES = {"fma": re.compile(r"^(FADD|FMUL|FFMA)\b"), "alu": re.compile(r"^(FMNMX|FSEL|FSETP)\b"),
+PIPES = {"fma": re.compile(r"^(FADD|FMUL|FFMA|HADD2|HMUL2|HFMA2)\b"), "alu": re.compile(r"^(FMNMX|FSEL|FSETP)\b"),
          "mufu": re.compile(r"^MUFU\.")}
 # The harness, not the shader's arithmetic: memory, the thread index, the address, the end.
 HARNESS = re.compile(r"^(LDG|STG|LDC|ULDC|LDCU|S2R|S2UR|EXIT|BRA|NOP|IMAD\.WIDE)\b")
@@ -83,6 +84,11 @@ def kernel(name: str, ops: list[Op], result: str) -> str:
 
     for op in ops:
         a = [reg[x] for x in op.args]
+        if op.width == 16:
+            r = new("p" if op.kind == "compare" else "h")
+            body += _half(op, r, a, reg, new)
+            reg[op.name] = r
+            continue
         r = new("p" if op.kind == "compare" else "f")
         if op.kind == "input":
             body.append(f"ld.global.f32 {r}, [%rin+{4096 * inputs.index(op.op)}];")
@@ -90,6 +96,8 @@ def kernel(name: str, ops: list[Op], result: str) -> str:
             body.append(f"ld.param.f32 {r}, [u{uniforms.index(op.op)}];")
         elif op.kind == "constant":
             body.append(f"mov.f32 {r}, {_hex(op.value)};")
+        elif op.kind == "convert":
+            body.append(f"cvt.f32.f16 {r}, {a[0]};")
         elif op.kind == "arithmetic":
             if op.op == "FNegate":
                 body.append(f"neg.ftz.f32 {r}, {a[0]};")
@@ -107,7 +115,7 @@ def kernel(name: str, ops: list[Op], result: str) -> str:
     params = [".param .u64 p_in", ".param .u64 p_out"] + [f".param .f32 u{i}" for i in range(len(uniforms))]
     lines = [f".visible .entry {name}(" + ", ".join(params) + ")", "{",
              "  .reg .b64 %rd<8>;", "  .reg .b64 %rin, %rbase;", "  .reg .b32 %r1;",
-             f"  .reg .f32 %f<{size}>;", f"  .reg .pred %p<{size}>;",
+             f"  .reg .f32 %f<{size}>;", f"  .reg .b16 %h<{size}>;", f"  .reg .pred %p<{size}>;",
              "  ld.param.u64 %rd1, [p_in];", "  ld.param.u64 %rd2, [p_out];",
              "  cvta.to.global.u64 %rbase, %rd1;", "  cvta.to.global.u64 %rd4, %rd2;",
              "  mov.u32 %r1, %tid.x;", "  mul.wide.u32 %rd5, %r1, 4;", "  add.s64 %rin, %rbase, %rd5;"]
@@ -120,6 +128,44 @@ def module(kernels: dict[str, tuple[list[Op], str]], architecture: str) -> str:
     """A PTX module of one entry per shader (name -> its operations and result) for `architecture`."""
     header = [f".version {PTX_VERSION}", f".target {architecture}", ".address_size 64", ""]
     return "\n".join(header) + "\n".join(kernel(name, *k) for name, k in kernels.items())
+
+
+def _half_hex(value: float) -> str:
+    import numpy as np
+    return "0x%04X" % int(np.float16(value).view(np.uint16))
+
+
+def _half(op: Op, r: str, a: list[str], reg: dict, new) -> list[str]:
+    """PTX of one float16 operation (a shader with explicit 16-bit types): + - * and fma, negation,
+    compare and select in half precision (HADD, HMUL, HFMA2 on sm_53 and newer), exp2 as
+    ex2.approx.f16 (sm_75 and newer); a division and every other function in float32 between
+    conversions (the MUFU computes in float32), as NVIDIA's compiler lowers them for half."""
+    if op.kind == "constant":
+        return [f"mov.b16 {r}, {_half_hex(op.value)};"]
+    if op.kind == "convert":
+        return [f"cvt.rn.f16.f32 {r}, {a[0]};"]
+    if op.kind == "arithmetic" and op.op != "FDiv":
+        if op.op == "FNegate":
+            return [f"neg.f16 {r}, {a[0]};"]
+        return [f"{ {'FAdd': 'add', 'FSub': 'sub', 'FMul': 'mul'}[op.op]}.f16 {r}, {a[0]}, {a[1]};"]
+    if op.kind == "function" and op.op == "Exp2":
+        return [f"ex2.approx.f16 {r}, {a[0]};"]
+    if op.kind == "function" and op.op == "Fma":
+        return [f"fma.rn.f16 {r}, {a[0]}, {a[1]}, {a[2]};"]
+    if op.kind == "compare":
+        return [f"setp.{op.op}.f16 {r}, {a[0]}, {a[1]};"]
+    if op.kind == "select":
+        return [f"selp.b16 {r}, {a[1]}, {a[2]}, {a[0]};"]
+    if op.kind in ("arithmetic", "function"):
+        wide = [new() for _ in a]
+        lines = [f"cvt.f32.f16 {w}, {x};" for w, x in zip(wide, a)]
+        result = new()
+        if op.kind == "arithmetic":
+            lines.append(f"div.approx.ftz.f32 {result}, {wide[0]}, {wide[1]};")
+        else:
+            lines += _function(op.op, result, wide, new)
+        return lines + [f"cvt.rn.f16.f32 {r}, {result};"]
+    raise LoweringError(f"no PTX lowering for a float16 {op.kind}")
 
 
 def _function(name: str, r: str, a: list[str], new) -> list[str]:

@@ -8,6 +8,9 @@ glslang compiles them to SPIR-V; each back end of `pipeline.isa` takes it from t
 
 from __future__ import annotations
 
+import re
+
+import numpy as np
 import sympy as sp
 
 from ..optics import registry
@@ -62,7 +65,19 @@ FORM_CONSTANTS = 16         # a form's push constants c0 ... c15 (a pair's two f
 FORM_PUSH = " ".join(f"float c{i};" for i in range(FORM_CONSTANTS)) + " float F0;"   # ... and F0
 
 
-def form_shader(names, used, body: str | None, push: str = FORM_PUSH) -> str:
+FLOAT16 = ("#extension GL_EXT_shader_explicit_arithmetic_types_float16 : require\n")
+# a numeric literal, not part of a name (x2, vec3, c0)
+LITERAL = re.compile(r"(?<![\w.])(\d+\.\d*(?:[eE][+-]?\d+)?|\.\d+(?:[eE][+-]?\d+)?|\d+[eE][+-]?\d+|\d+)(?![\w.])")
+
+
+def half_literals(body: str) -> str:
+    """GLSL with every numeric literal written float16_t(the exact value of its nearest float16):
+    glslang truncates a literal converted to half (float16_t(0.3) is 0.2998, not the nearest
+    0.30005), and a bare float literal would promote float16 arithmetic to float32."""
+    return LITERAL.sub(lambda m: f"float16_t({float(np.float16(float(m.group(1))))!r})", body)
+
+
+def form_shader(names, used, body: str | None, push: str = FORM_PUSH, precision: str = "fp32") -> str:
     """A fragment shader with one input per name of `names` (location i; those a form does not read are
     never interpolated), the push constants `push` (a block's members, as "float c0; float c1;"), and a
     function of the inputs `used` whose GLSL statements are `body`. body None: the wrapper, which
@@ -73,18 +88,33 @@ def form_shader(names, used, body: str | None, push: str = FORM_PUSH) -> str:
     place and the other inputs beside it (written as the wrapper writes them, so that the export is
     the same four values but one; a broadcast form against a wrapper of distinct values would net
     the export's difference out of the form). The one shader of every derived form and every lobe
-    family's fit."""
+    family's fit.
+
+    precision "fp16": the function computes in float16 with explicit 16-bit types (what a phone's
+    mediump computes), its literals the nearest float16 (`half_literals`), its inputs converted to
+    float16 and its value back to float32; the wrapper converts its inputs to float16 and back, so that
+    the conversions are netted out and the arithmetic counts. The push constants stay float32."""
+    half = precision == "fp16"
     inputs = "\n".join(f"layout(location = {i}) in float {n}_in;" for i, n in enumerate(names))
-    head = f"#version 450\n{inputs}\nlayout(location = 0) out vec4 color;\n"
+    head = f"#version 450\n{FLOAT16 if half else ''}{inputs}\nlayout(location = 0) out vec4 color;\n"
+
+    def read(n):
+        return f"float16_t({n}_in)" if half else f"{n}_in"
+
+    def written(n):
+        return f"float(float16_t({n}_in))" if half else f"{n}_in"
+
     if body is None:
-        written = f"{used[0]}_in" if len(used) == 1 else ", ".join([f"{n}_in" for n in used] + ["0.0"] * (4 - len(used)))
-        return head + f"void main() {{ color = vec4({written}); }}\n"
+        values = written(used[0]) if len(used) == 1 else ", ".join([written(n) for n in used] + ["0.0"] * (4 - len(used)))
+        return head + f"void main() {{ color = vec4({values}); }}\n"
     block = f"layout(push_constant) uniform Material {{ {push} }};\n" if push else ""
-    arguments = ", ".join(f"float {n}" for n in used)
-    value = f"form({', '.join(f'{n}_in' for n in used)})"
-    written = value if len(used) == 1 else ", ".join([value] + [f"{n}_in" for n in used[1:]] + ["0.0"] * (4 - len(used)))
-    return (head + block + f"float form({arguments})\n{{\n    {body}\n}}\n"
-            f"void main() {{ color = vec4({written}); }}\n")
+    kind = "float16_t" if half else "float"
+    arguments = ", ".join(f"{kind} {n}" for n in used)
+    value = f"form({', '.join(read(n) for n in used)})"
+    value = f"float({value})" if half else value
+    values = value if len(used) == 1 else ", ".join([value] + [written(n) for n in used[1:]] + ["0.0"] * (4 - len(used)))
+    return (head + block + f"{kind} form({arguments})\n{{\n    {half_literals(body) if half else body}\n}}\n"
+            f"void main() {{ color = vec4({values}); }}\n")
 
 
 def glsl_expression(expr) -> str:

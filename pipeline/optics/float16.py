@@ -1,5 +1,6 @@
 """Half precision as a shader computes it: one rounding to float16 per operation (numpy's float16
-arithmetic), and the unit vectors N, H at given angles whose dot and cross products a shader forms.
+arithmetic), the unit vectors N, H at given angles whose dot and cross products a shader forms, and
+a power by squarings as GLSL.
 Shared by the `half_precision` stage and the decision's float16 measure."""
 
 import numpy as np
@@ -26,6 +27,17 @@ def float16_power(base, power: int):
     for name, expression in steps:
         left, right = (values[v.strip()] for v in expression.split("*"))
         values[name] = (left * right).astype(np.float16)
+    return values[result]
+
+
+def power_expression(base: str, power: int) -> str:
+    """GLSL of base^power as one expression: the squarings and multiplies of `power_steps`, the
+    shader text of what `float16_power` computes."""
+    values = {"b": f"({base})"}
+    steps, result = power_steps("b", power)
+    for name, expression in steps:
+        left, right = (values[v.strip()] for v in expression.split("*"))
+        values[name] = f"({left} * {right})"
     return values[result]
 
 

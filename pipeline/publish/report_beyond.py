@@ -328,15 +328,41 @@ def half_section(config, r) -> list[str]:
     h = r["half_precision"]
     lines = ["## Half precision: banding and error in float16", "",
              f"Unit vectors N and H at {h['samples']} angles across the visible highlight (cos^n x >= 1/255), "
-             "rounded to float16 and the lobe evaluated in float16 (one rounding per operation), with u = 1 - cos x "
-             "formed two ways: from t = dot(N, H), or as dot(c, c) / (1 + N.H), c = N x H. Distinct values: how many levels "
-             "the lobe takes across the highlight (few levels show as bands). Error: largest absolute difference "
-             "from the float64 lobe (peak 1).", "",
-             "| n | lobe | u from | distinct values | max abs error |", "|---|---|---|---|---|"]
+             "rounded to float16, with u = 1 - cos x formed in float16 two ways: from t = dot(N, H), or as "
+             "dot(c, c) / (1 + N.H), c = N x H; the lobe of t or u then executed in float16 by "
+             f"{h['executed_by']}. Distinct values: how many levels the lobe takes across the highlight (few levels "
+             "show as bands). Error: largest absolute difference from the float64 lobe (peak 1); beside it, numpy's "
+             "per-operation float16 with pow computed in float32 and rounded.", "",
+             "| n | lobe | u from | distinct values | max abs error | emulated: distinct | emulated: error |",
+             "|---|---|---|---|---|---|---|"]
     for row in h["rows"]:
-        lines.append(f"| {row['n']:g} | {row['lobe']} | {row['route']} | {row['distinct']} | {row['max_abs_error']:.3g} |")
+        lines.append(f"| {row['n']:g} | {row['lobe']} | {row['route']} | {row['distinct']} | {row['max_abs_error']:.3g} "
+                     f"| {row['distinct_emulated']} | {row['max_abs_error_emulated']:.3g} |")
+    lines += ["", half_difference_text(h)]
     return lines + ["", "`shader/cosquad.glsl` exports `cosquad_lobe_u(u, n)` for this route: with "
                     "`vec3 c = cross(N, H); float u = dot(c, c) / (1.0 + dot(N, H));`.", ""]
+
+
+def half_difference_text(h) -> str:
+    """Where the executed float16 lobes differ from the emulation, and whether the better route of a
+    lobe (the smaller error) changes with them, from the rows' numbers."""
+    differ = [row for row in h["rows"] if row["distinct"] != row["distinct_emulated"]
+              or row["max_abs_error"] != row["max_abs_error_emulated"]]
+    if not differ:
+        return "Executed and emulated agree on every row: the driver's float16 arithmetic changes no number here."
+    text = "Executed against emulated: " + "; ".join(
+        f"n = {row['n']:g}, {row['lobe']} from {row['route']}: {row['distinct']} values and error "
+        f"{row['max_abs_error']:.3g} against {row['distinct_emulated']} and {row['max_abs_error_emulated']:.3g}"
+        for row in differ) + " (the driver computes pow in float16, where the emulation rounds a float32 pow)."
+    changed = []
+    for n, lobe in dict.fromkeys((row["n"], row["lobe"]) for row in h["rows"]):
+        pair = [row for row in h["rows"] if row["n"] == n and row["lobe"] == lobe]
+        executed = min(pair, key=lambda row: row["max_abs_error"])["route"]
+        emulated = min(pair, key=lambda row: row["max_abs_error_emulated"])["route"]
+        if executed != emulated:
+            changed.append(f"n = {n:g}, {lobe}: {executed} executed, {emulated} emulated")
+    return text + (" The better route changes: " + "; ".join(changed) + "." if changed else
+                   " The better route of every lobe at every n is the same in both.")
 
 
 def cost_section(config, r) -> list[str]:
@@ -629,6 +655,22 @@ def _rerun_reading(point) -> str:
             else "not what an unbiased estimator with a right standard error gives: a bias or a wrong standard error")
 
 
+def fp16_execution_text(d) -> str:
+    """Which fp16 answers the executed float16 errors change against the emulated ones (from
+    `decision.fp16_changed_by_execution`)."""
+    changed = d["fp16_changed_by_execution"]
+    if not changed:
+        return ("The fp16 answers are the same with the emulated float16 errors: executing the candidates changes no "
+                "winner.")
+    return (f"Executing the candidates changes {len(changed)} fp16 answer{'s' * (len(changed) > 1)} against the "
+            "emulated float16 errors: " + "; ".join(
+                f"{x['architecture']}, n in [{x['n_range'][0]:g}, {x['n_range'][1]:g}], {x['use']}, n per {x['n_per']}: "
+                f"{x['winner'] or 'nothing'} (float16 error {x['winner_fp16_error']:.3g}) instead of "
+                f"{x['winner_emulated'] or 'nothing'} ({x['winner_emulated_fp16_error']:.3g})" for x in changed[:6])
+            + ("; ..." if len(changed) > 6 else "") + ": the drivers' float16 pow and exp (exp2 and log2 in float16) "
+            "err otherwise than a float32 function rounded to float16.")
+
+
 def decision_section(config, r, figures) -> list[str]:
     """The candidates' measures on the widest range, from which the summary's answers are decided, and how
     far the paper's line is from its own family's per-n optimum."""
@@ -644,16 +686,19 @@ def decision_section(config, r, figures) -> list[str]:
     widest = max((c["n_range"] for c in d["candidates"]), key=lambda x: x[1] - x[0])
     arch = list(dict.fromkeys(a for c in d["candidates"] for a in c["cycles"]))
     lines += ["", f"Measures for n in [{widest[0]:g}, {widest[1]:g}] (d, D at equal peak; the normalized peak over the "
-              "reference's, farthest from 1; the float16 error over the visible highlight and its better route; cycles "
-              "with n per material, by each architecture's cost model):", "",
-              "| candidate | against | max d | max D | normalized peak | float16 error | "
-              + " | ".join(arch) + " |", "|---|---|---|---|---|---|" + "---|" * len(arch)]
+              "reference's, farthest from 1; the float16 error over the visible highlight and its better route, "
+              f"executed by {d['fp16_executed_by']}, and by numpy's per-operation emulation; cycles with n per "
+              "material, by each architecture's cost model):", "",
+              "| candidate | against | max d | max D | normalized peak | float16 error | emulated | "
+              + " | ".join(arch) + " |", "|---|---|---|---|---|---|---|" + "---|" * len(arch)]
     for c in d["candidates"]:
         if c["n_range"] != widest:
             continue
         lines.append(f"| {c['name']} | {'Beckmann' if c['use'] == 'ndf' else 'cos^n'} | {pct_small(c['d'])} | "
                      f"{c['D']:.4g} | {c['peak_ratio']:.4g}x | {c['fp16_error']:.3g} ({c['fp16_route']} route) | "
+                     f"{c['fp16_error_emulated']:.3g} ({c['fp16_route_emulated']} route) | "
                      + " | ".join(f"{c['cycles'][a]:g}" if a in c["cycles"] else "-" for a in arch) + " |")
+    lines += ["", fp16_execution_text(d)]
     if d["paper_line_vs_per_n_optimum"]:
         lines += ["", "**The paper's line against its family's per-n optimum** (Beaudoin and Guardado's per-n minimax "
                   "k of the same family, ShaderX 2002: `square_peak1` of the lobe search fitted at each n): "

@@ -114,6 +114,16 @@ def fact_text(fact, decision) -> str:
     return ""
 
 
+def fp16_execution(d) -> str:
+    """How the fp16 errors were computed, and how many fp16 answers differ from the emulated errors'."""
+    changed = d.get("fp16_changed_by_execution", [])
+    executed = "lavapipe" in d.get("fp16_executed_by", "")
+    return (f" (Float16 errors {'as lavapipe executes each candidate' if executed else 'by the emulation'}: "
+            + (f"{len(changed)} fp16 answer{'s' * (len(changed) != 1)} differ{'s' * (len(changed) == 1)} from the "
+               "emulated errors', in `decision.fp16_changed_by_execution`.)" if changed and executed else
+               "no fp16 answer differs from the emulated errors'.)" if executed else "lavapipe did not run.)"))
+
+
 def lines(config, results) -> list[str]:
     d = results["decision"]
     out = ["## Summary: which specular lobe to use, per GPU and range of n", ""]
@@ -141,7 +151,7 @@ def lines(config, results) -> list[str]:
                           ("NDF, n per material, fp32", dict(uses=("ndf",))),
                           ("NDF, n per pixel, fp32", dict(uses=("ndf",), n_per="pixel"))):
         cells = [f"{group_name(group)} {_cell(table, group, widest, **kwargs)}" for group in grouped]
-        out.append(f"- {label}: " + "; ".join(cells) + ".")
+        out.append(f"- {label}: " + "; ".join(cells) + "." + (fp16_execution(d) if label == "n per material, fp16" else ""))
     changing = [f for f in d["facts"] if f["count"]]
     still = [f["fact"] for f in d["facts"] if not f["count"]]
     none = "; none of them: " + ", ".join(s.replace("_", " ") for s in still) if still else ""

@@ -18,7 +18,11 @@ the NDF GGX and the family. Per candidate and range (`candidates`):
 - `fp16_error`: the largest absolute error (peak 1) of its float16 evaluation over the visible
   highlight (where the reference >= 1/255) at the grid's n in the range, the better of two routes
   (t = dot(N, H) in float16; u = 1 - t from the cross product, the form rewritten in u: `family` says
-  how), against its own float64 value;
+  how), against its own float64 value: its GLSL executed in float16 by lavapipe (`executed_float16`:
+  explicit 16-bit types, its parameters float16 as uniforms are, pow and exp Mesa's float16
+  lowerings), all candidates in one batch; `fp16_error_emulated` is numpy's per-operation float16
+  (transcendentals in float32, rounded), which stands where lavapipe cannot run, and
+  `fp16_changed_by_execution` lists the fp16 scenarios whose winner the two differ on;
 - per architecture, `cycles` with n per material (the lobe's shader alone) and, for the registry's
   lobes and the NDFs (`ndf_per_pixel`), `pixel`: per normalization of each form, the cycles of lobe and
   coef compiled together (n per pixel),
@@ -44,9 +48,10 @@ import math
 import numpy as np
 from scipy.integrate import quad
 
+from ..engine import toolchains
 from ..isa import machine_code
 from ..optics import lobe_families, registry
-from ..optics.float16 import float16_power, routes, vectors
+from ..optics.float16 import float16_power, power_expression, routes, vectors
 from ..optics.normalizations import normalizations
 from .common import n_range
 
@@ -78,7 +83,7 @@ def _transcendental16(f, x16):
 
 
 def linear_power(k: float, power: int):
-    """max(k (t - 1) + 1, 0)^power: (float64 of t, float16 routes)."""
+    """max(k (t - 1) + 1, 0)^power: (float64 of t, float16 routes, the routes' GLSL `SHADERS`)."""
     def v64(t):
         return np.maximum(k * (t - 1.0) + 1.0, 0.0) ** power
 
@@ -86,7 +91,8 @@ def linear_power(k: float, power: int):
         k16, one = _f16(k), np.float16(1)
         return {"t": float16_power(np.maximum(k16 * t16 + (one - k16), np.float16(0)), power),
                 "u": float16_power(np.maximum(one - k16 * u16, np.float16(0)), power)}
-    return v64, v16
+    return v64, v16, {"t": (power_expression("max(p0 * x + (1.0 - p0), 0.0)", power), (k,)),
+                      "u": (power_expression("max(1.0 - p0 * x, 0.0)", power), (k,))}
 
 
 def cos_power(n: float):
@@ -96,7 +102,7 @@ def cos_power(n: float):
     def v16(t16, u16):
         power = lambda x: np.power(np.clip(x.astype(np.float32), 0, 1), np.float32(n)).astype(np.float16)
         return {"t": power(t16), "u": power((np.float16(1) - u16).astype(np.float16))}
-    return v64, v16
+    return v64, v16, {"t": ("pow(clamp(x, 0.0, 1.0), p0)", (n,)), "u": ("pow(1.0 - x, p0)", (n,))}
 
 
 def exponential(rate: float):
@@ -108,7 +114,7 @@ def exponential(rate: float):
         r16 = _f16(rate)
         return {"t": _transcendental16(np.exp, (r16 * t16 - r16).astype(np.float16)),
                 "u": _transcendental16(np.exp, (-(r16 * u16)).astype(np.float16))}
-    return v64, v16
+    return v64, v16, {"t": ("exp(p0 * x - p0)", (rate,)), "u": ("exp(-(p0 * x))", (rate,))}
 
 
 def schlick(n: float):
@@ -120,7 +126,7 @@ def schlick(n: float):
         n16, one = _f16(n), np.float16(1)
         return {"t": (t16 / (n16 - n16 * t16 + t16)).astype(np.float16),
                 "u": ((one - u16) / (n16 * u16 + (one - u16))).astype(np.float16)}
-    return v64, v16
+    return v64, v16, {"t": ("x / (p0 - p0 * x + x)", (n,)), "u": ("(1.0 - x) / (p0 * x + (1.0 - x))", (n,))}
 
 
 def family(name: str, P):
@@ -152,7 +158,21 @@ def family(name: str, P):
         if name == "rational":
             return {"t": ratio_t, "u": ratio_u}
         return {"t": (ratio_t * ratio_t).astype(np.float16), "u": (ratio_u * ratio_u).astype(np.float16)}
-    return v64, v16
+
+    line_t, line_u = ("p0 * x + p1", (A, B)), ("p0 - p1 * x", (A + B, A))
+    if name in lobe_families.POWERS:
+        m = lobe_families.POWERS[name]
+        shader = {"t": (power_expression(f"max({line_t[0]}, 0.0)", m), line_t[1]),
+                  "u": (power_expression(f"max({line_u[0]}, 0.0)", m), line_u[1])}
+    elif name == "exp2_linear":
+        shader = {"t": (f"exp2({line_t[0]})", line_t[1]), "u": (f"exp2({line_u[0]})", line_u[1])}
+    elif name == "exp2_quadratic":
+        shader = {"t": ("exp2((p0 * x + p1) * x + p2)", (A, B, C)),
+                  "u": ("exp2((p0 * x - p1) * x + p2)", (A, 2 * A + B, A + B + C))}
+    else:
+        ratio = {"t": ("x / (p0 * x + p1)", (A, B)), "u": ("(1.0 - x) / (p0 - p1 * x)", (A + B, A))}
+        shader = ratio if name == "rational" else {r: (f"({e}) * ({e})", q) for r, (e, q) in ratio.items()}
+    return v64, v16, shader
 
 
 def beckmann_over_peak(n: float):
@@ -172,7 +192,9 @@ def beckmann_over_peak(n: float):
         s2 = (s * s).astype(np.float16)
         out_u = _transcendental16(np.exp, (-(u16 * (np.float16(2) - u16)) / (a16 * s2)).astype(np.float16))
         return {"t": out_t, "u": (out_u / (s2 * s2)).astype(np.float16)}
-    return v64, v16
+    s2 = "((1.0 - x) * (1.0 - x))"
+    return v64, v16, {"t": ("exp((x * x - 1.0) / (p0 * (x * x))) / ((x * x) * (x * x))", (a2,)),
+                      "u": (f"exp(-(x * (2.0 - x)) / (p0 * {s2})) / ({s2} * {s2})", (a2,))}
 
 
 def ggx_over_peak(n: float):
@@ -188,7 +210,8 @@ def ggx_over_peak(n: float):
         s = (one - u16).astype(np.float16)
         q_u = (a16 / (a16 * s * s + u16 * (np.float16(2) - u16))).astype(np.float16)
         return {"t": (q_t * q_t).astype(np.float16), "u": (q_u * q_u).astype(np.float16)}
-    return v64, v16
+    q_t, q_u = "(p0 / (p0 * x * x + (1.0 - x * x)))", "(p0 / (p0 * (1.0 - x) * (1.0 - x) + x * (2.0 - x)))"
+    return v64, v16, {"t": (f"{q_t} * {q_t}", (a2,)), "u": (f"{q_u} * {q_u}", (a2,))}
 
 
 def float16_error(make, n_values, reference) -> tuple[float, str]:
@@ -197,8 +220,8 @@ def float16_error(make, n_values, reference) -> tuple[float, str]:
     (>= 1/255 of its peak) is sampled."""
     worst = {"t": 0.0, "u": 0.0}
     for n in n_values:
-        v64, v16 = make(n)
-        ref64, _ = reference(n)
+        v64, v16, _ = make(n)
+        ref64 = reference(n)[0]
         x, t16, u16 = _highlight(_visible_angle(ref64))
         exact = v64(np.cos(x))
         with np.errstate(all="ignore"):
@@ -255,6 +278,54 @@ def coef_float16_error(expr, n_values) -> float:
         exact = np.asarray(g(nv), dtype=np.float64)
         error = np.abs(half / exact - 1.0)
     return float(np.max(np.where(np.isfinite(error), error, np.inf)))
+
+
+@toolchains.uses("lavapipe")
+def executed_float16(jobs) -> dict:
+    """The float16 error of each candidate as lavapipe executes its GLSL (`isa.execution`, explicit
+    16-bit types; its parameters float16 inputs, as uniforms are): `jobs` [(descriptor, target, n)],
+    each candidate's routes over the visible highlight of every n, all in one child process, one
+    shader per GLSL text. Returns dict(errors=[[error, route] or None per job], executed_by): None
+    where lavapipe cannot run (the emulation's numbers stand) or a shader failed."""
+    from ..isa import execution
+
+    why = execution.available()
+    if why is not None:
+        return dict(errors=[None] * len(jobs), executed_by=f"numpy's per-operation float16 emulation ({why})")
+    groups: dict = {}              # GLSL -> [inputs x, p0, p1, p2 per sample], and its segments
+    segments = []                  # (job, route, body, start, stop, exact values)
+    for j, (descriptor, target, n_values) in enumerate(jobs):
+        make = evaluator(descriptor)
+        reference = cos_power if target == "cos_n" else beckmann_over_peak
+        for n in n_values:
+            v64, _, shader = make(n)
+            x, t16, u16 = _highlight(_visible_angle(reference(n)[0]))
+            exact = v64(np.cos(x))
+            for route, values in (("t", t16), ("u", u16)):
+                body, parameters = shader[route]
+                inputs = groups.setdefault(body, [[], [], [], []])
+                start = sum(len(a) for a in inputs[0])
+                inputs[0].append(values)
+                for i in range(3):
+                    inputs[i + 1].append(np.full(values.size, parameters[i] if i < len(parameters) else 0.0))
+                segments.append((j, route, body, start, start + values.size, exact))
+    sets = [({body: body}, {name: np.concatenate(a) for name, a in zip(("x", "p0", "p1", "p2"), arrays)}, None, 0.0)
+            for body, arrays in groups.items()]
+    done = dict(zip(groups, execution.execute_sets(sets, "fp16")))
+    worst = [dict(t=0.0, u=0.0) for _ in jobs]
+    failed = set()
+    for j, route, body, start, stop, exact in segments:
+        values = done[body][body]
+        if isinstance(values, execution.ExecutionError):
+            failed.add(j)
+            continue
+        with np.errstate(all="ignore"):
+            error = np.abs(values[start:stop].astype(np.float64) - exact)
+        worst[j][route] = max(worst[j][route], float(np.max(np.where(np.isfinite(error), error, np.inf))))
+    errors = [None if j in failed else [worst[j][min(worst[j], key=worst[j].get)], min(worst[j], key=worst[j].get)]
+              for j in range(len(jobs))]
+    return dict(errors=errors, executed_by="lavapipe (Mesa's Vulkan driver on the CPU), float16 with explicit "
+                                           "16-bit types")
 
 
 # ---------------------------------------------------------------------------------------------------
@@ -478,7 +549,7 @@ def run(config, inputs, memo):
                               dD=_range_max(n_all, ndf_d[i], ndf_D[i]), ndf_row=row))
 
     # Measures per candidate and range.
-    measures = []
+    measures, jobs = [], []
     for lo, hi in ranges:
         n_here = grid[(grid >= lo) & (grid <= hi)]
         for c in cands + ndf_cands:
@@ -493,6 +564,7 @@ def run(config, inputs, memo):
                 desc, (d, D) = c["desc"], c["dD"](lo, hi)
             shaped = memo("decision_shape", shape_measures, descriptor=desc, target=c["target"],
                           n=[float(x) for x in n_here])
+            jobs.append([desc, c["target"], [float(x) for x in n_here]])
             measure = dict(name=c["name"], label=c["label"], kind=c["kind"],
                            use="ndf" if c["target"] == "beckmann" else "lobe",
                            n_range=[lo, hi], d=float(d), D=float(D), **shaped, cycles={}, pixel={})
@@ -532,7 +604,17 @@ def run(config, inputs, memo):
                                                  n=[float(x) for x in n_here])["error"]))
             measures.append(measure)
 
+    # the float16 errors as executed (one batch; the emulation's kept beside them), and the fp16
+    # scenarios whose answer they change
+    executed = memo("decision_fp16", executed_float16, jobs=jobs)
+    for m, e in zip(measures, executed["errors"]):
+        m["fp16_error_emulated"], m["fp16_route_emulated"] = m["fp16_error"], m["fp16_route"]
+        if e is not None:
+            m["fp16_error"], m["fp16_route"] = float(e[0]), e[1]
     table = scenario_table(measures, ranges, chips, budget)
+    emulated = scenario_table([dict(m, fp16_error=m["fp16_error_emulated"], fp16_route=m["fp16_route_emulated"])
+                               for m in measures], ranges, chips, budget)
+    changed = fp16_changes(table, emulated)
     found = facts(measures, table, budget)
     per_n = per_n_winners(measures, cands, n_all, grid, inputs["lobe_search.per_n"], budget)
     paper_line = []
@@ -546,7 +628,21 @@ def run(config, inputs, memo):
     return dict(available=bool(chips), reason="" if chips else (inputs["gpu_isa.reason"] or "no machine code"),
                 rule=rule_text(budget["max_d"], budget["max_D"], budget["max_energy_excess"]),
                 budgets=budget, candidates=measures, table=table, facts=found, per_n=per_n,
+                fp16_executed_by=executed["executed_by"], fp16_changed_by_execution=changed,
                 paper_line_vs_per_n_optimum=paper_line)
+
+
+def fp16_changes(table: list[dict], emulated: list[dict]) -> list[dict]:
+    """The fp16 scenarios whose winner differs between the float16 errors as executed (`table`) and
+    as emulated (`emulated`: the same rule on numpy's per-operation errors): each with both winners
+    and their float16 errors."""
+    out = []
+    for row, other in zip(table, emulated):
+        if row["precision"] == "fp16" and row["winner"] != other["winner"]:
+            out.append(dict(architecture=row["architecture"], n_range=row["n_range"], use=row["use"],
+                            n_per=row["n_per"], winner=row["winner"], winner_fp16_error=row["winner_fp16_error"],
+                            winner_emulated=other["winner"], winner_emulated_fp16_error=other["winner_fp16_error"]))
+    return out
 
 
 def _range_max(n_all, d, D):

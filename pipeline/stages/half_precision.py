@@ -2,14 +2,22 @@
 visible highlight (where cos^n x >= 1/255) at each rendered exponent n.
 
 Pairs of unit vectors N, H at angles x spread over the highlight (random orientations, fixed seed)
-are rounded to float16 and the lobe is evaluated in float16, one rounding per operation (numpy's
-float16 arithmetic; a dot product rounds its products and then its sum once, as numpy accumulates
-float16 sums in float32 and a fused dot instruction does), by two routes for u = 1 - cos x:
+are rounded to float16, and u = 1 - cos x is formed in float16 (one rounding per operation; a dot
+product rounds its products and then its sum once, as numpy accumulates float16 sums in float32 and
+a fused dot instruction does) by two routes:
 
-- "1 - N.H": t = dot(N, H) in float16, then the lobe of t. Near t = 1 float16 steps by 2^-11, so a
-  narrow lobe sees only a few distinct t;
-- "dot(c, c) / (1 + N.H), c = N x H": u from the cross product, which keeps its relative precision at small
-  angles; the quadratic lobe is then (1 - k u)^2 (cos^n must still form 1 - u, which rounds again).
+- "1 - N.H": t = dot(N, H), then the lobe of t. Near t = 1 float16 steps by 2^-11, so a narrow lobe
+  sees only a few distinct t;
+- "dot(c, c) / (1 + N.H), c = N x H": u from the cross product, which keeps its relative precision at
+  small angles; the quadratic lobe is then (1 - k u)^m (cos^n must still form 1 - u, which rounds
+  again).
+
+The lobe of t (or of u) is then executed: its GLSL (pow(t, n); max(k t + (1 - k), 0)^m by squarings;
+the same of u) run in float16 with explicit 16-bit types by Mesa's lavapipe (`isa.execution`: its
+pow is Mesa's lowering, exp2(n log2 t) in float16, as RADV, turnip and panfrost compute it). Where
+lavapipe cannot run, numpy's per-operation float16 with pow computed in float32 and rounded stands
+in, and `executed_by` says so; beside each executed row, that emulation's numbers (`_emulated`), so
+that a difference the driver makes is seen.
 
 Reported per n and route: the number of distinct values the lobe takes over the highlight (fewer
 means visible bands) and the largest absolute error against the float64 lobe (peak 1).
@@ -17,36 +25,79 @@ means visible bands) and the largest absolute error against the float64 lobe (pe
 
 import numpy as np
 
-from ..optics.float16 import float16_power, routes, vectors
+from ..optics.float16 import float16_power, power_expression, routes, vectors
 
 SAMPLES = 20000
 VISIBLE = 1.0 / 255.0
+T_ROUTE, U_ROUTE = "1 - N.H", "dot(c, c) / (1 + N.H), c = N x H"
 
 
-def half_lobes(n: float, k: float, seed: int = 0, power: int = 2) -> list[dict]:
-    """Rows (lobe, route, distinct values, max absolute error) at exponent n, f_Q2 coefficient k
-    (f_Qm at power m; the rows keep the registry key f_Q2)."""
+def bodies(n: float, k: float, power: int) -> dict[tuple[str, str], str]:
+    """The GLSL of each (lobe, route) in the float16 value x (t, or u), its numbers float16's."""
+    n16, k16 = repr(float(np.float16(n))), repr(float(np.float16(k)))
+    quadratic_t = power_expression(f"max({k16} * x + (1.0 - {k16}), 0.0)", power)
+    return {("f_b", T_ROUTE): f"pow(clamp(x, 0.0, 1.0), {n16})", ("f_b", U_ROUTE): f"pow(1.0 - x, {n16})",
+            ("f_Q2", T_ROUTE): quadratic_t, ("f_Q2", U_ROUTE): power_expression(f"max(1.0 - {k16} * x, 0.0)", power)}
+
+
+def route_values(n: float, seed: int = 0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(x, t, u): the angles over the highlight at n, and t and u in float16 (module docstring)."""
     x = np.linspace(0.0, np.arccos(VISIBLE ** (1.0 / n)), SAMPLES)
     N, H = (v.astype(np.float16) for v in vectors(x, seed))
-    one, zero, k16 = np.float16(1), np.float16(0), np.float16(k)
     t, u = routes(N, H)
-    quad_t = np.maximum(k16 * t + (one - k16), zero)
-    quad_u = np.maximum(one - k16 * u, zero)
-    # GPUs evaluate pow through exp2(n log2(t)) at higher precision and round the result: so here.
-    values = {
-        ("f_b", "1 - N.H"): np.power(np.clip(t, 0, 1).astype(np.float32), np.float32(n)).astype(np.float16),
-        ("f_b", "dot(c, c) / (1 + N.H), c = N x H"): np.power((one - u).astype(np.float32), np.float32(n)).astype(np.float16),
-        ("f_Q2", "1 - N.H"): float16_power(quad_t, power),
-        ("f_Q2", "dot(c, c) / (1 + N.H), c = N x H"): float16_power(quad_u, power),
+    return x, t, u
+
+
+def emulated(n: float, k: float, t, u, power: int) -> dict[tuple[str, str], np.ndarray]:
+    """Each lobe in numpy's float16, one rounding per operation, pow in float32 then rounded."""
+    one, zero, k16 = np.float16(1), np.float16(0), np.float16(k)
+    return {
+        ("f_b", T_ROUTE): np.power(np.clip(t, 0, 1).astype(np.float32), np.float32(n)).astype(np.float16),
+        ("f_b", U_ROUTE): np.power((one - u).astype(np.float32), np.float32(n)).astype(np.float16),
+        ("f_Q2", T_ROUTE): float16_power(np.maximum(k16 * t + (one - k16), zero), power),
+        ("f_Q2", U_ROUTE): float16_power(np.maximum(one - k16 * u, zero), power),
     }
-    exact = {"f_b": np.cos(x) ** n, "f_Q2": np.maximum(1.0 - k * (1.0 - np.cos(x)), 0.0) ** power}
-    return [dict(n=float(n), lobe=lobe, route=route, distinct=int(len(np.unique(v))),
-                 max_abs_error=float(np.max(np.abs(v.astype(np.float64) - exact[lobe]))))
-            for (lobe, route), v in values.items()]
+
+
+def half_lobes(exponents, ks, seed: int = 0, power: int = 2) -> tuple[list[dict], str]:
+    """(rows (n, lobe, route, distinct values, max absolute error, and the emulation's), what executed
+    them) at each exponent n with its f_Q2 coefficient k (f_Qm at power m; the rows keep the registry
+    key f_Q2): every lobe of every n in one run of lavapipe."""
+    from ..isa import execution
+
+    cases = []
+    for n, k in zip(exponents, ks):
+        x, t, u = route_values(float(n), seed)
+        cases.append((float(n), float(k), x, t, u))
+    inputs = np.concatenate([np.concatenate([t, u]) for _, _, _, t, u in cases])
+    forms = {f"n{i}_{lobe}_{'t' if route == T_ROUTE else 'u'}": body
+             for i, (n, k, *_) in enumerate(cases) for (lobe, route), body in bodies(n, k, power).items()}
+    why = execution.available()
+    done = execution.execute_forms(forms, inputs, "fp16") if why is None else {}
+    failed = [str(v) for v in done.values() if isinstance(v, execution.ExecutionError)]
+    executed_by = ("lavapipe (Mesa's Vulkan driver on the CPU), float16 with explicit 16-bit types" if why is None
+                   and not failed else "numpy's per-operation float16 emulation, pow in float32 and rounded ("
+                   + (why or failed[0]) + ")")
+    rows, offset = [], 0
+    for i, (n, k, x, t, u) in enumerate(cases):
+        exact = {"f_b": np.cos(x) ** n, "f_Q2": np.maximum(1.0 - k * (1.0 - np.cos(x)), 0.0) ** power}
+        numpy_values = emulated(n, k, t, u, power)
+        for (lobe, route), emulation in numpy_values.items():
+            start = offset + (0 if route == T_ROUTE else t.size)
+            key = f"n{i}_{lobe}_{'t' if route == T_ROUTE else 'u'}"
+            v = done[key][start:start + t.size] if key in done and not failed else emulation
+
+            def error(values):
+                return float(np.max(np.abs(values.astype(np.float64) - exact[lobe])))
+
+            rows.append(dict(n=n, lobe=lobe, route=route, distinct=int(len(np.unique(v))), max_abs_error=error(v),
+                             distinct_emulated=int(len(np.unique(emulation))), max_abs_error_emulated=error(emulation)))
+        offset += t.size + u.size
+    return rows, executed_by
 
 
 def run(config, inputs, memo):
     a, b = inputs["linear_coefficient.slope_used"], inputs["linear_coefficient.intercept_used"]
-    rows = [row for n in config["render.exponents"]
-            for row in half_lobes(float(n), a * float(n) + b, power=config["lobe.power"])]
-    return dict(rows=rows, samples=SAMPLES)
+    exponents = [float(n) for n in config["render.exponents"]]
+    rows, executed_by = half_lobes(exponents, [a * n + b for n in exponents], power=config["lobe.power"])
+    return dict(rows=rows, samples=SAMPLES, executed_by=executed_by)

@@ -11,7 +11,7 @@ import sys
 import numpy as np
 import pytest
 
-from pipeline.approximate import engine, publish, targets
+from pipeline.approximate import engine, forms, publish, targets
 from pipeline.engine import escape
 from tests.helpers import cli_env
 
@@ -99,7 +99,8 @@ def test_pipeline_derive_on_schlick(tmp_path):
     description and anchor's source hold HTML, |, $ and backticks: its files, its columns, an anchor
     placed and a found form at least as accurate at no more cycles (Karis's exp2 form: exp2 of a
     minimax quadratic), each exported function compiled and its twin equal to the member's value,
-    the file's strings as text in every output (escaped where the format needs it)."""
+    the file's strings as text in every output (escaped where the format needs it); then again in
+    float16 from the kept search."""
     if "rdna3" not in engine.available_architectures():
         pytest.skip("Mesa's RADV does not run here: pipeline derive was not run")
     schlick = targets.registry()["schlick"]
@@ -114,17 +115,35 @@ def test_pipeline_derive_on_schlick(tmp_path):
     done = subprocess.run(command, capture_output=True, text=True, env=env, timeout=600)
     assert done.returncode == 0, done.stdout + done.stderr
     assert "the search of an earlier run" not in done.stdout
-    first = (out / "front.csv").read_text()
-    # again: the search kept, the same front
-    again = subprocess.run(command, capture_output=True, text=True, env=env, timeout=600)
-    assert again.returncode == 0 and "the search of an earlier run" in again.stdout, again.stdout + again.stderr
-    assert (out / "front.csv").read_text() == first
     results = json.loads((out / "results.json").read_text())
+    # again in float16: the search kept (the same forms: their float64 errors as before), every form
+    # executed and costed in 16 bits
+    half = tmp_path / "half"
+    again = subprocess.run(command[:-1] + [str(half), "--precision", "fp16"], capture_output=True, text=True, env=env,
+                           timeout=600)
+    assert again.returncode == 0 and "the search of an earlier run" in again.stdout, again.stdout + again.stderr
+    halves = json.loads((half / "results.json").read_text())
+    assert halves["precision"] == "fp16" and halves["execution"]["inputs"] == 15361       # every float16 of [0, 1]
+    shared = set(results["members"]) & set(halves["members"])
+    assert len(shared) >= 3
+    for name in shared:
+        assert halves["members"][name]["max_abs_error_real"] == results["members"][name]["max_abs_error_real"]
+    with open(half / "front.csv") as f:
+        half_rows = list(csv.DictReader(f))
+    assert {r["precision"] for r in half_rows} == {"fp16"}
+    # float16's rounding: no executed form is nearer than half its spacing at 0.5 (values near 1 round so)
+    assert min(float(r["max_abs_error"]) for r in half_rows) >= 2.0 ** -12
+    glsl16 = (half / "derive.glsl").read_text()
+    assert "float16_t" in glsl16 and "GL_EXT_shader_explicit_arithmetic_types_float16" in glsl16
     with open(out / "front.csv") as f:
         rows = list(csv.DictReader(f))
     assert {"architecture", "expression", "cycles", "cycles_predicted", "max_abs_error", "max_rel_error",
-            "kind"} <= set(rows[0])
-    assert {r["kind"] for r in rows} == {"found", "anchor", "exact"}
+            "kind", "max_abs_error_real", "max_rel_error_real", "precision"} <= set(rows[0])
+    assert {r["kind"] for r in rows} == {"found", "anchor", "exact"} and {r["precision"] for r in rows} == {"fp32"}
+    # the target itself as executed in float32: exact in float64, a few of float32's units as executed
+    (exact,) = [r for r in rows if r["kind"] == "exact"]
+    assert float(exact["max_abs_error_real"]) == 0 and 0 < float(exact["max_abs_error"]) < 16 * 2.0 ** -24
+    assert results["execution"]["inputs"] >= 1 << 22
     karis = next(r for r in rows if r["name"] == "Karis")
     found = [r for r in rows if r["kind"] == "found"]
     assert any(float(r["cycles"]) <= float(karis["cycles"]) and float(r["max_abs_error"]) <= float(karis["max_abs_error"])
@@ -137,7 +156,8 @@ def test_pipeline_derive_on_schlick(tmp_path):
     report = (out / "report.md").read_text()
     assert "<" not in report and escape.markdown(HOSTILE_NAME) in report and HOSTILE_NAME not in report
     assert f"Karis: {escape.markdown(HOSTILE_SOURCE)}" in report and escape.markdown("a | b $x$ `c`") in report
-    assert all(line.count("|") == 8 for line in report.splitlines() if line.startswith("| rdna3 |"))
+    # (the verdicts' rows: 7 cells; the special functions' rows: 4)
+    assert all(line.count("|") in (8, 5) for line in report.splitlines() if line.startswith("| rdna3 |"))
     assert publish.function_name(HOSTILE_NAME, "polynomial_1") == "script_script_alert_1_script_polynomial_1"
     assert "<" not in (out / "derive.glsl").read_text() + (out / "derive_twin.py").read_text()
     # Karis's error as measured, in the report as in results.json
@@ -161,7 +181,11 @@ def test_pipeline_derive_on_schlick(tmp_path):
                                      + f"\nlayout(location = 0) out vec4 c;\nvoid main() {{ c = vec4({first}(0.5)); }}\n")
     (tmp_path / "a.hlsl").write_text((out / "derive.hlsl").read_text()
                                      + f"\nfloat4 main() : SV_Target {{ return {first}(0.5); }}\n")
-    for args in ([str(tmp_path / "a.frag")], ["-D", "-e", "main", "-S", "frag", str(tmp_path / "a.hlsl")]):
+    first16 = publish.function_names(halves)[publish.exported(halves)[0]]
+    (tmp_path / "h.frag").write_text("#version 450\n" + glsl16 + "\nlayout(location = 0) out vec4 c;\n"
+                                     f"void main() {{ c = vec4(float({first16}(float16_t(0.5)))); }}\n")
+    for args in ([str(tmp_path / "a.frag")], ["-D", "-e", "main", "-S", "frag", str(tmp_path / "a.hlsl")],
+                 [str(tmp_path / "h.frag")]):
         done = subprocess.run([validator, "-V", "-o", str(tmp_path / "o.spv"), *args], capture_output=True, text=True)
         assert done.returncode == 0, done.stdout + done.stderr
 
@@ -187,9 +211,17 @@ def test_the_readme_example_of_the_python_api_runs(tmp_path, capsys, monkeypatch
     lines = capsys.readouterr().out.strip().splitlines()[-3:]
     found, best = scope["found"], scope["best"]
     assert best in found.front and best["architecture"] == "rdna3" and best["max_abs_error"] < 1e-3
+    # the exact row: GLSL's acos as the driver executes it (Mesa's lowering, as RADV's), not 0, and a
+    # found form beats it at fewer cycles
+    (exact,) = [r for r in found.rows if r["kind"] == "exact"]
+    assert exact["max_abs_error_real"] == 0 and 1e-5 < exact["max_abs_error"] < 1e-3
+    judged = found.raw["verdicts"]["rdna3"]["exact"]
+    assert judged["verdict"] == "beaten" and judged["by_cycles"] < exact["cycles"]
+    assert exact["max_error_bound"] == exact["max_abs_error"]          # (Mesa's acos: nothing more on RDNA3)
     assert lines[0].split()[0] == best["name"] and lines[1] == found.glsl(best["name"])
     x = targets.parse("x").free_symbols.pop()
-    exact_value = targets.numpy_function(found.raw["forms"][best["name"]].expression, x)(np.array([0.5]))[0]
+    printed = forms.in_format(found.raw["forms"][best["name"]].expression, "fp32")      # (float32's constants)
+    exact_value = targets.numpy_function(printed, x)(np.array([0.5]))[0]
     assert float(lines[2]) == pytest.approx(exact_value, rel=1e-12)
     assert found.plot(tmp_path / "front.png").stat().st_size > 0
     assert {p.name for p in found.write(tmp_path / "out")} >= {"front.csv", "results.json", "report.md"}

@@ -3,6 +3,9 @@
 compiler is installed (the Makefile installs Debian's mesa-vulkan-drivers and libvulkan1 where it
 can), the compiled lobes themselves."""
 
+import re
+
+import numpy as np
 import pytest
 
 from pipeline.isa import machine_code, radv
@@ -181,3 +184,43 @@ def test_a_shader_compiled_once_is_kept_and_a_damaged_entry_is_compiled_again(mo
     machine_code._kept_file("counting", "c1", "x").write_text('{"parsed": ')   # cut short
     again = machine_code._compile_kept("counting", {"a": "x", "b": "yy"}, ["c1", "c2"])
     assert _Counting.calls[-1] == (["a"], ["c1"]) and again == first
+
+
+HALF_MARKERS = {"rdna3": r"_f16\b", "sm_89": r"^(HFMA2|HADD2|HMUL2)\b", "xe_hpg": r":hf\b", "a740": r"\.f16\b|\bhr\d",
+                "g610": r"\.v2f16\b|\.f16\b"}
+
+
+def test_a_float16_form_is_read_as_16_bit_operations():
+    """fp16's shader (explicit 16-bit types): its operations after the input's conversion are of width
+    16, and computed by `lowering.evaluate` as numpy's float16 operations compute them, bit for bit."""
+    from pipeline.isa import lowering, shaders
+    from pipeline.optics import spirv
+
+    source = shaders.form_shader(["t"], ["t"], "return (0.3 * t + 0.7) * t - sqrt(t);", "", precision="fp16")
+    ops, result = lowering.operations(spirv.optimized_disassembly(source))
+    kinds = {(op.kind, op.width) for op in ops}
+    assert ("convert", 16) in kinds and ("convert", 32) in kinds and ("arithmetic", 32) not in kinds
+    t = np.arange(0, 0x3C01, dtype=np.uint16).view(np.float16)
+    got = lowering.evaluate(ops, result, {"t": t.astype(np.float32)}, {})
+    h = np.float16
+    with np.errstate(all="ignore"):
+        expected = ((h(0.3) * t + h(0.7)) * t - np.sqrt(t)).astype(np.float32)
+    assert got.dtype == np.float32 and np.array_equal(got, expected)
+
+
+def test_a_float16_form_computes_in_16_bits_on_every_vendor():
+    """The same form costed in fp16 (`form_cycles(..., "fp16")`) on one architecture per vendor whose
+    compiler runs here: its machine code holds the vendor's 16-bit instructions (v_*_f16, HFMA2,
+    :hf, ir3's half registers, Bifrost's v2f16), and its float32 twin's does not."""
+    from pipeline.approximate.engine import available_architectures
+
+    here = [a for a in HALF_MARKERS if a in available_architectures()]
+    if not here:
+        pytest.skip("no GPU compiler runs here")
+    bodies = {"f": ("return t * (0.5 + t * 0.25) + exp2(t);", ["t"])}
+    for precision, wanted in (("fp16", True), ("fp32", False)):
+        sources, wrappers, _ = machine_code.form_sources(bodies, ["t"], precision)
+        rows = machine_code.compile_shaders(sources, wrappers, here)["rows"]
+        for a in here:
+            listing = rows[a]["form_000"]["listing"]
+            assert any(re.search(HALF_MARKERS[a], line) for line in listing) == wanted, (a, precision, listing)

@@ -149,7 +149,7 @@ def test_the_normalized_peak_ratio_is_the_closed_form_coefs_ratio(made, paper_ru
     a, b = paper_run["linear_coefficient"]["slope_used"], paper_run["linear_coefficient"]["intercept_used"]
     for n in (10.0, 100.0, 1000.0):
         k = a * n + b
-        v64, _ = decision.linear_power(k, 2)
+        v64 = decision.linear_power(k, 2)[0]
         quadrature = decision.phong_integral(decision.cos_power(n)[0], n) / decision.phong_integral(v64, n)
         closed = (6 * k * k / (np.pi * (4 * k - 1))) / ((n + 2) / (2 * np.pi))
         assert quadrature == pytest.approx(closed, rel=1e-8)
@@ -165,3 +165,46 @@ def test_float16_the_spherical_gaussian_by_u_survives_where_cos_n_does_not(made)
     at = {m["name"]: m for m in made["candidates"] if m["n_range"] == [100.0, 1000.0] and m["use"] == "lobe"}
     assert at[registry.REFERENCE]["fp16_error"] > 0.1
     assert at["SG"]["fp16_error"] < 0.02 and at["SG"]["fp16_route"] == "u"
+
+
+def test_an_fp16_answer_that_execution_changes_is_listed():
+    """Planted tables: an fp16 scenario whose winner differs between the executed and the emulated
+    float16 errors is listed with both winners; an fp32 difference or an equal fp16 row is not."""
+    row = dict(architecture="rdna3", n_range=[2.0, 1000.0], use="phong", n_per="material", precision="fp16",
+               winner="SG", winner_fp16_error=0.01)
+    fp32 = dict(row, precision="fp32")
+    changed = decision.fp16_changes([row, fp32, dict(row, use="blinn")],
+                                    [dict(row, winner="f_Q2", winner_fp16_error=0.02), dict(fp32, winner="x"),
+                                     dict(row, use="blinn")])
+    assert changed == [dict(architecture="rdna3", n_range=[2.0, 1000.0], use="phong", n_per="material", winner="SG",
+                            winner_fp16_error=0.01, winner_emulated="f_Q2", winner_emulated_fp16_error=0.02)]
+    # the rule reads the executed number: a float16 error over the budget flips the winner
+    options = [option("f_b", 12, 0.0, 0.0), option("SG", 4, 0.01, 0.1, fp16=0.01)]
+    half = dict(BUDGET, precision="fp16")
+    assert decision.decide(copy.deepcopy(options), "f_b", half)["winner"] == "SG"
+    options[1] = option("SG", 4, 0.01, 0.1, fp16=0.06)
+    assert decision.decide(copy.deepcopy(options), "f_b", half)["winner"] == "f_b"
+
+
+def test_the_candidates_float16_errors_are_their_glsl_executed():
+    """Each kind of candidate's GLSL run by lavapipe in float16 (`executed_float16`) against numpy's
+    per-operation float16 (`float16_error`) on the same inputs: equal where the candidate is
+    arithmetic alone (its operations round alike), within 2^-8 of the peak where it calls pow or exp
+    (the driver's float16 lowering against a float32 function rounded)."""
+    from pipeline.isa import execution
+
+    if execution.available() is not None:
+        pytest.skip(execution.available())
+    n = [20.0, 200.0]
+    jobs = [[["power", 0.448, 0.099, 2], "cos_n", n], [["family", "rational", [0.0, 0.0], [0.9, 0.1]], "cos_n", n],
+            [["ggx"], "beckmann", n], [["cos_n"], "cos_n", n],
+            [["family", "exp2_quadratic", [0.0, 1.0, -1.0], [0.0, 0.0, 0.0]], "cos_n", n]]   # exp2(n (t - 1))
+    got = decision.executed_float16(jobs)
+    assert "lavapipe" in got["executed_by"]
+    for (descriptor, target, values), executed in zip(jobs, got["errors"]):
+        reference = decision.cos_power if target == "cos_n" else decision.beckmann_over_peak
+        emulated, route = decision.float16_error(decision.evaluator(descriptor), values, reference)
+        if descriptor[0] in ("power", "ggx") or descriptor[1:2] == ["rational"]:
+            assert executed == [emulated, route], descriptor
+        else:
+            assert abs(executed[0] - emulated) < 2.0 ** -8, (descriptor, executed, emulated)

@@ -42,19 +42,29 @@ def direct_rows(n, k):
 
 
 def test_half_precision_rows_equal_a_direct_float16_evaluation(paper_run, paper_config):
-    """Every row of the stage, at every rendered n, equals the direct evaluation: float16 operations
-    on the same inputs are correctly rounded IEEE operations whatever computes them, so the distinct
-    values are equal and the errors equal to the float64 rounding of the comparison (1e-15)."""
+    """Every row of the stage, at every rendered n, against the direct evaluation: the emulation's
+    numbers equal it (float16 operations on the same inputs are correctly rounded IEEE operations
+    whatever computes them: the distinct values equal, the errors to the float64 rounding of the
+    comparison, 1e-15), and so do the executed quadratic's, whose arithmetic lavapipe rounds alike;
+    the executed pow is Mesa's float16 lowering, not numpy's float32 pow, and differs from it by less
+    than float16's spacing near 1 (2^-10)."""
+    from pipeline.isa import execution
+
     h = paper_run["half_precision"]
     rows = {(r["n"], r["lobe"], r["route"]): r for r in h["rows"]}
+    assert ("lavapipe" in h["executed_by"]) == (execution.available() is None)
     slope, intercept = (paper_run["linear_coefficient"][f] for f in ("slope_used", "intercept_used"))
     exponents = [float(n) for n in paper_config["render.exponents"]]
     assert sorted({key[0] for key in rows}) == sorted(exponents)
     for n in exponents:
         for (lobe, route), (distinct, error) in direct_rows(n, slope * n + intercept).items():
             row = rows[(n, lobe, route)]
-            assert row["distinct"] == distinct, (n, lobe, route)
-            assert abs(row["max_abs_error"] - error) <= 1e-15, (n, lobe, route, row["max_abs_error"], error)
+            assert row["distinct_emulated"] == distinct, (n, lobe, route)
+            assert abs(row["max_abs_error_emulated"] - error) <= 1e-15, (n, lobe, route, row, error)
+            if lobe == "f_Q2":
+                assert row["distinct"] == distinct and abs(row["max_abs_error"] - error) <= 1e-15, (n, route, row)
+            else:
+                assert abs(row["max_abs_error"] - error) < 2.0 ** -10, (n, route, row)
     # What the table reports, at n = 1000: k t + (1 - k) cancels in float16 (its values near 448 are
     # 0.25 apart), so the lobe of 1 - N.H is wrong by more than its peak and takes few values; the
     # cross-product route keeps it within about 1 % of its peak, with over a thousand levels.
