@@ -26,7 +26,8 @@ less than a time. Measured, each in a fresh cache and outputs folder:
   10 within 120 s, Schlick's rational over (t, n) to 10 exactly within 120 s; 1.5 GB; each within
   2x of the time it announced before its search);
 - `pipeline keys` and a run with a bad config (answered without importing JAX);
-- `pipeline derive` on (1 - x)^5 and acos, three architectures, cold and kept, and on the Smith-GGX
+- `pipeline derive` on (1 - x)^5 and acos, three architectures, cold and kept, (1 - x)^5 in fp16 cold
+  (BENCH_ONLY=derive_one: these alone), and on the Smith-GGX
   visibility and the environment BRDF cold (target 10 minutes) and with other architectures (BENCH_ONLY=derive: the
   floor and these alone; targets 120 s cold, 30 s kept, the announced time within 2x);
 - `make test` (`python -m pytest -q -n 2 --dist loadfile`) twice, unless BENCH_TESTS=0 (BENCH_ONLY=tests:
@@ -176,26 +177,34 @@ def reproduce_rows(py) -> list:
     return rows
 
 
-def derive_rows(py) -> list:
-    """`pipeline derive` on Schlick's (1 - x)^5 and on acos, three architectures, the default budget:
-    cold (empty machine-code and XLA caches; target 120 s) and again with the compiled programs kept
-    (target 30 s); each with the time it announced before starting (target: within 2x)."""
+def derive_rows(py, several: bool = True) -> list:
+    """`pipeline derive` on Schlick's (1 - x)^5 and on acos, three architectures, the default budget,
+    every form executed in float32: cold (empty machine-code and XLA caches; target 120 s) and again
+    with the compiled programs kept (target 30 s); Schlick's in float16 cold (target 120 s); each with
+    the time it announced before starting (target: within 2x). With `several`, the targets of two
+    variables and a parameter too."""
     import json
 
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
-        for target in ("schlick", "acos"):
-            env = _cold_env(tmp, target)
-            for label, allowed in (("cold", 120.0), ("kept", 30.0)):
+        for target, precision, runs in (("schlick", "fp32", (("cold", 120.0), ("kept", 30.0))),
+                                        ("acos", "fp32", (("cold", 120.0), ("kept", 30.0))),
+                                        ("schlick", "fp16", (("cold", 120.0),))):
+            env = _cold_env(tmp, f"{target}_{precision}")
+            for label, allowed in runs:
+                out = os.path.join(tmp, f"{target}_{precision}")
                 seconds, _ = timed([py, "-m", "pipeline", "derive", "--target", target, "--gpu", DERIVE_ARCHITECTURES,
-                                    "--out", os.path.join(tmp, target)], env)
-                results = json.loads(Path(tmp, target, "results.json").read_text())
+                                    "--precision", precision, "--out", out], env)
+                results = json.loads(Path(out, "results.json").read_text())
                 estimate = results["estimated_seconds"]
                 within = 0.5 <= estimate / seconds <= 2.0
-                rows.append((f"derive {target}, {label}", seconds, None,
+                name = f"derive {target}, {label}" + (", fp16" if precision == "fp16" else "")
+                rows.append((name, seconds, None,
                              f"{DERIVE_ARCHITECTURES}; target <= {allowed:.0f} s " + ("ok" if seconds <= allowed else "MISSED")
                              + f"; announced {estimate:.0f} s " + ("(within 2x)" if within else "(MISSED 2x)"),
                              dict(announced_seconds=round(estimate, 1))))
+        if not several:
+            return rows
         # targets of two variables and a parameter: cold, then with other architectures (only compiled)
         for target in ("smith_ggx_visibility", "env_brdf"):
             env = _cold_env(tmp, target)
@@ -257,7 +266,7 @@ def main() -> int:
     # BENCH_ONLY=tests: the floor and `make test` alone (the pipeline's timings take ~10 minutes more);
     # BENCH_ONLY=derive: the floor and `pipeline derive` alone; BENCH_ONLY=regress: the floor and
     # `pipeline regress`'s default engine alone; BENCH_ONLY=reproduce: a cold and a warm reproduce.
-    if os.environ.get("BENCH_ONLY") not in ("tests", "derive", "regress", "reproduce"):
+    if os.environ.get("BENCH_ONLY") not in ("tests", "derive", "derive_one", "regress", "reproduce"):
         with tempfile.TemporaryDirectory() as tmp:
             env = _run_env(tmp)
             rows.append(cold_reproduce_row(py, env))
@@ -373,11 +382,12 @@ def main() -> int:
             rows.append(("bad config (exit 2)", seconds, None, "target < 1 s"))
     if os.environ.get("BENCH_ONLY") == "reproduce":
         rows += reproduce_rows(py)
-    if os.environ.get("BENCH_ONLY") in (None, "derive"):
-        rows += derive_rows(py)
+    if os.environ.get("BENCH_ONLY") in (None, "derive", "derive_one"):
+        rows += derive_rows(py, several=os.environ.get("BENCH_ONLY") != "derive_one")
     if os.environ.get("BENCH_ONLY") == "regress":
         rows += regress_rows(py, dict(os.environ, JAX_ENABLE_X64="1", JAX_PLATFORMS="cpu"))
-    if os.environ.get("BENCH_TESTS", "1") != "0" and os.environ.get("BENCH_ONLY") not in ("derive", "regress", "reproduce"):
+    if os.environ.get("BENCH_TESTS", "1") != "0" and os.environ.get("BENCH_ONLY") not in ("derive", "derive_one", "regress",
+                                                                                          "reproduce"):
         # Twice, on one folder of compiled XLA programs: empty at first (a fresh clone, as CI runs
         # it), then holding the first session's programs (`make test` keeps them between runs).
         with tempfile.TemporaryDirectory() as xla:
@@ -394,7 +404,7 @@ def main() -> int:
     except RuntimeError:
         pass
     throughput = [(label, lobe_throughput(device)) for label, device in devices
-                  if os.environ.get("BENCH_ONLY") not in ("derive", "regress")]
+                  if os.environ.get("BENCH_ONLY") not in ("derive", "derive_one", "regress")]
 
     print(f"import floor ({FLOOR}): {floor:.2f} s\n")
     print(f"{'':<30} {'seconds':>8} {'x floor':>8}  {'target':>8}  note")

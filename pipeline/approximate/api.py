@@ -149,7 +149,7 @@ def derive(target=None, *, expr: str | None = None, var: str = "x=0:1", table: s
     if isinstance(chosen, (parametric.ParametricTarget, parametric.PairTarget)):
         if precision not in (None, "fp32"):
             raise DeriveError(f"{chosen.name}: --precision {precision}: a target of several variables or a parameter "
-                              "is measured in float64 and costed in float32 only")
+                              "is executed and costed in float32 only")
         run = parametric.derive if isinstance(chosen, parametric.ParametricTarget) else parametric.derive_pair
         return Derivation(chosen, run(chosen, gpu, seconds, max_cycles, max_complexity, log=log,
                                       formula_complexity=formula_complexity))

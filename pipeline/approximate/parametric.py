@@ -952,6 +952,73 @@ def compile_forms(forms: dict, target: ParametricTarget, architectures) -> tuple
 
 # ---- the derivation -----------------------------------------------------------------------------
 
+def execution_points(target, peaks=()) -> list[np.ndarray]:
+    """Where a form of `target` is executed (`executed_box`), one array per axis (`target.names`'
+    order): the box's measuring grid (`MEASURE_GRID` per axis of the unit box, placed in the box),
+    then each peak (a point of the unit box)."""
+    from ..optics import brdf
+
+    lo, hi = _unit_box(target)
+    axes = [brdf.axis_grid(a, b, **MEASURE_GRID) for a, b in zip(lo, hi)]
+    columns = [g.ravel() for g in np.meshgrid(*axes, indexing="ij")]
+    extra = [np.asarray(p, dtype=np.float64) for p in peaks if p is not None and np.all(np.isfinite(p))]
+    if extra:
+        columns = [np.concatenate([c, [p[i] for p in extra]]) for i, c in enumerate(columns)]
+    return _place(target, columns)
+
+
+def error_peaks(expression, target: ParametricTarget, f) -> list[np.ndarray]:
+    """Where a form's float64 error peaks on the unit box, abs and rel (`brdf.largest_error`, as
+    `measure_box` finds them)."""
+    from ..optics import brdf
+
+    approx, exact = _numpy_of(expression, target.symbols()), f
+    if any(a.lo_of for a in target.variables):
+        approx = (lambda g: lambda *s: g(*_place(target, s)))(approx)
+        exact = lambda *s: f(*_place(target, s))        # noqa: E731
+    lo, hi = _unit_box(target)
+    out = []
+    for relative in (False, True):
+        value, where = brdf.largest_error(approx, exact, lo, hi, relative=relative, **MEASURE_GRID)
+        if np.isfinite(value):
+            out.append(np.asarray(where, dtype=np.float64))
+    return out
+
+
+def _executed(everything, per_of, record, target, f, real, cycles, architectures, error_key, constant, floor,
+              log) -> dict:
+    """Every form executed in float32 (`executed_box`) at the box's grid and where the float64 error
+    of each member of a float64 front, each anchor and the target itself peaks: dict(measured={name:
+    its executed errors, NaN where not executed}, how, inputs, not_executed, peaks, seconds)."""
+    from . import engine, executed_box
+
+    started = time.perf_counter()
+    provisional = set()
+    for a in architectures:
+        by_name = cycles.get(a, {})
+        for per in ("pixel", "material"):
+            rows = [dict(name=m.name, cycles=by_name[m.name], **real[m.name]) for m in everything
+                    if m.kind == "found" and per_of[m.name][1] == per and m.name in by_name
+                    and real[m.name][error_key] < constant]
+            provisional |= {r["name"] for r in engine.front(rows, error_key, floor)}
+    peaks = [where for m in everything if (m.name in provisional and per_of[m.name][1] == "pixel") or m.kind != "found"
+             for where in error_peaks(m.expression, target, f)]
+    bodies, not_printed = {}, {}
+    for m in everything:
+        try:
+            bodies[m.name] = (glsl_text(m.expression), record[m.name]["formulas"]["constants"]
+                              if per_of[m.name][1] == "material" else None)
+        except Exception as e:          # (a function the GLSL printer does not know)
+            not_printed[m.name] = f"{m.name}: no GLSL form ({type(e).__name__})"
+    log(f"executing {len(bodies)} forms in float32 over the box")
+    run = executed_box.measure(bodies, target.names, execution_points(target, peaks), target.numpy(),
+                               target.floor if target.metric == "rel" else 0.0)
+    measured = {m.name: run["errors"].get(m.name) or executed_box.nan_errors() for m in everything}
+    log(f"executed on {run['inputs']} points by {run['how']} in {time.perf_counter() - started:.1f} s")
+    return dict(measured=measured, how=run["how"], inputs=run["inputs"], not_executed=run["not_executed"] | not_printed,
+                peaks=len(peaks), seconds=round(time.perf_counter() - started, 1))
+
+
 def derive(target: ParametricTarget, gpu=None, seconds: float = 60.0, max_cycles: float | None = None,
            max_complexity: int = 12, log=print, formula_complexity: int = 0) -> dict:
     """The derivation of the module docstring for `target` on the architectures `gpu` (names;
@@ -990,6 +1057,10 @@ def derive(target: ParametricTarget, gpu=None, seconds: float = 60.0, max_cycles
     cycles, missing = compile_forms(per_of, target, architectures)
     constant = _constant_error(target, f)
     floor = engine.rounding_floor(target, constant)
+    real = errors
+    execution = _executed(everything, per_of, record, target, f, real, cycles, architectures, error_key, constant,
+                          floor, log)
+    errors = execution.pop("measured")
 
     rows, fronts, verdicts = [], {}, {}
     for a in architectures:
@@ -1010,7 +1081,9 @@ def derive(target: ParametricTarget, gpu=None, seconds: float = 60.0, max_cycles
                              cycles_predicted=None, max_abs_error=errors[m.name]["max_abs_error"],
                              max_rel_error=errors[m.name]["max_rel_error"], on_front=m.name in on_front,
                              source=m.source, range=target.range_text(), parameter_per=per_of[m.name][1]
-                             if target.parameter is not None else ""))
+                             if target.parameter is not None else "",
+                             max_abs_error_real=real[m.name]["max_abs_error"],
+                             max_rel_error_real=real[m.name]["max_rel_error"], precision="fp32"))
         pixel_front = [r for r in rows if r["architecture"] == a and r["name"] in fronts[a]["pixel"]]
         verdicts[a] = {m.name: dict(cycles=by_name[m.name], error=errors[m.name][error_key],
                                     **engine.verdict(by_name[m.name], errors[m.name][error_key], pixel_front,
@@ -1024,6 +1097,8 @@ def derive(target: ParametricTarget, gpu=None, seconds: float = 60.0, max_cycles
             continue
         members[m.name] = dict(kind=m.kind, family=m.family, source=m.source, converged=True,
                                expression=_text(m, record, target), **errors[m.name],
+                               max_abs_error_real=real[m.name]["max_abs_error"],
+                               max_rel_error_real=real[m.name]["max_rel_error"],
                                **(dict(parameter_per=per_of[m.name][1] if target.parameter is not None else "")
                                   | record.get(m.name, {}).get("formulas", {})))
     return dict(target=dict(name=target.name, expression=target.expression, variable=target.variable,
@@ -1037,7 +1112,8 @@ def derive(target: ParametricTarget, gpu=None, seconds: float = 60.0, max_cycles
                 family_members=[m.name for m in forms if m.family != "grammar"],
                 fronts={a: fr["pixel"] + [n for n in fr["material"] if n not in fr["pixel"]] for a, fr in fronts.items()},
                 fronts_by_parameter=fronts, verdicts=verdicts, rows=rows, error=error_key, constant_error=constant,
-                rounding_floor=floor, cost_tables={}, seconds=round(elapsed, 1), estimated_seconds=None,
+                rounding_floor=floor, precision="fp32", execution=execution, cost_tables={},
+                seconds=round(elapsed, 1), estimated_seconds=None,
                 members=members, forms={m.name: m for m in everything})
 
 

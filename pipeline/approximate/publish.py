@@ -360,13 +360,16 @@ def report(results) -> str:
     lines += ["## Limits", ""]
     if results.get("execution"):
         run = results["execution"]
+        truth = (f"{run['truth']['computed_by']} (float64 checked against mpmath on {run['truth']['checked']} inputs: "
+                 f"largest difference {run['truth']['float64_difference']:.3g})" if "truth" in run else
+                 "float64 at the same points (the box's measuring grid and the float64 errors' peaks)")
         lines += [f"- Errors are those of each form's shader executed in {results['precision']} ({run['how']}) at "
-                  f"{run['inputs']} inputs of the domain, against the target in "
-                  + run["truth"]["computed_by"]
-                  + f" (float64 checked against mpmath on {run['truth']['checked']} inputs: largest difference "
-                  f"{run['truth']['float64_difference']:.3g}); the float64 columns are each form's mathematics. On "
-                  f"the fronts and in the verdicts, errors below {results['rounding_floor']:.3g} ({results['precision']}'s "
-                  "rounding of the target's range) count as equal."]
+                  f"{run['inputs']} inputs of the domain, against the target in {truth}; "
+                  + ("the float64 columns are each form's mathematics" if "truth" in run else
+                     "`max_abs_error_real` and `max_rel_error_real` in front.csv keep each form's mathematics in "
+                     "float64")
+                  + f". On the fronts and in the verdicts, errors below {results['rounding_floor']:.3g} "
+                  f"({results['precision']}'s rounding of the target's range) count as equal."]
         if run["not_executed"]:
             lines += ["- Not executed: " + "; ".join(escape.markdown(v) for v in run["not_executed"].values()) + "."]
     else:
