@@ -138,7 +138,7 @@ def derive(target=None, *, expr: str | None = None, var: str = "x=0:1", table: s
     every one whose compiler runs here): `engine.derive`, `parametric.derive` (several variables or a
     parameter), `parametric.derive_pair` (env_brdf). Raises DeriveError for bad input, CompilerMissing
     where no GPU compiler runs. `precision` (fp32 or fp16; default the target's, fp32): the format
-    every form of a one-variable target is costed and executed in (`executed`)."""
+    every form is costed and executed in (`executed`, `executed_box`; a pair of outputs: fp32 only)."""
     from .targets import PRECISIONS
 
     chosen = resolve(target, expr, var, metric, floor, table, x, parameter, y, parameter_range)
@@ -146,13 +146,16 @@ def derive(target=None, *, expr: str | None = None, var: str = "x=0:1", table: s
         raise DeriveError(f"--precision {precision!r}: give one of {', '.join(PRECISIONS)}")
     if isinstance(gpu, str):
         gpu = [g.strip() for g in gpu.split(",") if g.strip()]
-    if isinstance(chosen, (parametric.ParametricTarget, parametric.PairTarget)):
+    if isinstance(chosen, parametric.PairTarget):
         if precision not in (None, "fp32"):
-            raise DeriveError(f"{chosen.name}: --precision {precision}: a target of several variables or a parameter "
-                              "is executed and costed in float32 only")
-        run = parametric.derive if isinstance(chosen, parametric.ParametricTarget) else parametric.derive_pair
-        return Derivation(chosen, run(chosen, gpu, seconds, max_cycles, max_complexity, log=log,
-                                      formula_complexity=formula_complexity))
+            raise DeriveError(f"{chosen.name}: --precision {precision}: a pair of outputs is executed and costed in "
+                              "float32 only")
+        return Derivation(chosen, parametric.derive_pair(chosen, gpu, seconds, max_cycles, max_complexity, log=log,
+                                                         formula_complexity=formula_complexity))
+    if isinstance(chosen, parametric.ParametricTarget):
+        return Derivation(chosen, parametric.derive(chosen, gpu, seconds, max_cycles, max_complexity, log=log,
+                                                    formula_complexity=formula_complexity,
+                                                    precision=precision or "fp32"))
     if formula_complexity:
         raise DeriveError(f"{chosen.name} has no parameter: --formula-complexity applies to targets with one")
     return Derivation(chosen, engine.derive(chosen, gpu, seconds, max_cycles, max_complexity, log=log,

@@ -917,21 +917,29 @@ def _error_key(target) -> str:
 
 # ---- costs --------------------------------------------------------------------------------------
 
-def glsl_text(expr) -> str:
-    """A form as GLSL in its symbols' names (forms' printer: exp2, squarings, inversesqrt)."""
-    from .forms import _GLSL
+def glsl_text(expr, precision: str | None = None) -> str:
+    """A form as GLSL in its symbols' names (forms' printer: exp2, squarings, inversesqrt), with
+    `precision` its numbers the format's (`forms.in_format`); in fp16 each push constant c0, c1, ...
+    (float32, as a renderer sets them) converted to float16_t where it is read."""
+    import re
 
-    return _GLSL().doprint(gpu_form(expr))
+    from .forms import _GLSL, in_format
+
+    printer = _GLSL()
+    printer.precision = precision
+    text = printer.doprint(gpu_form(expr) if precision is None else in_format(expr, precision))
+    return re.sub(r"\b(c\d+)\b", r"float16_t(\1)", text) if precision == "fp16" else text
 
 
-def compile_forms(forms: dict, target: ParametricTarget, architectures) -> tuple[dict, dict]:
+def compile_forms(forms: dict, target: ParametricTarget, architectures, precision: str = "fp32") -> tuple[dict, dict]:
     """({architecture: {name: cycles}}, {what: why not}) of `forms` ({name: (sympy, parameter_per)}),
     by `isa.machine_code.form_cycles`: a material form reads the variables, a pixel form the parameter
     too (each only those its expression holds). Both are net of the shader that reads and writes the
     variables alone: a pixel form pays the read of its parameter (an interpolated input, where a
     renderer fetches a texture). Netted of its parameter's read too, a form whose arithmetic hides
     that read behind its own latency would cost less per pixel than per material (pow(t, n): 6
-    cycles against 12 on RDNA3, both shaders 16)."""
+    cycles against 12 on RDNA3, both shaders 16). In fp16 the form computes in float16 (explicit
+    16-bit types, `shaders.form_shader`)."""
     from ..isa.machine_code import form_cycles
 
     names = list(target.names)
@@ -939,14 +947,14 @@ def compile_forms(forms: dict, target: ParametricTarget, architectures) -> tuple
     bodies, missing = {}, {}
     for name, (expr, per) in forms.items():
         try:
-            text = glsl_text(expr)
+            text = glsl_text(expr, precision)
         except Exception as e:          # a function the GLSL printer does not know
             missing[name] = f"no GLSL form ({type(e).__name__})"
             continue
         read = {s.name for s in expr.free_symbols}
         used = [n for n in (names if per == "pixel" else variables) if n in read] or names[:1]
         bodies[name] = (f"return {text};", used, [n for n in used if n in variables] or used)
-    cycles, more, _ = form_cycles(bodies, names, architectures)
+    cycles, more, _ = form_cycles(bodies, names, architectures, precision)
     return cycles, missing | more
 
 
@@ -986,7 +994,7 @@ def error_peaks(expression, target: ParametricTarget, f) -> list[np.ndarray]:
 
 
 def _executed(everything, per_of, record, target, f, real, cycles, architectures, error_key, constant, floor,
-              log) -> dict:
+              log, precision: str = "fp32") -> dict:
     """Every form executed in float32 (`executed_box`) at the box's grid and where the float64 error
     of each member of a float64 front, each anchor and the target itself peaks: dict(measured={name:
     its executed errors, NaN where not executed}, how, inputs, not_executed, peaks, seconds)."""
@@ -1006,13 +1014,13 @@ def _executed(everything, per_of, record, target, f, real, cycles, architectures
     bodies, not_printed = {}, {}
     for m in everything:
         try:
-            bodies[m.name] = (glsl_text(m.expression), record[m.name]["formulas"]["constants"]
+            bodies[m.name] = (glsl_text(m.expression, precision), record[m.name]["formulas"]["constants"]
                               if per_of[m.name][1] == "material" else None)
         except Exception as e:          # (a function the GLSL printer does not know)
             not_printed[m.name] = f"{m.name}: no GLSL form ({type(e).__name__})"
-    log(f"executing {len(bodies)} forms in float32 over the box")
+    log(f"executing {len(bodies)} forms in {precision} over the box")
     run = executed_box.measure(bodies, target.names, execution_points(target, peaks), target.numpy(),
-                               target.floor if target.metric == "rel" else 0.0)
+                               target.floor if target.metric == "rel" else 0.0, precision)
     measured = {m.name: run["errors"].get(m.name) or executed_box.nan_errors() for m in everything}
     log(f"executed on {run['inputs']} points by {run['how']} in {time.perf_counter() - started:.1f} s")
     return dict(measured=measured, how=run["how"], inputs=run["inputs"], not_executed=run["not_executed"] | not_printed,
@@ -1020,7 +1028,7 @@ def _executed(everything, per_of, record, target, f, real, cycles, architectures
 
 
 def derive(target: ParametricTarget, gpu=None, seconds: float = 60.0, max_cycles: float | None = None,
-           max_complexity: int = 12, log=print, formula_complexity: int = 0) -> dict:
+           max_complexity: int = 12, log=print, formula_complexity: int = 0, precision: str = "fp32") -> dict:
     """The derivation of the module docstring for `target` on the architectures `gpu` (names;
     default every one whose compiler runs here), with `formula_complexity` > 0 the lines of the best
     templates also corrected by the symbolic regression (`corrected`). Returns the results
@@ -1054,12 +1062,12 @@ def derive(target: ParametricTarget, gpu=None, seconds: float = 60.0, max_cycles
         "architectures")
     errors = {m.name: record[m.name]["errors"] if m.name in record else measure_box(m.expression, target, f)
               for m in everything}
-    cycles, missing = compile_forms(per_of, target, architectures)
+    cycles, missing = compile_forms(per_of, target, architectures, precision)
     constant = _constant_error(target, f)
-    floor = engine.rounding_floor(target, constant)
+    floor = engine.rounding_floor(target, constant, precision)
     real = errors
     execution = _executed(everything, per_of, record, target, f, real, cycles, architectures, error_key, constant,
-                          floor, log)
+                          floor, log, precision)
     errors = execution.pop("measured")
 
     rows, fronts, verdicts = [], {}, {}
@@ -1083,7 +1091,7 @@ def derive(target: ParametricTarget, gpu=None, seconds: float = 60.0, max_cycles
                              source=m.source, range=target.range_text(), parameter_per=per_of[m.name][1]
                              if target.parameter is not None else "",
                              max_abs_error_real=real[m.name]["max_abs_error"],
-                             max_rel_error_real=real[m.name]["max_rel_error"], precision="fp32"))
+                             max_rel_error_real=real[m.name]["max_rel_error"], precision=precision))
         pixel_front = [r for r in rows if r["architecture"] == a and r["name"] in fronts[a]["pixel"]]
         verdicts[a] = {m.name: dict(cycles=by_name[m.name], error=errors[m.name][error_key],
                                     **engine.verdict(by_name[m.name], errors[m.name][error_key], pixel_front,
@@ -1112,7 +1120,7 @@ def derive(target: ParametricTarget, gpu=None, seconds: float = 60.0, max_cycles
                 family_members=[m.name for m in forms if m.family != "grammar"],
                 fronts={a: fr["pixel"] + [n for n in fr["material"] if n not in fr["pixel"]] for a, fr in fronts.items()},
                 fronts_by_parameter=fronts, verdicts=verdicts, rows=rows, error=error_key, constant_error=constant,
-                rounding_floor=floor, precision="fp32", execution=execution, cost_tables={},
+                rounding_floor=floor, precision=precision, execution=execution, cost_tables={},
                 seconds=round(elapsed, 1), estimated_seconds=None,
                 members=members, forms={m.name: m for m in everything})
 

@@ -57,13 +57,15 @@ def shader_text(expr, arguments: str, language: str, precision: str | None = Non
 
     if "," not in arguments:
         text = {"glsl": glsl, "hlsl": hlsl, "python": python}[language](expr, arguments.strip(), precision)
-        if precision == "fp16" and language == "glsl":
-            return half_literals(text)
-        if precision == "fp16" and language == "hlsl":
-            return LITERAL.sub(lambda m: f"half({m.group(1)})", text)
-        return text
-    printer = {"glsl": forms._GLSL, "hlsl": forms._HLSL, "python": forms._Python}[language]
-    return printer().doprint(forms.gpu_form(expr))
+    else:
+        printer = {"glsl": forms._GLSL, "hlsl": forms._HLSL, "python": forms._Python}[language]()
+        printer.precision = precision
+        text = printer.doprint(forms.gpu_form(expr) if precision is None else forms.in_format(expr, precision))
+    if precision == "fp16" and language == "glsl":
+        return half_literals(text)
+    if precision == "fp16" and language == "hlsl":
+        return LITERAL.sub(lambda m: f"half({m.group(1)})", text)
+    return text
 
 
 def function_name(target_name: str, member: str) -> str:

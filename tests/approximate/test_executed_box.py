@@ -74,3 +74,26 @@ def test_a_cancelling_form_errs_as_executed_where_its_mathematics_does_not():
     run = executed_box.measure(bodies, target.names, parametric.execution_points(target), target.numpy())
     assert run["errors"]["stable"]["max_abs_error"] < 1e-10
     assert run["errors"]["cancelling"]["max_abs_error"] > 3e-8
+
+
+def test_float16_forms_of_several_variables_are_executed_and_costed_in_16_bits():
+    """fp16: the numbers printed as float16's nearest values, the executed errors equal the
+    per-operation float16 emulation's (and at least float16's rounding), a material form reads its
+    push constants through float16_t(), and the 16-bit shader compiles where RADV runs."""
+    if spirv_tools_missing():
+        pytest.skip(spirv_tools_missing())
+    x, y, a, c0 = sp.symbols("x y a c0", real=True)
+    columns = parametric.execution_points(TARGET)
+    body = parametric.glsl_text((sp.Float(0.3) + x) * y + sp.Float(0.7) * a, "fp16")
+    assert body == "0.7001953125*a + y*(x + 0.300048828125)"
+    run = executed_box.measure({"pixel": (body, None)}, TARGET.names, columns, TARGET.numpy(), 0.0, "fp16")
+    X, Y, A = (np.asarray(c, dtype=np.float16) for c in columns)
+    emulated = execution.emulate(body, dict(x=X, y=Y, a=A), "fp16")
+    want = execution.errors(emulated, X, X.astype(np.float64) * Y + A)
+    assert run["errors"]["pixel"]["max_abs_error"] == want["max_abs_error"] >= 2.0 ** -12
+    assert parametric.glsl_text(c0 * x, "fp16") == "float16_t(c0)*x"
+    from pipeline.approximate.engine import available_architectures
+    if "rdna3" in available_architectures():
+        cycles, missing = parametric.compile_forms({"m": (c0 * x * y + sp.Float(0.5) * y, "material")}, TARGET,
+                                                   ["rdna3"], "fp16")
+        assert "m" in cycles["rdna3"] and not missing
