@@ -976,8 +976,8 @@ def execution_points(target, peaks=()) -> list[np.ndarray]:
 
 
 def error_peaks(expression, target: ParametricTarget, f) -> list[np.ndarray]:
-    """Where a form's float64 error peaks on the unit box, abs and rel (`brdf.largest_error`, as
-    `measure_box` finds them)."""
+    """Where a form's float64 error in the target's measure peaks on the unit box (`brdf.largest_error`,
+    as `measure_box` finds it)."""
     from ..optics import brdf
 
     approx, exact = _numpy_of(expression, target.symbols()), f
@@ -985,12 +985,12 @@ def error_peaks(expression, target: ParametricTarget, f) -> list[np.ndarray]:
         approx = (lambda g: lambda *s: g(*_place(target, s)))(approx)
         exact = lambda *s: f(*_place(target, s))        # noqa: E731
     lo, hi = _unit_box(target)
-    out = []
-    for relative in (False, True):
-        value, where = brdf.largest_error(approx, exact, lo, hi, relative=relative, **MEASURE_GRID)
-        if np.isfinite(value):
-            out.append(np.asarray(where, dtype=np.float64))
-    return out
+    if target.metric == "rel" and target.floor > 0:
+        value, where = brdf.largest(lambda *s: (approx(*s) - exact(*s)) / np.maximum(np.abs(exact(*s)), target.floor),
+                                    lo, hi, **MEASURE_GRID)
+    else:
+        value, where = brdf.largest_error(approx, exact, lo, hi, relative=target.metric == "rel", **MEASURE_GRID)
+    return [np.asarray(where, dtype=np.float64)] if np.isfinite(value) else []
 
 
 def _executed(everything, per_of, record, target, f, real, cycles, architectures, error_key, constant, floor,

@@ -43,7 +43,7 @@ def test_float16_inputs_are_every_value_of_the_domain():
     assert executed.inputs(-1.0, 1.0, "fp16").size == 2 * 15361 - 1         # (-0 and 0 are one input)
 
 
-@pytest.mark.parametrize("lo, hi", [(0.0, 1.0), (-2.0, -1.0), (1e-6, 1e-3), (-3.0, 5.0)])
+@pytest.mark.parametrize("lo, hi", [(-2.0, -1.0), (-3.0, 5.0)])     # (one binade; both signs and many binades)
 def test_float32_inputs_spread_over_the_domain_and_crowd_its_extrema(lo, hi):
     extremum = lo + 0.37 * (hi - lo)
     x = executed.inputs(lo, hi, "fp32", [extremum])
