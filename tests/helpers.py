@@ -39,3 +39,14 @@ def require_fast_variant(variant: str, why: str) -> None:
     if found.found and int(found.version or 0) >= 16 and not os.environ.get(toolchains.VARIANT_VARIABLE):
         pytest.fail(f"LLVM {found.version} ({found.path}) was found, yet Mitsuba runs {variant}")
     pytest.skip(why)
+
+
+def spirv_tools_missing() -> str | None:
+    """Why spirv-opt (the per-operation emulation's front end) cannot run here, or None."""
+    from pipeline.optics import spirv
+
+    try:
+        spirv.tool("spirv-opt")
+    except spirv.ToolMissing as e:
+        return str(e)
+    return None

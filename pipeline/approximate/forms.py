@@ -189,10 +189,15 @@ def _rename(expr, variable: str):
     return expr.subs(symbol, sp.Symbol(variable, real=True))
 
 
-def _printed(printer, expr, variable: str, precision: str | None) -> str:
+def printed(printer, expr, precision: str | None = None) -> str:
+    """`expr` in its symbols' own names by one of the printers (`_GLSL`, `_HLSL`, `_Python`), its
+    numbers in `precision`'s format where given (`in_format`)."""
     printer.precision = precision
-    return printer.doprint(gpu_form(_rename(expr, variable)) if precision is None else
-                           in_format(_rename(expr, variable), precision))
+    return printer.doprint(gpu_form(expr) if precision is None else in_format(expr, precision))
+
+
+def _printed(printer, expr, variable: str, precision: str | None) -> str:
+    return printed(printer, _rename(expr, variable), precision)
 
 
 def glsl(expr, variable: str = "x", precision: str | None = None) -> str:

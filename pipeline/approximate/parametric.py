@@ -923,11 +923,9 @@ def glsl_text(expr, precision: str | None = None) -> str:
     (float32, as a renderer sets them) converted to float16_t where it is read."""
     import re
 
-    from .forms import _GLSL, in_format
+    from .forms import _GLSL, printed
 
-    printer = _GLSL()
-    printer.precision = precision
-    text = printer.doprint(gpu_form(expr) if precision is None else in_format(expr, precision))
+    text = printed(_GLSL(), expr, precision)
     return re.sub(r"\b(c\d+)\b", r"float16_t(\1)", text) if precision == "fp16" else text
 
 

@@ -58,9 +58,8 @@ def shader_text(expr, arguments: str, language: str, precision: str | None = Non
     if "," not in arguments:
         text = {"glsl": glsl, "hlsl": hlsl, "python": python}[language](expr, arguments.strip(), precision)
     else:
-        printer = {"glsl": forms._GLSL, "hlsl": forms._HLSL, "python": forms._Python}[language]()
-        printer.precision = precision
-        text = printer.doprint(forms.gpu_form(expr) if precision is None else forms.in_format(expr, precision))
+        text = forms.printed({"glsl": forms._GLSL, "hlsl": forms._HLSL, "python": forms._Python}[language](), expr,
+                             precision)
     if precision == "fp16" and language == "glsl":
         return half_literals(text)
     if precision == "fp16" and language == "hlsl":

@@ -12,16 +12,8 @@ import sympy as sp
 
 from pipeline.approximate import executed, forms, targets
 from pipeline.isa import execution
+from tests.helpers import spirv_tools_missing
 
-
-def spirv_tools_missing() -> str | None:
-    from pipeline.optics import spirv
-
-    try:
-        spirv.tool("spirv-opt")
-    except spirv.ToolMissing as e:
-        return str(e)
-    return None
 
 
 @pytest.mark.parametrize("precision", ["fp32", "fp16"])

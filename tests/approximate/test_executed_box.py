@@ -12,18 +12,11 @@ import sympy as sp
 from pipeline.approximate import executed_box, parametric
 from pipeline.approximate.parametric import Axis, ParametricTarget
 from pipeline.isa import execution
+from tests.helpers import spirv_tools_missing
 
 TARGET = ParametricTarget("planted", "x*y + a", (Axis("x", 0.0, 1.0), Axis("y", 0.0, 1.0)), Axis("a", 1.0, 2.0), "abs")
 
 
-def spirv_tools_missing() -> str | None:
-    from pipeline.optics import spirv
-
-    try:
-        spirv.tool("spirv-opt")
-    except spirv.ToolMissing as e:
-        return str(e)
-    return None
 
 
 def test_the_grid_and_the_peaks_are_executed():

@@ -10,18 +10,11 @@ import numpy as np
 import pytest
 
 from pipeline.isa import execution
+from tests.helpers import spirv_tools_missing
 
 needs_lavapipe = pytest.mark.skipif(execution.available() is not None, reason=f"{execution.available()}")
 
 
-def spirv_tools_missing() -> str | None:
-    from pipeline.optics import spirv
-
-    try:
-        spirv.tool("spirv-opt")
-    except spirv.ToolMissing as e:
-        return str(e)
-    return None
 
 # (GLSL body, its per-operation emulation with the format's constants c(...))
 FORMS = {
