@@ -10,13 +10,14 @@ theorem), which the exchange converges to: solve for the m + 1 reference points,
 error's alternating extrema, until the extrema's levels agree within `LEVELS` (relative).
 
 `slp(model, jacobian, c0, ...)` minimizes max |w (model(c, x) - f)| over points by sequential linear
-programs (scipy's HiGHS): each step minimizes the largest linearized error within a trust region,
+programs (`optics.minimax_lp`: HiGHS on a working set of points): each step minimizes the largest
+linearized error within a trust region,
 kept where the true error falls; after it settles, the error's maximum over the whole interval
 (`measure.largest`) joins the points and it goes on (`EXCHANGES` times), so that the fit is
 minimax on the interval, not on the points. Each linear program has its step and its error in
-units of the current largest error (HiGHS's tolerances are absolute, about 1e-7: an error of 1e-8
-would be below them; the matrix is left as it is, since scaling it stalls exact fits), and the steps end where the program finds no gain with its step inside the trust
-region (a stationary point of the minimax).
+units of the current largest error (HiGHS's tolerances are absolute: a small error would be below
+them; the matrix is left as it is, since scaling it stalls exact fits), and the steps end where the
+program finds no gain with its step inside the trust region (a stationary point of the minimax).
 
 `along(problems, start, own)` fits one form at each value of a parameter in order, each from its
 neighbour's optimum (`pipeline derive`'s targets with a parameter, and the lobe search's families
@@ -26,8 +27,9 @@ at each n).
 from __future__ import annotations
 
 import numpy as np
-from scipy.optimize import linprog, minimize_scalar
+from scipy.optimize import minimize_scalar
 
+from ..optics.minimax_lp import linear_minimax
 from . import measure
 
 EXACT = 1e-13           # an error below this (relative to the largest |w f|) is rounding: the fit is exact
@@ -141,7 +143,6 @@ def slp_points(model, jacobian, c0, target_values, weights, x, steps: int = SLP_
     c = np.asarray(c0, dtype=np.float64)
     y = np.asarray(target_values, dtype=np.float64)
     w = np.asarray(weights, dtype=np.float64)
-    count = y.size
 
     def residual(c_):
         with np.errstate(all="ignore"):
@@ -159,16 +160,13 @@ def slp_points(model, jacobian, c0, target_values, weights, x, steps: int = SLP_
             J = w[:, None] * jacobian(c, x)
         if not (np.all(np.isfinite(r)) and np.all(np.isfinite(J))):
             break
-        k = c.size
         scale = max(value, 1e-300)      # step and error in units of the largest error (module docstring)
-        A = np.block([[J, -np.ones((count, 1))], [-J, -np.ones((count, 1))]])
-        b = np.concatenate([-r, r]) / scale
-        lp = linprog(np.r_[np.zeros(k), 1.0], A_ub=A, b_ub=b,
-                     bounds=[(-radius[j] / scale, radius[j] / scale) for j in range(k)] + [(0, None)], method="highs")
-        if lp.status != 0:
+        solved = linear_minimax(J, r / scale, radius / scale)
+        if solved is None:
             break
-        step = lp.x[:k] * scale
-        if lp.x[k] >= 1.0 - STATIONARY and np.all(np.abs(step) < 0.5 * radius):
+        level, step = solved
+        step = step * scale
+        if level >= 1.0 - STATIONARY and np.all(np.abs(step) < 0.5 * radius):
             break                       # no linearized gain, not for want of room: stationary
         trial = c + step
         trial_value = on_points(trial)

@@ -564,12 +564,12 @@ def minimax(program, linear, c0, x, y, w, codes, iterations: int = 100, block_ro
     """Minimax fits of the programs from c0: first Lawson's algorithm (LAWSON_ROUNDS weighted
     least-squares fits whose weights, one per point, are multiplied by each point's error after
     every fit: a start near the minimax), then sequential linear programming (each step minimizes
-    the largest linearized error max |r + J d| within a trust region |d| <= radius, by scipy's
-    HiGHS; a step is kept where the true largest error falls, the radius doubled, else quartered).
+    the largest linearized error max |r + J d| within a trust region |d| <= radius,
+    `optics.minimax_lp`; a step is kept where the true largest error falls, the radius doubled, else quartered).
     Returns (constants, largest |value - y| w, converged: the trust region shrank below 1e-12 of
     the constants or a step gained less than 1e-12 relative). `block_rows`: the rows of the compiled
     blocks (default the search's)."""
-    from scipy.optimize import linprog
+    from ..optics.minimax_lp import linear_minimax
 
     rows, points = program.shape[0], y.size
     u = np.full((rows, points), 1.0 / points)
@@ -606,13 +606,9 @@ def minimax(program, linear, c0, x, y, w, codes, iterations: int = 100, block_ro
         r, J = np.concatenate(r), np.concatenate(J)
         trials = np.array(best_c[index])
         for k, i in enumerate(index):
-            # variables (d, t): minimize t with -t <= r + J d <= t, |d_j| <= radius_j
-            A = np.block([[J[k], -np.ones((points, 1))], [-J[k], -np.ones((points, 1))]])
-            b = np.concatenate([-r[k], r[k]])
-            bounds = [(-radius[i, j], radius[i, j]) for j in range(width)] + [(0, None)]
-            lp = linprog(np.r_[np.zeros(width), 1.0], A_ub=A, b_ub=b, bounds=bounds, method="highs")
-            if lp.status == 0:
-                trials[k] = best_c[i] + lp.x[:width]
+            solved = linear_minimax(J[k], r[k], radius[i])
+            if solved is not None:
+                trials[k] = best_c[i] + solved[1]
         largest = largest_errors(program[index], trials, x, y, w, codes)
         better = largest < best[index]
         gained = better & (best[index] - largest <= 1e-12 * best[index])

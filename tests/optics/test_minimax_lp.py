@@ -1,0 +1,90 @@
+"""The minimax step's linear program on a working set against the same program on every point."""
+
+import numpy as np
+import pytest
+from scipy.optimize import linprog
+
+from pipeline.optics import minimax_lp
+
+
+def whole_program(J, r, radius):
+    """(t, d) of the program with every point's two rows (the reference)."""
+    k = J.shape[1]
+    A = np.block([[J, -np.ones((J.shape[0], 1))], [-J, -np.ones((J.shape[0], 1))]])
+    lp = linprog(np.r_[np.zeros(k), 1.0], A_ub=A, b_ub=np.concatenate([-r, r]),
+                 bounds=[(-radius[j], radius[j]) for j in range(k)] + [(0, None)], method="highs",
+                 options=minimax_lp.HIGHS)
+    assert lp.status == 0
+    return lp.x[k], lp.x[:k]
+
+
+@pytest.fixture
+def rows_solved(monkeypatch):
+    """The number of points of every program HiGHS is given (each point two rows)."""
+    sizes = []
+    solve = minimax_lp.linprog
+
+    def counted(c, A_ub, b_ub, **kwargs):
+        sizes.append(A_ub.shape[0] // 2)
+        return solve(c, A_ub=A_ub, b_ub=b_ub, **kwargs)
+
+    monkeypatch.setattr(minimax_lp, "linprog", counted)
+    return sizes
+
+
+def test_one_variable_the_best_polynomial_of_the_whole_program(rows_solved):
+    """exp on [-1, 1] by a cubic, 4,000 points: the working set's optimum is the whole program's,
+    and its programs hold a small share of the points."""
+    x = np.cos(np.linspace(0.0, np.pi, 4000))
+    J = np.stack([x ** j for j in range(4)], axis=1)
+    r = -np.exp(x)
+    radius = np.full(4, 10.0)
+    t, d = minimax_lp.linear_minimax(J, r, radius)
+    t_all, d_all = whole_program(J, r, radius)
+    assert t == pytest.approx(t_all, rel=1e-9)
+    np.testing.assert_allclose(d, d_all, rtol=1e-7, atol=1e-9)
+    # the classical value: the best cubic to exp on [-1, 1] errs 5.53e-3 (equioscillating at 5 points)
+    assert t == pytest.approx(5.53e-3, rel=2e-3)
+    assert max(rows_solved) < 200 and sum(rows_solved) < 4000
+
+
+def test_two_variables_and_a_binding_trust_region(rows_solved):
+    """A bilinear form in two variables against exp(x y) + y on a 60 x 60 grid, once with room and
+    once with a trust region that binds (the optimum's step on its bounds)."""
+    g = np.linspace(0.0, 1.0, 60)
+    x, y = [a.ravel() for a in np.meshgrid(g, g)]
+    J = np.stack([np.ones_like(x), x, y, x * y], axis=1)
+    r = -(np.exp(x * y) + y)
+    for radius in (np.full(4, 100.0), np.array([0.01, 0.02, 0.01, 0.05])):
+        t, d = minimax_lp.linear_minimax(J, r, radius)
+        t_all, _ = whole_program(J, r, radius)
+        assert t == pytest.approx(t_all, rel=1e-9)
+        assert np.all(np.abs(d) <= radius * (1 + 1e-9))
+        assert np.max(np.abs(r + J @ d)) <= t * (1 + 1e-9)
+    assert max(rows_solved) < 600
+
+
+def test_every_template_of_the_visibility_gets_the_whole_program_s_optimum():
+    """The first step of each family template's fit at the middle roughness, from its own start,
+    on a 41 x 41 grid of (NoV, NoL)."""
+    from pipeline.approximate import parametric
+
+    target = parametric.registry()["smith_ggx_visibility"]
+    f = target.numpy()
+    symbols = target.symbols()[:2]
+    value = 0.5
+    x = parametric.variables_at(target, 41, value)
+    y = f(*x, value)
+    w = parametric.weight_of(target)(y)
+    templates = parametric.family_templates(target, parametric.is_symmetric(target, f), True)
+    assert len(templates) == 18
+    for template in templates:
+        model = parametric.Model(template.expression, symbols, parametric.constant_symbols(template.count))
+        c = template.start if not template.basis else parametric._linear_start(template, x, y, w, symbols)
+        r = w * (model(c, x) - y)
+        J = w[:, None] * model.jacobian(c, x)
+        scale = np.max(np.abs(r))
+        radius = 0.1 * (np.abs(c) + 1e-3) / scale
+        t, _ = minimax_lp.linear_minimax(J, r / scale, radius)
+        t_all, _ = whole_program(J, r / scale, radius)
+        assert t == pytest.approx(t_all, rel=1e-9), template.name
