@@ -20,6 +20,7 @@ NVIDIA_READY := $(VENV)/.nvidia
 INTEL_READY := $(VENV)/.intel
 MOBILE_READY := $(VENV)/.mesa-arm64
 SOLLYA_READY := $(VENV)/.sollya
+CHROMIUM_READY := $(VENV)/.chromium
 MESA_ARM64 := $(or $(PIPELINE_MESA_ARM64),/opt/pipeline/mesa-arm64)
 CONFIG ?= configs/paper.toml
 SET ?=
@@ -84,6 +85,21 @@ $(SOLLYA_READY): $(INSTALLED)
 	fi
 	touch $(SOLLYA_READY)
 
+# Best effort: Chromium (Debian's chromium), which Playwright drives to test the report.html pages
+# (Playwright's own browser download is not used); without it those tests say so and skip.
+$(CHROMIUM_READY): $(INSTALLED)
+	@if command -v chromium >/dev/null || command -v chromium-browser >/dev/null; then \
+		echo "Chromium found: the report pages are tested in it"; \
+	elif [ "$$(id -u)" = 0 ] && command -v apt-get >/dev/null; then \
+		echo "installing Debian's chromium for the report pages' browser tests ..."; \
+		DEBIAN_FRONTEND=noninteractive apt-get install -y -q chromium >/dev/null 2>&1 \
+		|| (apt-get update -q >/dev/null 2>&1 && DEBIAN_FRONTEND=noninteractive apt-get install -y -q chromium >/dev/null 2>&1) \
+		|| echo "chromium could not be installed: the browser tests are skipped"; \
+	else \
+		echo "no chromium and no apt-get as root: the browser tests are skipped"; \
+	fi
+	touch $(CHROMIUM_READY)
+
 # Best effort: NVIDIA's offline compiler (ptxas) and SASS disassembler from PyPI, pinned in
 # constraints.txt (NVIDIA's EULA: installed here, never held in the repository); without them the
 # NVIDIA machine code is not measured and the tests that need it say so.
@@ -132,7 +148,7 @@ refit: $(INSTALLED) $(LLVM_READY) $(RADV_READY) $(NVIDIA_READY) $(INTEL_READY) $
 # HLO, the XLA flags and the jaxlib version): a later `make test` compiles only what changed.
 # `make test TEST_XLA_CACHE=` starts each session from an empty folder of its own (as a fresh clone does).
 TEST_XLA_CACHE ?= $(CURDIR)/.cache/stages/_xla
-test: $(TEST_INSTALLED) $(LLVM_READY) $(RADV_READY) $(NVIDIA_READY) $(INTEL_READY) $(MOBILE_READY) $(SOLLYA_READY)
+test: $(TEST_INSTALLED) $(LLVM_READY) $(RADV_READY) $(NVIDIA_READY) $(INTEL_READY) $(MOBILE_READY) $(SOLLYA_READY) $(CHROMIUM_READY)
 	PIPELINE_XLA_CACHE_DIR="$(TEST_XLA_CACHE)" $(BIN)/python -m pytest -q -n 2 --dist loadfile
 
 # The numerical tests (optics, symbolic regression, the stages and the checks against the paper)

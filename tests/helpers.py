@@ -50,3 +50,63 @@ def spirv_tools_missing() -> str | None:
     except spirv.ToolMissing as e:
         return str(e)
     return None
+
+
+CHROMIUM_ARGS = ["--no-sandbox", "--disable-background-networking", "--use-angle=swiftshader",
+                 "--enable-unsafe-swiftshader"]
+
+
+def chromium_path() -> str | None:
+    """Debian's Chromium (`make test` installs it best effort), or None."""
+    import shutil
+
+    return shutil.which("chromium") or shutil.which("chromium-browser")
+
+
+class OpenedPage:
+    """A page opened from file:// in headless Chromium with the network blocked: `page` (Playwright's),
+    `requests` (every URL the page asked for), `problems` (console errors and uncaught exceptions)."""
+
+    def __init__(self, page):
+        self.page, self.requests, self.problems = page, [], []
+
+
+def open_page(path, ready: str = "body[data-ready='1']"):
+    """A context manager: `path` opened in a fresh headless Chromium profile (Playwright driving
+    the system's browser; SwiftShader's WebGL2), every request but file:// aborted, waiting for the
+    selector `ready`. Skips the test, naming what is missing, where Playwright or Chromium is absent."""
+    import contextlib
+
+    try:
+        from playwright.sync_api import sync_playwright
+    except ImportError:
+        pytest.skip("playwright is not installed: the page was not opened in a browser")
+    executable = chromium_path()
+    if executable is None:
+        pytest.skip("Chromium is not installed (apt-get install chromium): the page was not opened in a browser")
+
+    @contextlib.contextmanager
+    def opened():
+        with sync_playwright() as p:
+            browser = p.chromium.launch(executable_path=executable, args=CHROMIUM_ARGS)
+            try:
+                page = browser.new_page(viewport={"width": 1300, "height": 1000})
+                out = OpenedPage(page)
+                page.on("console", lambda m: out.problems.append(m.text) if m.type == "error" else None)
+                page.on("pageerror", lambda e: out.problems.append(str(e)))
+
+                def route(r):
+                    out.requests.append(r.request.url)
+                    if r.request.url.startswith("file://"):
+                        r.continue_()
+                    else:
+                        r.abort()
+
+                page.route("**/*", route)
+                page.goto(f"file://{path}")
+                page.wait_for_selector(ready, state="attached", timeout=30000)
+                yield out
+            finally:
+                browser.close()
+
+    return opened()

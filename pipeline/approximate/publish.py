@@ -11,6 +11,8 @@ folder renamed into place, so that a failure leaves nothing half written):
 - `results.json`: the target, the search's coverage, the fronts, each anchor's verdict per
   architecture, the cost tables, the times (estimated and measured), the members' errors;
 - `report.md`: the same in words and tables, every number a field of results.json;
+- `report.html`: the same to explore, one file that works offline (`derive_page`): the fronts per
+  GPU, each form's error curve, code, machine code and cycles, its shader running live in the page;
 - `front.png`: error against compiled cycles, one panel per vendor (its first architecture);
 - `derive.glsl`, `derive.hlsl`, `derive_twin.py`: each front member as a function of the
   target's variables (in fp16, GLSL's explicit float16_t and HLSL's half; every number the format's
@@ -29,128 +31,11 @@ from pathlib import Path
 
 from ..engine import escape
 from .executed import GAP
-from .forms import glsl, hlsl, python
-from .targets import parse
+from .shader_export import (GLSL_FLOAT16, TYPES, arguments_of, domain_text, exported, function_name,  # noqa: F401
+                            function_names, member_functions, shader_sources, shader_text)
 
 COLUMNS = ("architecture", "kind", "name", "family", "expression", "cycles", "cycles_predicted", "max_abs_error",
            "max_rel_error", "on_front", "source", "range", "parameter_per")
-TYPES = {None: ("float", "float"), "fp32": ("float", "float"), "fp16": ("float16_t", "half")}    # (GLSL, HLSL)
-GLSL_FLOAT16 = "#extension GL_EXT_shader_explicit_arithmetic_types_float16 : require"
-
-
-def domain_text(target: dict) -> str:
-    """"x in [0, 1]", or each variable's and the parameter's range."""
-    if target.get("variables"):
-        axes = target["variables"] + ([target["parameter"]] if target.get("parameter") else [])
-        return ", ".join(f"{a['name']} in [{a['lo_of'].replace('**', '^') if a.get('lo_of') else format(a['lo'], 'g')}, "
-                         f"{a['hi']:g}]" for a in axes)
-    return f"{target['variable']} in [{target['domain'][0]:g}, {target['domain'][1]:g}]"
-
-
-def shader_text(expr, arguments: str, language: str, precision: str | None = None) -> str:
-    """A form as a GLSL, HLSL or Python expression: in the one variable `arguments` (renamed to it),
-    or in its symbols' own names where `arguments` names several (comma-separated); with
-    `precision`, its numbers the format's values (`forms.in_format`), in fp16 GLSL each a float16_t
-    and HLSL each a half, so that the arithmetic stays in 16 bits."""
-    from . import forms
-    from ..isa.shaders import LITERAL, half_literals
-
-    if "," not in arguments:
-        text = {"glsl": glsl, "hlsl": hlsl, "python": python}[language](expr, arguments.strip(), precision)
-    else:
-        text = forms.printed({"glsl": forms._GLSL, "hlsl": forms._HLSL, "python": forms._Python}[language](), expr,
-                             precision)
-    if precision == "fp16" and language == "glsl":
-        return half_literals(text)
-    if precision == "fp16" and language == "hlsl":
-        return LITERAL.sub(lambda m: f"half({m.group(1)})", text)
-    return text
-
-
-def function_name(target_name: str, member: str) -> str:
-    """A member's function name in derive.glsl, derive.hlsl and derive_twin.py: an identifier made
-    from the target's and the member's names (`escape.identifier`)."""
-    return escape.identifier(f"{target_name}_{member}")
-
-
-def function_names(results) -> dict[str, str]:
-    """Each exported member's function name, distinct (a name that two members' names sanitize to
-    takes a number)."""
-    out: dict[str, str] = {}
-    for name in exported(results):
-        fn = base = function_name(results["target"]["name"], name)
-        count = 1
-        while fn in out.values() or fn + "_constants" in out.values():
-            count += 1
-            fn = f"{base}_{count}"
-        out[name] = fn
-    return out
-
-
-def exported(results) -> list[str]:
-    """The members exported as shader functions: every front's, in order of first appearance."""
-    names = []
-    for members in results["fronts"].values():
-        names += [m for m in members if m not in names]
-    return names
-
-
-def arguments_of(results, name: str) -> str:
-    """A member's arguments, comma-separated: the target's variable; a parametric target's variables
-    and its parameter (a material member: its variables and constants c0, c1, ..., which the CPU
-    computes); F0 where a pair's member computes F0 A + B."""
-    target, member = results["target"], results["members"].get(name, {})
-    if not target.get("variables"):
-        return target["variable"]
-    names = [a["name"] for a in target["variables"]]
-    if member.get("parameter_per") == "material":
-        names += [f"c{i}" for i in range(len(member.get("constants", [])))]
-    elif target.get("parameter"):
-        names.append(target["parameter"]["name"])
-    if target["variable"].endswith("F0"):
-        names.append("F0")
-    return ", ".join(names)
-
-
-def shader_sources(results) -> dict[str, str]:
-    """derive.glsl, derive.hlsl and derive_twin.py as text."""
-    target = results["target"]
-    precision = results.get("precision")
-    measured = (f"as executed in {precision} over the domain" if precision else "measured in float64 over the whole domain")
-    head = ["// " + escape.comment(f"Forms of {target['expression']} for {domain_text(target)} found by "
-                                   f"pipeline derive (error {target['metric']}, {measured})"), ""]
-    glsl_lines, hlsl_lines = list(head), list(head)
-    if precision == "fp16":
-        glsl_lines[1:1] = [GLSL_FLOAT16]
-        hlsl_lines[1:1] = ["// half: 16 bits with dxc -enable-16bit-types (min16float otherwise)"]
-    kinds = TYPES[precision]
-    py = [escape.python_string(f"Python twin of derive.glsl: the forms of {target['expression']}, for tests and plots."),
-          "", "import math  # noqa: F401", "", ""]
-    names_of = function_names(results)
-    for name in exported(results):
-        form = results["forms"][name]
-        m = results["members"][name]
-        doc = (f"{m['expression']}: max abs error {m['max_abs_error']:.4g}, max rel error {m['max_rel_error']:.4g}"
-               + (f" (as executed in {precision})" if precision else ""))
-        fn = names_of[name]
-        expression, names = form.expression, arguments_of(results, name)
-        if m.get("parameter_per") == "material":
-            # the constants are the function's arguments; the twin computes them from the formulas
-            parameter = target["parameter"]["name"]
-            values = ", ".join(python(parse(c, (parameter,)), parameter)
-                               for c in m["constants"])
-            py += [f"def {fn}_constants({parameter}):", f'    """c0, c1, ... of {fn}, once per material."""',
-                   f"    return [{values}]", "", ""]
-        for lines, language, kind in ((glsl_lines, "glsl", kinds[0]), (hlsl_lines, "hlsl", kinds[1])):
-            signature = ", ".join(f"{kind} {n.strip()}" for n in names.split(","))
-            lines += [f"// {escape.comment(doc)}", f"{kind} {fn}({signature})", "{",
-                      f"    return {shader_text(expression, names, language, precision)};", "}", ""]
-        py += [f"def {fn}({names}):", f"    {escape.python_string(doc)}",
-               f"    return {shader_text(expression, names, 'python', precision)}", "", ""]
-    return {"derive.glsl": "\n".join(glsl_lines), "derive.hlsl": "\n".join(hlsl_lines),
-            "derive_twin.py": "\n".join(py).rstrip() + "\n"}
-
-
 def _number(v):
     if v is None:
         return ""
@@ -475,12 +360,16 @@ def write(out: Path, results, log=print) -> list[Path]:
     from ..engine.cache import digest
     from ..engine.publishing import publish
 
-    names = ["front.csv", "results.json", "report.md", "front.png", "derive.glsl", "derive.hlsl", "derive_twin.py"]
+    from . import derive_page
+
+    names = ["front.csv", "results.json", "report.md", "report.html", "front.png", "derive.glsl", "derive.hlsl",
+             "derive_twin.py"]
 
     def write_all(tmp: Path) -> str:
         write_csv(tmp / "front.csv", results["rows"])
         (tmp / "results.json").write_text(json.dumps(results_json(results), indent=1))
         (tmp / "report.md").write_text(report(results))
+        derive_page.write(tmp / "report.html", results)
         figure(tmp / "front.png", results)
         for name, text in shader_sources(results).items():
             (tmp / name).write_text(text)

@@ -1,0 +1,409 @@
+// The page's code: reads the JSON island #data and draws a `pipeline derive` run's page (or the
+// paper's). Every text of the data enters the document as text (textContent), never as markup.
+(() => {
+  "use strict";
+  const data = JSON.parse(document.getElementById("data").textContent);
+  const main = document.getElementById("page");
+  const state = { arch: null, overlay: "", form: null, views: {}, live: null, errors: [] };
+  window.pageState = state;
+  window.addEventListener("error", (e) => state.errors.push(String(e.message)));
+
+  // ---- small helpers -------------------------------------------------------------------------
+  function el(tag, props, ...children) {
+    const e = document.createElement(tag);
+    for (const [k, v] of Object.entries(props || {})) {
+      if (v == null) continue;
+      if (k === "class") e.className = v;
+      else if (k === "text") e.textContent = v;
+      else if (k.startsWith("on")) e.addEventListener(k.slice(2), v);
+      else if (k === "dataset") Object.assign(e.dataset, v);
+      else e.setAttribute(k, v);
+    }
+    for (const c of children.flat(Infinity)) {
+      if (c != null) e.append(c instanceof Node ? c : document.createTextNode(String(c)));
+    }
+    return e;
+  }
+  const num = (v) => (typeof v === "number" ? v : v === "inf" ? Infinity : v === "-inf" ? -Infinity : NaN);
+  function fmt(v, digits = 4) {
+    v = num(v);
+    if (!Number.isFinite(v)) return String(v);
+    if (v === 0) return "0";
+    const a = Math.abs(v);
+    return a >= 1e-3 && a < 1e5 ? String(Number(v.toPrecision(digits))) : v.toExponential(digits - 1);
+  }
+  function facts(pairs) {
+    return el("dl", { class: "facts" }, pairs.filter((p) => p[1] != null && p[1] !== "")
+      .map(([k, v]) => [el("dt", { text: k }), el("dd", {}, v)]));
+  }
+  function table(head, rows, onPick, id) {
+    const body = el("tbody");
+    for (const row of rows) {
+      const tr = el("tr", { class: onPick ? "pick" : null, dataset: row.key ? { key: row.key } : null,
+        onclick: onPick ? () => onPick(row.key) : null });
+      for (const cell of row.cells) {
+        if (cell instanceof Node) tr.append(el("td", {}, cell));
+        else if (typeof cell === "object" && cell !== null) tr.append(el("td", { class: cell.class, text: cell.text }));
+        else tr.append(el("td", { class: typeof cell === "number" ? "num" : null, text: typeof cell === "number" ? fmt(cell) : cell }));
+      }
+      body.append(tr);
+    }
+    if (!rows.length) body.append(el("tr", {}, el("td", { colspan: head.length, class: "note", text: "(none)" })));
+    return el("table", { id }, el("thead", {}, el("tr", {}, head.map((h) => el("th", { text: h })))), body);
+  }
+  async function embed(node, spec, key) {
+    if (state.views[key]) state.views[key].finalize();
+    const result = await window.vegaEmbed(node, spec, { actions: false, renderer: "svg" });
+    state.views[key] = result.view;
+    return result.view;
+  }
+  function copyButton(getText) {
+    const b = el("button", { class: "copy", text: "copy" });
+    b.addEventListener("click", async () => {
+      const text = getText();
+      try { await navigator.clipboard.writeText(text); b.textContent = "copied"; }
+      catch (e) {
+        const area = el("textarea", {}, text);
+        document.body.append(area); area.select();
+        b.textContent = document.execCommand("copy") ? "copied" : "select and copy";
+        area.remove();
+      }
+      setTimeout(() => { b.textContent = "copy"; }, 1500);
+    });
+    return b;
+  }
+
+  // ---- the error-against-cycles front ---------------------------------------------------------
+  const SHAPES = { found: "circle", anchor: "triangle-up", exact: "diamond" };
+  function frontPoints(arch) {
+    const floor = num(data.floor) || 0;
+    return (data.rows[arch] || []).map((r) => {
+      const error = num(r.error);
+      return { ...r, arch, error, shown: Math.max(error, floor > 0 ? floor / 2 : 1e-18), shape: SHAPES[r.kind] || "square",
+        label: r.kind === "found" ? (r.on_front ? "front member" : "found") : r.kind };
+    }).filter((p) => Number.isFinite(p.error) && Number.isFinite(num(p.cycles)));
+  }
+  function frontSpec(points, floor, title, width = 640) {
+    const layers = [
+      { mark: { type: "line", point: false, interpolate: "step-after", opacity: 0.5, color: "#555" },
+        transform: [{ filter: "datum.on_front && datum.kind === 'found'" }, { calculate: "datum.arch + ' ' + datum.front", as: "series" }],
+        encoding: { x: { field: "cycles", type: "quantitative" }, y: { field: "shown", type: "quantitative" },
+          detail: { field: "series", type: "nominal" }, strokeDash: { field: "front", type: "nominal", title: "front", legend: points.some((p) => p.front) ? {} : null },
+          order: { field: "cycles" } } },
+      { mark: { type: "point", filled: true, size: 80, cursor: "pointer" }, name: "points_layer",
+        encoding: {
+          x: { field: "cycles", type: "quantitative", title: "cycles (cost model)" },
+          y: { field: "shown", type: "quantitative", scale: { type: "log" }, title },
+          color: points.some((p) => p.arch !== points[0].arch)
+            ? { field: "arch", type: "nominal", title: "architecture" }
+            : { field: "label", type: "nominal", title: "row", scale: { domain: ["front member", "found", "anchor", "exact"], range: ["#1f5fbf", "#9bb3d9", "#d9480f", "#2b8a3e"] } },
+          shape: { field: "kind", type: "nominal", title: "kind", scale: { domain: ["found", "anchor", "exact"], range: ["circle", "triangle-up", "diamond"] } },
+          opacity: { condition: { test: "datum.on_front || datum.kind !== 'found'", value: 1 }, value: 0.35 },
+          tooltip: [{ field: "name" }, { field: "kind" }, { field: "arch", title: "architecture" }, { field: "cycles" },
+            { field: "error", title: "error", format: ".4~g" }, { field: "expression" }] } },
+    ];
+    if (floor > 0) {
+      layers.push({ data: { values: [{ floor, text: "rounding floor" }] }, mark: { type: "rule", strokeDash: [4, 4], color: "#777" },
+        encoding: { y: { field: "floor", type: "quantitative" } } });
+    }
+    return { width, height: 360,
+      data: { name: "points", values: points }, layer: layers };
+  }
+
+  // ---- a derive run's page ------------------------------------------------------------------
+  function derivePage() {
+    const t = data.target;
+    const archs = data.architectures;
+    state.arch = archs.length ? archs[0].name : null;
+    main.replaceChildren();
+    main.append(el("h1", { text: data.title }));
+    main.append(facts([
+      ["expression", el("code", { text: t.expression })], ["domain", t.domain_text], ["error", data.error_label],
+      ["precision", t.precision], ["description", t.description],
+      ["rerun", el("span", {}, el("code", { text: data.command }), copyButton(() => data.command))],
+      ...data.summary,
+    ]));
+    if (data.notes.length) main.append(el("ul", { class: "note" }, data.notes.map((n) => el("li", { text: n }))));
+
+    main.append(el("h2", { text: "Error against cycles, per GPU" }));
+    const gpu = el("select", { id: "gpu" });
+    const overlay = el("select", { id: "overlay" }, el("option", { value: "", text: "none" }));
+    for (const [vendor, members] of Object.entries(groupBy(archs, (a) => a.vendor_title))) {
+      gpu.append(el("optgroup", { label: vendor }, members.map((a) => el("option", { value: a.name, text: `${a.title} (${a.name})` }))));
+      overlay.append(el("optgroup", { label: vendor }, members.map((a) => el("option", { value: a.name, text: `${a.title} (${a.name})` }))));
+    }
+    const model = el("p", { class: "note", id: "cost-model" });
+    main.append(el("div", { class: "controls" }, el("label", {}, "GPU ", gpu), el("label", {}, "overlay ", overlay)), model);
+    const plot = el("div", { id: "front-plot" });
+    const rowsBox = el("div", { class: "scroll", id: "front-rows" });
+    main.append(el("div", { class: "row" }, plot, rowsBox));
+    const formBox = el("section", { id: "form" }, el("p", { class: "note", text: "Click a point or a row to open its form." }));
+    main.append(formBox);
+    main.append(el("h2", { text: "The hand fits (anchors) against the fronts" }));
+    main.append(verdictTable());
+    if (data.special.length) {
+      main.append(el("h2", { text: "Special functions on the selected GPU" }));
+      main.append(el("div", { id: "special" }));
+    }
+
+    async function drawFront() {
+      const a = archs.find((x) => x.name === state.arch);
+      model.textContent = a ? `${a.title}: ${a.cost_model}` : "";
+      const points = frontPoints(state.arch).concat(state.overlay && state.overlay !== state.arch ? frontPoints(state.overlay) : []);
+      await embed(plot, frontSpec(points, num(data.floor), data.error_label), "front");
+      state.views.front.addEventListener("click", (ev, item) => {
+        if (item && item.datum && item.datum.name && data.forms[item.datum.name]) openForm(item.datum.name);
+      });
+      plot.dataset.points = String(points.filter((p) => p.arch === state.arch).length);
+      const rows = (data.rows[state.arch] || []).slice().sort((p, q) => num(p.cycles) - num(q.cycles));
+      rowsBox.replaceChildren(table(["name", "kind", "cycles", "error", "front"],
+        rows.map((r) => ({ key: r.name, cells: [r.name, r.kind, num(r.cycles), num(r.error), r.on_front ? "yes" : ""] })),
+        (name) => openForm(name), "front-table"));
+      const special = document.getElementById("special");
+      if (special) {
+        special.replaceChildren(table(["function", "accuracy", "source", "Mesa's own lowering"],
+          (data.special.find((s) => s.arch === state.arch) || { functions: [] }).functions.map((f) => ({
+            cells: [f.function, f.accuracy, f.source, f.mesa ? "yes: executed as such" : ""] }))));
+      }
+      if (state.form) openForm(state.form);
+    }
+    gpu.addEventListener("change", () => { state.arch = gpu.value; drawFront(); });
+    overlay.addEventListener("change", () => { state.overlay = overlay.value; drawFront(); });
+    state.selectGpu = (name) => { gpu.value = name; state.arch = name; return drawFront(); };
+    state.openForm = (name) => openForm(name);
+
+    async function openForm(name) {
+      const f = data.forms[name];
+      if (!f) return;
+      state.form = name;
+      for (const tr of document.querySelectorAll("#front-table tbody tr")) tr.classList.toggle("chosen", tr.dataset.key === name);
+      const row = (data.rows[state.arch] || []).find((r) => r.name === name);
+      formBox.replaceChildren(el("h3", { text: `${name} (${f.kind})` }));
+      formBox.append(facts([
+        ["expression", el("code", { text: f.expression })], ["source", f.source],
+        ["error as executed", row ? `${fmt(row.error)} on ${state.arch}` : "not on this GPU"],
+        ["error of its mathematics (float64)", row ? fmt(row.error_real) : null],
+        ["cycles", row ? `${fmt(row.cycles)} on ${state.arch}` : null],
+      ]));
+      const curveBox = el("div", { id: "curve" });
+      const toggles = el("div", { class: "controls" });
+      formBox.append(el("h3", { text: data.curves.title }), toggles, curveBox);
+      const shown = { anchors: false, exact: true };
+      for (const key of ["anchors", "exact"]) {
+        const box = el("input", { type: "checkbox", id: `show-${key}` });
+        box.checked = shown[key];
+        box.addEventListener("change", () => { shown[key] = box.checked; drawCurve(); });
+        toggles.append(el("label", {}, box, ` ${key === "exact" ? "the exact target as executed" : "the anchors"}`));
+      }
+      async function drawCurve() {
+        const names = [name].concat(shown.anchors ? data.anchors : [], shown.exact && data.exact ? [data.exact] : [])
+          .filter((n, i, all) => all.indexOf(n) === i && data.curves.error[n]);
+        if (data.curves.kind === "line") {
+          const values = [];
+          for (const n of names) data.curves.error[n].forEach((e, i) => values.push({ x: data.curves.x[i], error: e, form: n }));
+          await embed(curveBox, { width: 640, height: 240, data: { values },
+            mark: { type: "line", strokeWidth: 1.5 },
+            encoding: { x: { field: "x", type: "quantitative", title: data.curves.variable },
+              y: { field: "error", type: "quantitative", title: data.curves.axis },
+              color: { field: "form", type: "nominal" }, tooltip: [{ field: "form" }, { field: "x" }, { field: "error", format: ".4~g" }] } }, "curve");
+        } else {
+          const c = data.curves, values = [];
+          c.error[name].forEach((plane, k) => plane.forEach((line, i) => line.forEach((e, j) =>
+            values.push({ k, p: c.parameter.values[k], u: c.axes[0][i], v: c.axes[1][j], error: e }))));
+          await embed(curveBox, { width: 360, height: 320, data: { values },
+            params: [{ name: "k", value: Math.floor(c.parameter.values.length / 2),
+              bind: { input: "range", min: 0, max: c.parameter.values.length - 1, step: 1, name: `${c.parameter.name} (index of ${c.parameter.values.map((v) => fmt(v, 3)).join(", ")}) ` } }],
+            transform: [{ filter: "datum.k == k" }],
+            mark: "rect",
+            encoding: { x: { field: "u", type: "ordinal", title: c.names[0], axis: { format: ".2f", labelOverlap: true } },
+              y: { field: "v", type: "ordinal", title: c.names[1], sort: "descending", axis: { format: ".2f", labelOverlap: true } },
+              color: { field: "error", type: "quantitative", title: c.axis, scale: { scheme: "redblue", domainMid: 0, reverse: true } },
+              tooltip: [{ field: "p", title: c.parameter.name }, { field: "u", title: c.names[0] }, { field: "v", title: c.names[1] }, { field: "error", format: ".4~g" }] } }, "curve");
+        }
+      }
+      await drawCurve();
+      // the code, as derive.glsl, derive.hlsl and derive_twin.py hold it
+      const code = el("pre", { id: "code" });
+      const tabs = el("div", { class: "tabs" });
+      let language = "glsl";
+      const showCode = () => {
+        code.textContent = f.code[language] || "(not exported: only front members, anchors and the exact target have code here)";
+        for (const b of tabs.querySelectorAll("button[data-language]")) b.classList.toggle("on", b.dataset.language === language);
+      };
+      for (const [key, label] of [["glsl", "GLSL"], ["hlsl", "HLSL"], ["python", "Python"]]) {
+        tabs.append(el("button", { text: label, dataset: { language: key }, onclick: () => { language = key; showCode(); } }));
+      }
+      tabs.append(copyButton(() => code.textContent));
+      formBox.append(el("h3", { text: "Code" }), tabs, code);
+      showCode();
+      formBox.append(el("h3", { text: `Machine code on ${state.arch} (the listing its cycles were counted from)` }),
+        el("pre", { id: "listing", text: (f.listing && f.listing[state.arch]) || "(no listing kept for this GPU)" }));
+      formBox.append(el("h3", { text: "Cycles on every GPU of the run" }),
+        table(["GPU", "cycles"], archs.filter((a) => f.cycles[a.name] != null).map((a) => ({ cells: [`${a.title} (${a.name})`, num(f.cycles[a.name])] }))));
+      formBox.append(el("h3", { text: "Live: the shader in this browser (WebGL2)" }));
+      live(formBox, name);
+    }
+    return drawFront();
+  }
+  function groupBy(items, key) {
+    const out = {};
+    for (const i of items) (out[key(i)] = out[key(i)] || []).push(i);
+    return out;
+  }
+  function verdictTable() {
+    const anchors = data.verdict_columns;
+    return table(["GPU"].concat(anchors), data.architectures.map((a) => ({ cells: [`${a.title} (${a.name})`].concat(anchors.map((n) => {
+      const v = (data.verdicts[a.name] || {})[n];
+      return v ? { class: v.verdict, text: `${v.verdict} ${fmt(v.ratio, 3)}x${v.by ? ` by ${v.by}` : ""}` } : "";
+    })) })), null, "verdicts");
+  }
+
+  // ---- the live shader ----------------------------------------------------------------------
+  const VERTEX = "#version 300 es\nvoid main() { vec2 p = vec2(gl_VertexID == 1 ? 3.0 : -1.0, gl_VertexID == 2 ? 3.0 : -1.0); gl_Position = vec4(p, 0.0, 1.0); }";
+  function compile(gl, fragment) {
+    const program = gl.createProgram();
+    for (const [type, text] of [[gl.VERTEX_SHADER, VERTEX], [gl.FRAGMENT_SHADER, fragment]]) {
+      const s = gl.createShader(type);
+      gl.shaderSource(s, text);
+      gl.compileShader(s);
+      if (!gl.getShaderParameter(s, gl.COMPILE_STATUS)) throw new Error(gl.getShaderInfoLog(s));
+      gl.attachShader(program, s);
+    }
+    gl.linkProgram(program);
+    if (!gl.getProgramParameter(program, gl.LINK_STATUS)) throw new Error(gl.getProgramInfoLog(program));
+    return program;
+  }
+  function runShader(gl, fragment, width, height, uniforms) {
+    const program = compile(gl, fragment);
+    const texture = gl.createTexture();
+    gl.bindTexture(gl.TEXTURE_2D, texture);
+    gl.texImage2D(gl.TEXTURE_2D, 0, gl.RGBA32F, width, height, 0, gl.RGBA, gl.FLOAT, null);
+    const fbo = gl.createFramebuffer();
+    gl.bindFramebuffer(gl.FRAMEBUFFER, fbo);
+    gl.framebufferTexture2D(gl.FRAMEBUFFER, gl.COLOR_ATTACHMENT0, gl.TEXTURE_2D, texture, 0);
+    gl.viewport(0, 0, width, height);
+    gl.useProgram(program);
+    for (const [k, v] of Object.entries(uniforms)) gl.uniform1f(gl.getUniformLocation(program, k), v);
+    gl.drawArrays(gl.TRIANGLES, 0, 3);
+    const out = new Float32Array(width * height * 4);
+    gl.readPixels(0, 0, width, height, gl.RGBA, gl.FLOAT, out);
+    return out;
+  }
+  function live(box, name) {
+    const L = data.live;
+    const f = data.forms[name];
+    state.live = null;
+    if (!L || !f.gles) {
+      box.append(el("p", { class: "note", id: "live-note", text: (L && L.why) || "This form has no GLSL ES function to run." }));
+      return;
+    }
+    const gl = document.createElement("canvas").getContext("webgl2");
+    if (!gl || !gl.getExtension("EXT_color_buffer_float")) {
+      box.append(el("p", { class: "note", id: "live-note", text: "WebGL2 with float render targets is not available in this browser: the live shader is not shown (the rest of the page works)." }));
+      return;
+    }
+    const head = "#version 300 es\nprecision highp float;\nprecision highp int;\nout vec4 color;\n";
+    try {
+      if (L.kind === "line") {
+        const fragment = head + "uniform float lo;\nuniform float hi;\nuniform float count;\n" + f.gles + "\n" + (L.exact || "") +
+          `\nvoid main() {\n  float ${L.variable} = lo + (hi - lo) * floor(gl_FragCoord.x) / (count - 1.0);\n` +
+          `  color = vec4(${f.call}, ${L.exact ? L.exact_call : "0.0"}, ${L.variable}, 1.0);\n}\n`;
+        const out = runShader(gl, fragment, L.count, 1, { lo: L.lo, hi: L.hi, count: L.count });
+        const x = [], form = [], exact = [];
+        for (let i = 0; i < L.count; i++) { form.push(out[4 * i]); exact.push(out[4 * i + 1]); x.push(out[4 * i + 2]); }
+        state.live = { name, x, form, exact };
+        const canvas = el("canvas", { class: "live", id: "live", width: 640, height: 260 });
+        box.append(canvas, el("p", { class: "note", text: `The form (blue) and the exact target (grey) computed by this browser's GPU at ${L.count} points; below, their difference (red, own scale: largest ${fmt(Math.max(...form.map((v, i) => Math.abs(v - exact[i]))))}).` }));
+        drawLine(canvas, x, form, exact, Boolean(L.exact));
+      } else {
+        const canvas = el("canvas", { class: "live", id: "live", width: 3 * L.size + 40, height: L.size + 24 });
+        const slider = el("input", { type: "range", min: L.parameter.lo, max: L.parameter.hi, step: (L.parameter.hi - L.parameter.lo) / 200, value: L.parameter.middle, id: "live-parameter" });
+        const label = el("span");
+        box.append(el("div", { class: "controls" }, el("label", {}, `${L.parameter.name} `, slider, label)), canvas,
+          el("p", { class: "note" }, `Left: the form; middle: the exact target (grey levels: one scale for both); right: their ${L.relative ? "relative " : ""}difference (red above, blue below, full colour at its largest, `,
+            el("span", { id: "live-scale" }), `), over ${L.names[0]} (across) and ${L.names[1]} (up), computed by this browser's GPU.`));
+        const draw = () => {
+          const p = Number(slider.value);
+          label.textContent = ` = ${fmt(p, 3)}`;
+          const fragment = head + "uniform float size;\n" + f.gles + "\n" + (L.exact || "") +
+            `\nvoid main() {\n  float ${L.names[0]} = ${L.lo[0]} + (${L.hi[0]} - ${L.lo[0]}) * (gl_FragCoord.x - 0.5) / (size - 1.0);\n` +
+            `  float ${L.names[1]} = ${L.lo[1]} + (${L.hi[1]} - ${L.lo[1]}) * (gl_FragCoord.y - 0.5) / (size - 1.0);\n` +
+            `  float ${L.parameter.name} = float(${p.toExponential(8)});\n` +
+            `  color = vec4(${f.call}, ${L.exact ? L.exact_call : "0.0"}, 0.0, 1.0);\n}\n`;
+          const out = runShader(gl, fragment, L.size, L.size, { size: L.size });
+          state.live = { name, parameter: p, values: out };
+          drawHeat(canvas, out, L);
+        };
+        slider.addEventListener("input", draw);
+        draw();
+      }
+    } catch (e) {
+      box.append(el("p", { class: "note", id: "live-note", text: `The shader did not compile in this browser: ${e.message}` }));
+    }
+  }
+  function drawLine(canvas, x, form, exact, withExact) {
+    const g = canvas.getContext("2d");
+    const w = canvas.width, h = canvas.height, top = 160;
+    const all = form.concat(withExact ? exact : []).filter(Number.isFinite);
+    const lo = Math.min(...all), hi = Math.max(...all);
+    const X = (i) => 30 + (w - 40) * i / (x.length - 1);
+    const Y = (v) => 10 + (top - 20) * (1 - (v - lo) / ((hi - lo) || 1));
+    g.clearRect(0, 0, w, h);
+    const curve = (values, color, y) => {
+      g.strokeStyle = color; g.lineWidth = 1.5; g.beginPath();
+      values.forEach((v, i) => (i ? g.lineTo(X(i), y(v)) : g.moveTo(X(i), y(v))));
+      g.stroke();
+    };
+    if (withExact) curve(exact, "#999", Y);
+    curve(form, "#1f5fbf", Y);
+    if (withExact) {
+      const d = form.map((v, i) => v - exact[i]);
+      const m = Math.max(...d.map(Math.abs)) || 1;
+      g.strokeStyle = "#ddd"; g.beginPath(); g.moveTo(30, top + 45); g.lineTo(w - 10, top + 45); g.stroke();
+      curve(d, "#c0392b", (v) => top + 45 - 40 * v / m);
+    }
+  }
+  function drawHeat(canvas, out, L) {
+    const g = canvas.getContext("2d");
+    const n = L.size;
+    g.clearRect(0, 0, canvas.width, canvas.height);
+    const image = (k) => g.createImageData(n, n);
+    const finite = [];
+    for (let i = 0; i < n * n; i++) { if (Number.isFinite(out[4 * i + 1])) finite.push(out[4 * i + 1]); if (Number.isFinite(out[4 * i])) finite.push(out[4 * i]); }
+    finite.sort((a, b) => a - b);
+    const lo = finite[0], hi = finite[Math.floor(0.99 * (finite.length - 1))];
+    const panels = [image(0), image(1), image(2)];
+    // the difference's colour saturates at its largest value over the image (stated under it)
+    let scale = 0;
+    for (let i = 0; i < n * n; i++) {
+      const d = (out[4 * i] - out[4 * i + 1]) / (L.relative ? Math.max(Math.abs(out[4 * i + 1]), 1e-30) : 1);
+      if (Number.isFinite(d)) scale = Math.max(scale, Math.abs(d));
+    }
+    scale = scale || 1;
+    const note = document.getElementById("live-scale");
+    if (note) note.textContent = fmt(scale);
+    for (let row = 0; row < n; row++) {
+      for (let col = 0; col < n; col++) {
+        const i = row * n + col, j = ((n - 1 - row) * n + col) * 4;
+        const a = out[4 * i], b = out[4 * i + 1];
+        for (const [k, v] of [[0, a], [1, b]]) {
+          const s = Math.max(0, Math.min(1, (v - lo) / ((hi - lo) || 1))) * 255;
+          panels[k].data.set([s, s, s, 255], j);
+        }
+        let d = L.exact ? (a - b) / (L.relative ? Math.max(Math.abs(b), 1e-30) : 1) / scale : 0;
+        d = Math.max(-1, Math.min(1, d));
+        panels[2].data.set(d >= 0 ? [255, 255 * (1 - d), 255 * (1 - d), 255] : [255 * (1 + d), 255 * (1 + d), 255, 255], j);
+      }
+    }
+    panels.forEach((p, k) => { if (k < 2 || L.exact) g.putImageData(p, 10 + k * (n + 10), 12); });
+  }
+
+  // ---- start ----------------------------------------------------------------------------------
+  Promise.resolve().then(() => (data.kind === "derive" ? derivePage() : null))
+    .then(() => { document.body.dataset.ready = "1"; })
+    .catch((e) => {
+      state.errors.push(String(e));
+      main.append(el("pre", { text: `The page could not be drawn: ${e}` }));
+      console.error(e);
+    });
+})();
