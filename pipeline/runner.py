@@ -24,7 +24,7 @@ from pathlib import Path
 from types import MappingProxyType
 from typing import Any
 
-from .engine import checks as checks_mod, faults, graph, paths, toolchains
+from .engine import checks as checks_mod, faults, graph, paths, toolchains, web_page
 from .engine.cache import PARSING, XLA, Cache, DamagedEntry, Memo, code_hash, digest, direct_imports, stage_key
 from .engine.config import Config
 from .engine.publishing import output_lock, publish
@@ -261,7 +261,8 @@ def _outputs_key(config: Config, keys: dict[str, str], baseline: RunOutcome | No
                                           "pipeline.publish.report",
                                           "pipeline.publish.results", "pipeline.publish.shader",
                                           "pipeline.publish.tables", "pipeline.publish.summary",
-                                          "pipeline.engine.checks"))
+                                          "pipeline.publish.paper_page", "pipeline.engine.web_page",
+                                          "pipeline.engine.checks")) + web_page.assets_digest()
     return digest("outputs", keys, baseline.keys if baseline else None, dict(config.values), config.source,
                   json.dumps([dataclasses.asdict(e) for e in config.expectations], sort_keys=True, default=str),
                   code)
@@ -302,7 +303,7 @@ def run_derivation(config: Config, cache_dir: Path = paths.CACHE, outputs: Path 
 
 
 def _write_outputs(tmp: Path, config, results, keys, checks, baseline, drawer) -> str:
-    from .publish import report, results as results_mod, shader, summary, tables
+    from .publish import paper_page, report, results as results_mod, shader, summary, tables
 
     doc = results_mod.write(tmp / "results.json", config, keys, results, checks)
     drawn = drawer.collect(tmp, results, keys)
@@ -314,4 +315,5 @@ def _write_outputs(tmp: Path, config, results, keys, checks, baseline, drawer) -
         shader.write(tmp, config, results, keys)
         top = summary.write(tmp / "summary.md", config, results)
         report.write(tmp / "report.md", config, doc, results, checks, drawn, baseline, top)
+        paper_page.write(tmp / "report.html", config, doc, results, checks, drawn)
     return f"{sum(len(v) for v in drawn.values())} figures, report.md, results.json"

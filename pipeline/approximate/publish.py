@@ -375,5 +375,8 @@ def write(out: Path, results, log=print) -> list[Path]:
             (tmp / name).write_text(text)
         return f"{len(results['rows'])} rows"
 
-    publish(out, digest("derive", json.dumps(results_json(results), sort_keys=True)), lambda s: None, write_all)
+    from ..engine.web_page import assets_digest
+
+    publish(out, digest("derive", json.dumps(results_json(results), sort_keys=True), assets_digest()), lambda s: None,
+            write_all)
     return [out / n for n in names]

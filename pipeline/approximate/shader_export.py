@@ -98,9 +98,13 @@ def member_functions(results, name: str, fn: str | None = None) -> dict[str, str
     form = results["forms"][name]
     m = results["members"][name]
     fn = fn or function_names(results).get(name) or function_name(target["name"], name)
-    doc = (f"{m['expression']}: max abs error {m['max_abs_error']:.4g}, max rel error {m['max_rel_error']:.4g}"
-           + (f" (as executed in {precision})" if precision else ""))
     expression, names = form.expression, arguments_of(results, name)
+    # the form with the constants that were executed (a material member's formulas, computed on the
+    # CPU in float64, as the twin computes them)
+    written = m["expression"] if m.get("parameter_per") == "material" else shader_text(expression, names, "python",
+                                                                                          precision)
+    doc = (f"{written}: max abs error {m['max_abs_error']:.4g}, max rel error {m['max_rel_error']:.4g}"
+           + (f" (as executed in {precision})" if precision else ""))
     out = {}
     for language, kind in (("glsl", kinds[0]), ("hlsl", kinds[1])):
         signature = ", ".join(f"{kind} {n.strip()}" for n in names.split(","))

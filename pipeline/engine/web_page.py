@@ -44,6 +44,20 @@ def vega_bundle() -> str:
     return bundle
 
 
+def assets_digest() -> str:
+    """A digest of what every page holds besides its data: the page's code and style and the Vega
+    bundle's version (an output folder keyed on it is written again when they change)."""
+    import hashlib
+
+    import vl_convert
+
+    h = hashlib.sha256()
+    for name in ("page.js", "page.css"):
+        h.update((ASSETS / name).read_bytes())
+    h.update(f"{vl_convert.get_vega_version()} {vl_convert.get_vega_embed_version()}".encode())
+    return h.hexdigest()
+
+
 def _finite(value):
     """`value` with every float that JSON cannot hold (inf, nan) as a string ("inf", "-inf", "nan")."""
     if isinstance(value, float) and not math.isfinite(value):

@@ -184,6 +184,17 @@ def test_pipeline_derive_on_schlick(schlick_runs):
         # (the twin holds the constants as executed, float32; the expression the float64 ones to 9 digits: terms
         # of size 1 differ by float32 rounding, a few 2^-24, which cancelling terms leave as an absolute difference)
         np.testing.assert_allclose(got, value, rtol=1e-6, atol=2e-7)
+    # each function's comment shows the constants its body executes (float32: the same value)
+    import re
+    number = re.compile(r"(?<![\w.])\d+\.\d+(?:e[-+]?\d+)?")
+    lines = (out / "derive.glsl").read_text().splitlines()
+    bodies = [i for i, line in enumerate(lines) if line.startswith("    return ")]
+    assert bodies
+    for i in bodies:
+        comment = lines[i - 3].split(": max abs error")[0]
+        shown = [np.float32(float(v)) for v in number.findall(comment) if float(v) not in (1.0, 2.0)]
+        executed = [np.float32(float(v)) for v in number.findall(lines[i]) if float(v) not in (1.0, 2.0)]
+        assert sorted(shown) == sorted(executed), (lines[i - 3], lines[i])
     from tests.approximate.test_targets_and_forms import _validator
     validator = _validator()
     if validator is None:

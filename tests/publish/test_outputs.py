@@ -248,3 +248,40 @@ def test_a_figure_is_drawn_once_to_be_saved(tmp_path, tight):
     plain.savefig(tmp_path / "plain.png", dpi=110, pil_kwargs=plots.FAST_PNG)
     plt.close(plain)
     assert (tmp_path / "saved.png").read_bytes() == (tmp_path / "plain.png").read_bytes()
+
+
+def test_the_paper_s_report_html_opens_offline_in_a_browser(paper_outputs):
+    """outputs/paper/report.html from file:// in headless Chromium, the network blocked: under 12 MB,
+    nothing asked for outside the file, no console error; the checks table holds results.json's
+    checks and its filter shows each verdict's; a decision cell opens that architecture's and range's
+    lobe front, whose points are the lobe search's candidates and placed lobes there."""
+    import json
+
+    from tests.helpers import open_page
+
+    out = paper_outputs[0] / "paper"
+    page_path = out / "report.html"
+    assert page_path.stat().st_size < 12e6
+    doc = json.loads((out / "results.json").read_text())
+    with open_page(page_path) as opened:
+        page = opened.page
+        assert page.locator("#checks-table tbody tr").count() == len(doc["checks"])
+        differs = sum(c["verdict"] == "differs (documented)" for c in doc["checks"])
+        if differs:
+            page.evaluate("pageState.filterChecks('differs (documented)')")
+            assert page.locator("#checks-table tbody tr").count() == differs
+        cells = page.locator("#decision-table a.cell")
+        if doc["stages"]["decision"]["available"] and cells.count():
+            cell = cells.nth(cells.count() - 1)
+            arch, n_range = cell.get_attribute("data-arch"), cell.get_attribute("data-range")
+            cell.click()
+            page.wait_for_function(f"document.getElementById('front-plot').dataset.range === {json.dumps(n_range)}"
+                                   f" && document.getElementById('front-plot').dataset.arch === {json.dumps(arch)}")
+            search = doc["stages"]["lobe_search"]
+            lo, hi = (float(v) for v in n_range.removeprefix("n in [").removesuffix("]").split(", "))
+            inside = [c for c in search["candidates"] + search["placements"]
+                      if c["architecture"] == arch and c["n_range"] == [lo, hi]]
+            assert int(page.locator("#front-plot").get_attribute("data-points")) == len(inside)
+        assert page.locator("img.figure").count() >= 10
+        assert opened.problems == [] and page.evaluate("pageState.errors") == []
+        assert all(u.startswith("file://") for u in opened.requests)

@@ -258,6 +258,113 @@
     })) })), null, "verdicts");
   }
 
+
+  // ---- the paper's page -----------------------------------------------------------------------
+  function paperPage() {
+    main.replaceChildren(el("h1", { text: data.title }), facts(data.summary));
+    // the checks, filterable
+    main.append(el("h2", { text: "Checks against the paper" }));
+    const verdicts = ["all"].concat([...new Set(data.checks.map((c) => c.verdict === "pass" ? `pass (${c.held})` : c.verdict))]);
+    const filter = el("select", { id: "check-filter" }, verdicts.map((v) => el("option", { value: v, text: v })));
+    const checksBox = el("div", { id: "checks" });
+    main.append(el("div", { class: "controls" }, el("label", {}, "show ", filter)), checksBox);
+    const drawChecks = () => {
+      const shown = data.checks.filter((c) => filter.value === "all" || filter.value === (c.verdict === "pass" ? `pass (${c.held})` : c.verdict));
+      checksBox.replaceChildren(table(["id", "quantity", "paper", "reproduced", "tolerance", "verdict", "why"],
+        shown.map((c) => ({ key: c.id, cells: [c.id, c.quantity, c.paper, c.reproduced, c.tolerance, { class: c.verdict === "pass" ? "pass" : c.verdict === "FAIL" ? "missed" : "matched", text: c.verdict === "pass" ? `pass (${c.held})` : c.verdict }, c.reason] })),
+        null, "checks-table"));
+      checksBox.dataset.rows = String(shown.length);
+    };
+    filter.addEventListener("change", drawChecks);
+    drawChecks();
+    state.filterChecks = (v) => { filter.value = v; drawChecks(); };
+
+    // the decision: per architecture and n range, for the chosen use, n per and precision
+    main.append(el("h2", { text: "The decision per GPU and n range" }));
+    const D = data.decision;
+    if (!D.available) main.append(el("p", { class: "note", text: `Not decided: ${D.reason}` }));
+    main.append(el("p", { class: "note", text: D.rule }));
+    const pick = {};
+    const controls = el("div", { class: "controls" });
+    for (const key of ["use", "n_per", "precision"]) {
+      const values = [...new Set(D.rows.map((r) => r[key]))];
+      const s = el("select", { id: `decision-${key}` }, values.map((v) => el("option", { value: v, text: v })));
+      pick[key] = s;
+      s.addEventListener("change", () => drawDecision());
+      controls.append(el("label", {}, `${key.replace("_", " ")} `, s));
+    }
+    const decisionBox = el("div", { id: "decision" });
+    main.append(controls, decisionBox, el("p", { class: "note", text: "Click a cell to open that range's lobe front below." }));
+    const drawDecision = () => {
+      const rows = D.rows.filter((r) => ["use", "n_per", "precision"].every((k) => r[k] === pick[k].value));
+      const ranges = [...new Set(rows.map((r) => r.range))];
+      const archs = data.architectures.filter((a) => rows.some((r) => r.architecture === a.name));
+      const body = archs.map((a) => ({ cells: [`${a.title} (${a.name})`].concat(ranges.map((range) => {
+        const r = rows.find((x) => x.architecture === a.name && x.range === range);
+        if (!r) return "";
+        return el("a", { href: "#lobe", class: "cell", dataset: { arch: a.name, range }, text: r.winner ? `${r.winner} (${fmt(r.cycles)} cycles, max d ${fmt(100 * r.d, 3)} %)` : "none qualifies", title: r.reason,
+          onclick: (ev) => { ev.preventDefault(); showLobe(a.name, range); } });
+      })) }));
+      decisionBox.replaceChildren(table(["GPU"].concat(ranges), body, null, "decision-table"));
+    };
+    drawDecision();
+
+    // the lobe search's fronts
+    main.append(el("h2", { id: "lobe", text: "The lobe search's fronts: max d against compiled cycles" }));
+    const gpu = el("select", { id: "lobe-gpu" });
+    for (const [vendor, members] of Object.entries(groupBy(data.architectures, (a) => a.vendor_title))) {
+      gpu.append(el("optgroup", { label: vendor }, members.map((a) => el("option", { value: a.name, text: `${a.title} (${a.name})` }))));
+    }
+    const range = el("select", { id: "lobe-range" }, data.ranges.map((r) => el("option", { value: r, text: r })));
+    const plot = el("div", { id: "front-plot" });
+    const rowsBox = el("div", { class: "scroll", id: "front-rows" });
+    main.append(el("div", { class: "controls" }, el("label", {}, "GPU ", gpu), el("label", {}, "range ", range)), el("div", { class: "row" }, plot, rowsBox));
+    async function showLobe(arch, r) {
+      if (arch) gpu.value = arch;
+      if (r) range.value = r;
+      state.arch = gpu.value; state.range = range.value;
+      const points = ((data.fronts[state.arch] || {})[state.range] || []).map((p) => ({ ...p, arch: state.arch,
+        error: num(p.error), shown: Math.max(num(p.error), 1e-16), label: p.kind === "found" ? (p.on_front ? "front member" : "found") : p.kind }))
+        .filter((p) => Number.isFinite(p.error));
+      await embed(plot, frontSpec(points, 0, "max d (relative error in the epicenter zone)"), "front");
+      plot.dataset.points = String(points.length);
+      plot.dataset.arch = state.arch; plot.dataset.range = state.range;
+      rowsBox.replaceChildren(table(["name", "kind", "cycles", "max d", "front"],
+        points.slice().sort((p, q) => p.cycles - q.cycles).map((p) => ({ cells: [p.name, p.kind, p.cycles, p.error, p.on_front ? "yes" : ""] })), null, "front-table"));
+    }
+    gpu.addEventListener("change", () => showLobe());
+    range.addEventListener("change", () => showLobe());
+    state.showLobe = showLobe;
+
+    // figures: coef(n) redrawn, the others as the run drew them
+    main.append(el("h2", { text: "Figures" }));
+    const pending = [showLobe()];
+    if (data.coef) {
+      const box = el("div", { id: "coef-plot" });
+      main.append(el("h3", { text: "Fig. 10, redrawn: the ideal normalization y(n), the sample, the fitted coef(n), and each line over y(n) - 1" }), box);
+      const values = [];
+      for (const c of data.coef.curves) c.n.forEach((n, i) => values.push({ n, coef: c.coef[i], residual: c.residual ? c.residual[i] : null, series: c.name }));
+      const sample = data.coef.sample.n.map((n, i) => ({ n, coef: data.coef.sample.y[i], series: "sample" }));
+      pending.push(embed(box, { vconcat: [
+        { width: 640, height: 220, layer: [
+          { data: { values }, mark: { type: "line" }, encoding: { x: { field: "n", type: "quantitative", scale: { type: "log" } },
+            y: { field: "coef", type: "quantitative", scale: { type: "log" }, title: "coef(n) (1/sr)" }, color: { field: "series", type: "nominal", title: "" },
+            tooltip: [{ field: "series" }, { field: "n", format: ".4~g" }, { field: "coef", format: ".6~g" }] } },
+          { data: { values: sample }, mark: { type: "point", filled: true, size: 25, color: "#222" },
+            encoding: { x: { field: "n", type: "quantitative" }, y: { field: "coef", type: "quantitative" }, tooltip: [{ field: "n" }, { field: "coef", format: ".6~g" }] } }] },
+        { width: 640, height: 160, data: { values }, transform: [{ filter: "datum.residual !== null" }], mark: { type: "line" },
+          encoding: { x: { field: "n", type: "quantitative", scale: { type: "log" } },
+            y: { field: "residual", type: "quantitative", title: "over y(n) - 1 (%), > 0: energy created" },
+            color: { field: "series", type: "nominal", title: "" }, tooltip: [{ field: "series" }, { field: "n", format: ".4~g" }, { field: "residual", format: ".3~g" }] } },
+      ] }, "coef"));
+    }
+    for (const image of data.images) {
+      main.append(el("figure", {}, el("img", { class: "figure", alt: image.caption, src: `data:image/png;base64,${image.png}` }),
+        el("figcaption", { class: "note", text: `${image.file}: ${image.caption}` })));
+    }
+    return Promise.all(pending);
+  }
+
   // ---- the live shader ----------------------------------------------------------------------
   const VERTEX = "#version 300 es\nvoid main() { vec2 p = vec2(gl_VertexID == 1 ? 3.0 : -1.0, gl_VertexID == 2 ? 3.0 : -1.0); gl_Position = vec4(p, 0.0, 1.0); }";
   function compile(gl, fragment) {
@@ -399,7 +506,7 @@
   }
 
   // ---- start ----------------------------------------------------------------------------------
-  Promise.resolve().then(() => (data.kind === "derive" ? derivePage() : null))
+  Promise.resolve().then(() => (data.kind === "derive" ? derivePage() : data.kind === "paper" ? paperPage() : null))
     .then(() => { document.body.dataset.ready = "1"; })
     .catch((e) => {
       state.errors.push(String(e));

@@ -1,0 +1,163 @@
+"""report.html of the paper's run: the page's data (`engine.web_page` draws it in the browser).
+The checks against the paper (filterable by verdict and by how each holds); the decision per
+architecture and n range, each cell opening that range's lobe front; the lobe search's fronts per
+architecture and range (its families' members against compiled cycles, the registry's lobes
+placed); the coef(n) fit and the albedo redrawn as plots; every other figure of the run as an
+image inside the file. Every number from the run's results.
+"""
+
+from __future__ import annotations
+
+import base64
+import math
+from pathlib import Path
+
+import numpy as np
+
+COEF_POINTS = 400           # n values of the coef(n) plot's curves (log-spaced)
+
+
+def _num(v):
+    v = float(v)
+    return v if math.isfinite(v) else ("inf" if v > 0 else "-inf" if v < 0 else "nan")
+
+
+def _range_text(r) -> str:
+    return f"n in [{r[0]:g}, {r[1]:g}]"
+
+
+def _text(value) -> str:
+    """A check's value as a table shows it: numbers to 6 digits, a list's first six and how many more."""
+    if value is None:
+        return "-"
+    if isinstance(value, bool):
+        return str(value).lower()
+    if isinstance(value, float | int):
+        return f"{value:.6g}"
+    if isinstance(value, list | tuple | np.ndarray):
+        values = [_text(v) for v in list(value)]
+        return ", ".join(values[:6]) + (f", ... ({len(values)} values)" if len(values) > 6 else "")
+    return str(value)
+
+
+def _checks(checks) -> list[dict]:
+    """Each check as report.md's table has it, and how a pass holds (independently or by construction)."""
+    out = []
+    for c in checks:
+        e = c.expectation
+        held = ("independently" if e.agreement == "independent" else "by construction") if c.verdict == "pass" else ""
+        out.append(dict(id=e.id, quantity=e.quantity, paper=_text(e.paper), reproduced=_text(c.reproduced),
+                        tolerance=("<= paper + " if e.compare == "at_most" else "± ") + f"{e.tolerance:.3g}",
+                        verdict=c.verdict, held=held, reason=e.known_difference or e.reason or ""))
+    return out
+
+
+def _architectures(names) -> list[dict]:
+    from ..isa.architectures import ARCHITECTURES, VENDORS
+    from ..isa.machine_code import backend
+
+    return [dict(name=a, title=ARCHITECTURES[a].title, vendor=ARCHITECTURES[a].vendor,
+                 vendor_title=VENDORS[ARCHITECTURES[a].vendor], cost_model=backend(a).UNIT)
+            for a in ARCHITECTURES if a in names]
+
+
+def _lobe_fronts(r) -> dict:
+    """{architecture: {range text: [point]}}: the lobe search's members (kind found) and the registry's
+    lobes placed on the front (kind anchor), their max d against compiled cycles."""
+    search = r.get("lobe_search") or {}
+    out: dict = {}
+    for c in search.get("candidates", []):
+        key = _range_text(c["n_range"])
+        name = c.get("grammar") or c["family"]
+        out.setdefault(c["architecture"], {}).setdefault(key, []).append(dict(
+            name=name, kind="found", cycles=_num(c["cycles"]), error=_num(c["d"]), on_front=bool(c["on_front"]),
+            expression=str(c.get("formula") or c.get("expression") or name), front=""))
+    for p in search.get("placements", []):
+        key = _range_text(p["n_range"])
+        out.setdefault(p["architecture"], {}).setdefault(key, []).append(dict(
+            name=p["label"], kind="exact" if p["lobe"] == "f_b" else "anchor", cycles=_num(p["cycles"]), error=_num(p["d"]), on_front=bool(p["on_front"]),
+            expression=p["lobe"], front=""))
+    return out
+
+
+def _decision(r) -> dict:
+    decision = r.get("decision") or {}
+    rows = []
+    for t in decision.get("table", []):
+        rows.append(dict(architecture=t["architecture"], range=_range_text(t["n_range"]), use=t["use"], n_per=t["n_per"],
+                         precision=t["precision"], winner=t.get("winner") or "", runner_up=t.get("runner_up") or "",
+                         reason=t.get("reason") or "",
+                         cycles=_num(t["winner_cycles"]) if t.get("winner_cycles") is not None else None,
+                         d=_num(t["winner_d"]) if t.get("winner_d") is not None else None))
+    return dict(available=bool(decision.get("available")), reason=decision.get("reason") or "",
+                rule=decision.get("rule") or "", rows=rows)
+
+
+def _coef_plot(config, r) -> dict | None:
+    """Fig. 10 as data: the ideal normalization y(n) (at COEF_POINTS log-spaced n), the sample, the
+    run's fit, the coef the run uses, the paper's 0.214 (0.807 + n), and each line's relative
+    residual against y(n) (> 0: energy created)."""
+    from ..engine.exponents import n_range
+
+    if not all(k in r for k in ("energy_dataset", "sparse_regression", "hemispherical", "sample")):
+        return None
+    n_all = n_range(config.values)
+    y_all = np.asarray(r["energy_dataset"]["y"], dtype=np.float64)
+    keep = np.unique(np.geomspace(1, n_all.size, min(COEF_POINTS, n_all.size)).astype(int) - 1)
+    n, y = n_all[keep], y_all[keep]
+    s, h = r["sparse_regression"], r["hemispherical"]
+    lines = [(f"fit {s['coef_scale']:.6f} ({s['coef_offset']:.6f} + n)", s["coef_scale"], s["coef_offset"]),
+             (f"used {h['coef_scale_used']:.6g} ({h['coef_offset_used']:.6g} + n)", h["coef_scale_used"],
+              h["coef_offset_used"])]
+    curves = [dict(name="y(n), the ideal normalization", n=n.tolist(), coef=y.tolist(), residual=None)]
+    for name, scale, offset in lines:
+        value = float(scale) * (float(offset) + n)
+        curves.append(dict(name=name, n=n.tolist(), coef=value.tolist(), residual=(100 * (value / y - 1)).tolist()))
+    return dict(curves=curves, sample=dict(n=np.asarray(r["sample"]["sample_n"], dtype=np.float64).tolist(),
+                                           y=np.asarray(r["energy_dataset"]["sample_y"], dtype=np.float64).tolist()))
+
+
+def _images(out_dir: Path, drawn) -> list[dict]:
+    """Every drawn figure but those the page redraws, as PNG data for an <img> inside the page."""
+    redrawn = {"lobe_front.png", "fig10_coef_fit.png"}
+    images = []
+    for group in drawn.values():
+        for file, caption in group:
+            if file in redrawn or not (out_dir / file).exists():
+                continue
+            images.append(dict(file=file, caption=caption,
+                               png=base64.b64encode((out_dir / file).read_bytes()).decode("ascii")))
+    return images
+
+
+def data(config, doc, results, checks, out_dir: Path, drawn) -> dict:
+    """The page's data (module docstring)."""
+    fronts = _lobe_fronts(results)
+    checks_rows = _checks(checks)
+    counts = {}
+    for c in checks_rows:
+        key = c["verdict"] if c["verdict"] != "pass" else f"pass ({c['held']})"
+        counts[key] = counts.get(key, 0) + 1
+    search = results.get("lobe_search") or {}
+    return dict(
+        kind="paper",
+        title=f"{config.name}: the cosine-quadratic lobe's derivation reproduced",
+        summary=[["configuration", doc.get("config_file") or config.name],
+                 ["checks", ", ".join(f"{v} {k}" for k, v in counts.items())],
+                 ["architectures", ", ".join(fronts) or "none compiled here"]],
+        checks=checks_rows,
+        decision=_decision(results),
+        architectures=_architectures(fronts),
+        ranges=[_range_text(r) for r in search.get("ranges", [])],
+        fronts=fronts,
+        coef=_coef_plot(config, results),
+        images=_images(out_dir, drawn),
+    )
+
+
+def write(path: Path, config, doc, results, checks, drawn) -> None:
+    """report.html at `path` (beside the figures it embeds)."""
+    from ..engine import web_page
+
+    page = data(config, doc, results, checks, path.parent, drawn)
+    path.write_text(web_page.page(page["title"], page))
