@@ -5,8 +5,9 @@ typed by hand. The records:
 
 - `derive_<name>`: the `pipeline derive` runs of docs/derive.md (1 to 4 minutes each; `DERIVE_RUNS`:
   a registered target, or its arguments: schlick in fp16 on two phones, a cancelling expression): the
-  run's results.json without the forms' internals, and `verdict_rows`, one row per architecture and
-  anchor (and the exact target).
+  run's results.json without the forms' internals, `verdict_rows`, one row per architecture and
+  anchor (and the exact target), and `page`: its report.html's size and the seconds headless Chromium
+  takes to draw it (schlick's: also the screenshot `docs/report_html.png`, the README's picture).
 - `costs`: `pipeline costs` with its default 400 forms on every architecture (docs/gpu.md): the
   tables, their held-out errors, the time announced and taken, and one compiled form (c ^ t).
 - `refits`: the example configs of docs/refits.md, each refitted up to its derivation's numbers, and
@@ -38,6 +39,7 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
 MEASURED = ROOT / "docs" / "measured"
+PAGE_SHOT = ROOT / "docs" / "report_html.png"      # the README's picture of a derive run's report.html
 # {target: pipeline.derive's arguments}: every architecture for the one-variable targets, as the page
 # says; the parametric ones on one architecture of each vendor family (AMD RDNA, NVIDIA, Intel, Mali,
 # Adreno), with a 10 s grammar budget.
@@ -114,13 +116,45 @@ def derive_record(target: str) -> dict:
         seconds = time.perf_counter() - started
         found.write(Path(tmp) / "out")
         results = json.loads((Path(tmp) / "out" / "results.json").read_text())
+        page = page_record(Path(tmp) / "out" / "report.html", PAGE_SHOT if target == "schlick" else None)
     results.pop("forms", None)
     verdicts = [dict(architecture=a, anchor=name, **v) for a, anchors in results["verdicts"].items()
                 for name, v in anchors.items()]
     named = {} if "expr" in DERIVE_RUNS[target] else {"target": target}
     arguments = " ".join(f"--{k} {v!r}" if k == "expr" else f"--{k} {v}" for k, v in (named | DERIVE_RUNS[target]).items())
     return dict(command=f"pipeline derive {arguments}".strip(), wall_seconds=round(seconds, 1),
-                verdict_rows=verdicts, results=results)
+                verdict_rows=verdicts, results=results, page=page)
+
+
+def page_record(html: Path, shot: Path | None) -> dict:
+    """report.html's size, the seconds it takes to write (again, from the kept search's results: the
+    run's own write included it) and to be drawn in headless Chromium from file://; with `shot`, a
+    screenshot of it with its first front member opened (the README's picture). Without Playwright or
+    Chromium: the size alone, and why."""
+    import shutil
+
+    out = dict(bytes=html.stat().st_size)
+    try:
+        from playwright.sync_api import sync_playwright
+    except ImportError:
+        return out | dict(not_opened="playwright is not installed")
+    browser_path = shutil.which("chromium") or shutil.which("chromium-browser")
+    if browser_path is None:
+        return out | dict(not_opened="Chromium is not installed")
+    with sync_playwright() as p:
+        browser = p.chromium.launch(executable_path=browser_path, args=["--no-sandbox", "--disable-background-networking",
+                                                                        "--use-angle=swiftshader", "--enable-unsafe-swiftshader"])
+        page = browser.new_page(viewport={"width": 1280, "height": 1000})
+        started = time.perf_counter()
+        page.goto(f"file://{html}")
+        page.wait_for_selector("body[data-ready='1']", state="attached", timeout=60000)
+        out["drawn_seconds"] = round(time.perf_counter() - started, 2)
+        if shot is not None:
+            page.locator("#front-table tbody tr").first.click()
+            page.wait_for_function("window.pageState.live !== null || document.getElementById('live-note')")
+            page.screenshot(path=str(shot), clip=dict(x=0, y=0, width=1280, height=2400), full_page=True)
+        browser.close()
+    return out
 
 
 def costs_record(env: dict) -> dict:
