@@ -161,7 +161,7 @@ def _derive(args) -> int:
 
     start = time.perf_counter()
     target = api.resolve(args.target, args.expr, args.var, args.metric, args.floor, args.table, args.x, args.parameter,
-                         args.y, args.parameter_range)
+                         args.y, args.parameter_range, args.name)
     out = Path(args.out) if args.out else paths.OUTPUTS / "derive" / escape.folder_name(target.name)
     use_compilation_cache(paths.XLA_CACHE or paths.CACHE / XLA)
     try:
@@ -374,6 +374,9 @@ def build_parser() -> argparse.ArgumentParser:
                           "env_brdf_scale, env_brdf_bias) or a TOML file")
     der.add_argument("--expr", default=None, metavar="EXPR", help="the target as an expression (sympy), e.g. 'atan(x)'")
     der.add_argument("--var", default="x=0:1", metavar="NAME=LO:HI", help="with --expr: its variable and domain")
+    der.add_argument("--name", default=None, metavar="NAME",
+                     help="the run's name: its titles, its functions' names, its default folder (default the "
+                          "target's name, or the expression)")
     der.add_argument("--table", default=None, metavar="FILE.csv",
                      help="the target as values on a full grid (a header, a row per point), interpolated by cubic splines")
     der.add_argument("--x", default=None, metavar="NAME[,NAME]", help="with --table: the variables' columns (per pixel)")

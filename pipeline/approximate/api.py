@@ -20,13 +20,18 @@ from .targets import DeriveError, Target
 
 def resolve(target=None, expr: str | None = None, var: str = "x=0:1", metric: str | None = None,
             floor: float | None = None, table: str | None = None, x: str | None = None,
-            parameter: str | None = None, y: str | None = None, parameter_range=None):
+            parameter: str | None = None, y: str | None = None, parameter_range=None, name: str | None = None):
     """The checked target: a Target, a registered name, a TOML file's path, (with `expr`) an
     expression in `var` (NAME=LO:HI), or (with `table`) a CSV file's column `y` over the variables `x`
     (comma-separated) and the `parameter` (`parametric.from_csv`); `metric` and `floor` replace the
     target's, `parameter_range` ("LO:HI" or (lo, hi)) its parameter's range (`parametric.with_range`:
-    one of the ranges the lobe search splits n into). Raises DeriveError."""
+    one of the ranges the lobe search splits n into); `name` names the run (its titles, its functions'
+    names; default the target's name, or an expression's own text). Raises DeriveError."""
     chosen = _resolve(target, expr, var, metric, floor, table, x, parameter, y)
+    if name is not None:
+        if not name.strip():
+            raise DeriveError("--name: give the run a name (it titles the outputs and names the functions)")
+        chosen = dataclasses.replace(chosen, name=name.strip())
     if parameter_range is None:
         return chosen
     return parametric.with_range(chosen, parameter_range)
@@ -129,7 +134,8 @@ def derive(target=None, *, expr: str | None = None, var: str = "x=0:1", table: s
            x: str | None = None, parameter: str | None = None, y: str | None = None, gpu=None,
            metric: str | None = None, floor: float | None = None, seconds: float = engine.DEFAULT_SECONDS,
            max_cycles: float | None = None, max_complexity: int = engine.MAX_COMPLEXITY, parameter_range=None,
-           formula_complexity: int = 0, precision: str | None = None, log=print) -> Derivation:
+           formula_complexity: int = 0, precision: str | None = None, name: str | None = None,
+           log=print) -> Derivation:
     """The cheapest accurate forms of `target` (a registered name, a TOML file, a Target, a
     ParametricTarget), of `expr` in `var`, or of a CSV `table`'s column `y` over `x` and `parameter`
     (its range `parameter_range`, "LO:HI", where given; with `formula_complexity` > 0 the constants'
@@ -141,7 +147,7 @@ def derive(target=None, *, expr: str | None = None, var: str = "x=0:1", table: s
     every form is costed and executed in (`executed`, `executed_box`; a pair of outputs: fp32 only)."""
     from .targets import PRECISIONS
 
-    chosen = resolve(target, expr, var, metric, floor, table, x, parameter, y, parameter_range)
+    chosen = resolve(target, expr, var, metric, floor, table, x, parameter, y, parameter_range, name)
     if precision is not None and precision not in PRECISIONS:
         raise DeriveError(f"--precision {precision!r}: give one of {', '.join(PRECISIONS)}")
     if isinstance(gpu, str):

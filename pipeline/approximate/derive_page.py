@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import math
 import re
+import shlex
 
 import numpy as np
 
@@ -293,15 +294,23 @@ def data(results) -> dict:
                ["search", _coverage_text(results.get("coverage") or {})],
                ["time", f"{results['seconds']} s"]]
     notes = [f"{vendor}: {why}" for vendor, why in (results.get("missing") or {}).items()]
+    from .parametric import pairs, registry
+    from .targets import registry as one_variable
+
     command = ["pipeline", "derive"]
-    if target["name"] != "expr":
+    if target["name"] in one_variable() | registry() | pairs():
         command += ["--target", target["name"]]
+    elif not target.get("variables"):         # (an expression's: the same target as --expr)
+        command += ["--expr", shlex.quote(target["expression"]),
+                     f"--var {target['variable']}={target['domain'][0]:g}:{target['domain'][1]:g}"]
+        if target["name"] != target["expression"]:
+            command += ["--name", shlex.quote(target["name"])]
     command += ["--gpu", ",".join(results["architectures"])]
     if precision != "fp32":
         command += ["--precision", precision]
     return dict(
         kind="derive",
-        title=f"{target['name']}: {target['expression']}",
+        title=target["name"] if target["name"] == target["expression"] else f"{target['name']}: {target['expression']}",
         target=dict(name=target["name"], expression=target["expression"], description=target.get("description") or "",
                     domain_text=publish.domain_text(target), metric=target["metric"], precision=precision),
         command=" ".join(command),

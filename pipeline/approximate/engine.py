@@ -35,6 +35,7 @@ CALIBRATION = 200               # forms compiled per architecture to fit its cos
 PER_ARCHITECTURE = 24           # grammar forms taken from each architecture's predicted front, at most
 MATCH = 0.01                    # an error within 1 % of an anchor's matches it
 TIE = 1e-6                      # errors within this (relative) are equal on a front
+NEGLIGIBLE = 1e-9               # a constant below this share of a form's largest is tried without it
 # Times measured on this 2-core machine, for the time a run announces: the families' fits (about 10 s
 # per target), the forms measured and polished (about 6 s), the command's start (its imports, 6 s).
 FAMILY_SECONDS = 12.0
@@ -282,6 +283,27 @@ def refitted_anchors(target, f, log) -> list[Form]:
     return out
 
 
+def without_negligible(form: Form, target, f) -> Form:
+    """`form` with its constants at rounding's level (below NEGLIGIBLE times its largest constant's
+    magnitude, e.g. exp2(3.5e-18 - 1.44 x)) set to 0 where its float64 error does not rise; else the
+    form as it is. Every output then writes the form without them."""
+    import dataclasses
+
+    import sympy as sp
+
+    numbers = [a for a in form.expression.atoms(sp.Float) if a != 0]
+    if len(numbers) < 2:
+        return form
+    largest = max(abs(float(a)) for a in numbers)
+    tiny = {a: sp.Integer(0) for a in numbers if abs(float(a)) < NEGLIGIBLE * largest}
+    if not tiny:
+        return form
+    key = "max_abs_error" if target.metric == "abs" else "max_rel_error"
+    candidate = dataclasses.replace(form, expression=form.expression.xreplace(tiny))
+    before, after = _measure(form, target, f)[key], _measure(candidate, target, f)[key]
+    return candidate if after <= before else form
+
+
 def _measure(form: Form, target, f) -> dict:
     lo, hi = target.domain
     return measure.max_error(numpy_function(form.expression, target.symbol()), f, lo, hi, target.floor)
@@ -405,6 +427,7 @@ def derive(target, gpu=None, seconds: float = DEFAULT_SECONDS, max_cycles: float
         f"{len(architectures)} architecture{'s' * (len(architectures) > 1)}, {precision}; about {estimate:.0f} s")
 
     found, trees, fitted, losses, coverage = _searched(target, f, seconds, max_complexity, log)
+    found = [without_negligible(m, target, f) for m in found]
     found += refitted_anchors(target, f, log)
     log(f"cost tables: {CALIBRATION} forms compiled per architecture")
     tables = gpu_costs.operation_costs(CALIBRATION, architectures)["tables"]

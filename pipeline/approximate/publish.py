@@ -191,8 +191,15 @@ def report(results) -> str:
                  else "."), ""]
     if results["missing"]:
         lines += ["Not compiled: " + "; ".join(f"{k}: {v}" for k, v in results["missing"].items()) + ".", ""]
-    lines += ["## The anchors", "", "| architecture | anchor | cycles | error | verdict | by | error ratio |",
-              "|---|---|---|---|---|---|---|"]
+    lines += ["## The anchors", ""]
+    if not any(results["verdicts"].values()):
+        # (no table with a header and no rows: what is missing, and why)
+        lines += ["No verdict: the target has no hand fit to compare with (a target file's `[[anchor]]` tables add "
+                  "them), and its exact form "
+                  + ("was not compiled on any architecture (" + "; ".join(f"{k}: {v}" for k, v in results["missing"].items())
+                     + ")." if results["missing"] else "is not judged for a target of several variables.")]
+    else:
+        lines += ["| architecture | anchor | cycles | error | verdict | by | error ratio |", "|---|---|---|---|---|---|---|"]
     for a, verdicts in results["verdicts"].items():
         for name, v in verdicts.items():
             ratio = "-" if v["ratio"] is None or math.isinf(v["ratio"]) else f"{v['ratio']:.3g}"

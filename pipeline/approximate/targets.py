@@ -236,7 +236,7 @@ def from_expression(expression: str, var: str = "x=0:1", metric: str = "abs", fl
                     name: str | None = None) -> Target:
     """A target from an expression and `--var NAME=LO:HI`, checked (`check`)."""
     variable, domain = parse_domain(var)
-    return check(Target(name or "expr", expression, variable, domain, metric, floor,
+    return check(Target(name or expression.strip(), expression, variable, domain, metric, floor,
                         description=f"{expression} on [{domain[0]:g}, {domain[1]:g}]"))
 
 

@@ -317,3 +317,19 @@ def test_report_html_opens_offline_in_a_browser(schlick_runs):
         assert "mediump float" in opened.page.evaluate(f"JSON.parse(document.getElementById('data').textContent).forms[{json.dumps(first)}].gles")
         assert opened.page.evaluate("pageState.live") is not None
         assert opened.problems == []
+
+
+def test_a_constant_at_rounding_s_level_is_dropped_where_the_error_does_not_rise():
+    """exp2(3.5e-18 - 1.44 x) for exp(-x): the 3.5e-18 goes (the error is the same without it); a
+    1e-12 that the target holds stays (without it the error would be 1e-12)."""
+    import sympy as sp
+
+    x = sp.Symbol("x", real=True)
+    target = targets.from_expression("exp(-x)", "x=0:4")
+    form = forms.Form("exp2_polynomial_1", "found", "exp2_polynomial",
+                      sp.Pow(2, sp.Float(3.516712879335507e-18) - sp.Float(1.4426950408889634) * x))
+    dropped = engine.without_negligible(form, target, target.numpy())
+    assert dropped.expression == sp.Pow(2, -sp.Float(1.4426950408889634) * x)
+    shifted = targets.from_expression("x + 1e-12 + 2", "x=0:1")
+    kept = forms.Form("line", "found", "polynomial", x + sp.Float(1e-12) + sp.Float(2.0))
+    assert engine.without_negligible(kept, shifted, shifted.numpy()) == kept
