@@ -2,7 +2,8 @@
 The checks against the paper (filterable by verdict and by how each holds); the decision per
 architecture and n range, each cell opening that range's lobe front; the lobe search's fronts per
 architecture and range (its families' members against compiled cycles, the registry's lobes
-placed); the coef(n) fit and the albedo redrawn as plots; every other figure of the run as an
+placed) and the decision's candidates (max d against cycles, the budget, the winner); the coef(n)
+fit and the directional albedo redrawn as plots; every other figure of the run as an
 image inside the file. Every number from the run's results.
 """
 
@@ -117,9 +118,41 @@ def _coef_plot(config, r) -> dict | None:
                                            y=np.asarray(r["energy_dataset"]["sample_y"], dtype=np.float64).tolist()))
 
 
+ALBEDO_VARIANTS = {"phong_run_coef": "Phong form, the run's coef", "phong_exact_coef": "Phong form, the exact coef",
+                   "blinn_exact_coef": "Blinn form (t = N.H), its exact coef",
+                   "blinn_asymptotic_coef": "Blinn form, its asymptotic coef",
+                   "blinn_with_phong_coef": "Blinn form with the Phong coef"}
+
+
+def _albedo(r) -> dict | None:
+    """The directional albedo at each incidence angle (degrees) for each drawn n, per form and coef."""
+    a = r.get("directional_albedo")
+    if not a or "theta" not in a:
+        return None
+    theta = np.degrees(np.asarray(a["theta"], dtype=np.float64))
+    keep = np.unique(np.linspace(0, theta.size - 1, min(theta.size, 91)).round().astype(int))
+    curves = {label: np.asarray(a[f"{v}_curves"], dtype=np.float64)[:, keep].round(6).tolist()
+              for v, label in ALBEDO_VARIANTS.items() if f"{v}_curves" in a}
+    return dict(theta=theta[keep].round(3).tolist(), n=np.asarray(a["curve_n"], dtype=np.float64).tolist(), curves=curves)
+
+
+def _candidates(r) -> dict:
+    """The decision's lobe candidates per range: name, label, kind (reference, registry, power,
+    search), max d and cycles per architecture; and the budget max d."""
+    decision = r.get("decision") or {}
+    out: dict = {}
+    for m in decision.get("candidates", []):
+        if m.get("use") != "lobe":
+            continue
+        out.setdefault(_range_text(m["n_range"]), []).append(dict(
+            name=m["name"], label=m.get("label") or m["name"], kind=m.get("kind", ""), d=_num(m["d"]),
+            cycles={a: _num(c) for a, c in m.get("cycles", {}).items()}))
+    return dict(by_range=out, max_d=(decision.get("budgets") or {}).get("max_d"))
+
+
 def _images(out_dir: Path, drawn) -> list[dict]:
     """Every drawn figure but those the page redraws, as PNG data for an <img> inside the page."""
-    redrawn = {"lobe_front.png", "fig10_coef_fit.png"}
+    redrawn = {"lobe_front.png", "fig10_coef_fit.png", "error_cost_front.png", "directional_albedo.png"}
     images = []
     for group in drawn.values():
         for file, caption in group:
@@ -151,6 +184,8 @@ def data(config, doc, results, checks, out_dir: Path, drawn) -> dict:
         ranges=[_range_text(r) for r in search.get("ranges", [])],
         fronts=fronts,
         coef=_coef_plot(config, results),
+        albedo=_albedo(results),
+        candidates=_candidates(results),
         images=_images(out_dir, drawn),
     )
 

@@ -254,7 +254,8 @@ def test_the_paper_s_report_html_opens_offline_in_a_browser(paper_outputs):
     """outputs/paper/report.html from file:// in headless Chromium, the network blocked: under 12 MB,
     nothing asked for outside the file, no console error; the checks table holds results.json's
     checks and its filter shows each verdict's; a decision cell opens that architecture's and range's
-    lobe front, whose points are the lobe search's candidates and placed lobes there."""
+    lobe front, whose points are the lobe search's candidates and placed lobes there, and the decision's
+    candidates there; the albedo is drawn."""
     import json
 
     from tests.helpers import open_page
@@ -282,6 +283,11 @@ def test_the_paper_s_report_html_opens_offline_in_a_browser(paper_outputs):
             inside = [c for c in search["candidates"] + search["placements"]
                       if c["architecture"] == arch and c["n_range"] == [lo, hi]]
             assert int(page.locator("#front-plot").get_attribute("data-points")) == len(inside)
+            # the decision's candidates there: every lobe candidate with a cost on that GPU and d > 0
+            candidates = [m for m in doc["stages"]["decision"]["candidates"] if m["use"] == "lobe"
+                          and m["n_range"] == [lo, hi] and arch in m["cycles"] and m["d"] > 0]
+            page.wait_for_function(f"document.getElementById('cost-plot').dataset.points === '{len(candidates)}'")
+        assert page.locator("#albedo-plot svg").count() == 1
         assert page.locator("img.figure").count() >= 10
         assert opened.problems == [] and page.evaluate("pageState.errors") == []
         assert all(u.startswith("file://") for u in opened.requests)

@@ -318,7 +318,9 @@
     const range = el("select", { id: "lobe-range" }, data.ranges.map((r) => el("option", { value: r, text: r })));
     const plot = el("div", { id: "front-plot" });
     const rowsBox = el("div", { class: "scroll", id: "front-rows" });
-    main.append(el("div", { class: "controls" }, el("label", {}, "GPU ", gpu), el("label", {}, "range ", range)), el("div", { class: "row" }, plot, rowsBox));
+    const costPlot = el("div", { id: "cost-plot" });
+    main.append(el("div", { class: "controls" }, el("label", {}, "GPU ", gpu), el("label", {}, "range ", range)), el("div", { class: "row" }, plot, rowsBox),
+      el("h3", { text: "The decision's candidates there (Phong lobe, n per material, fp32): max d against cycles, the budget dashed, the winner ringed" }), costPlot);
     async function showLobe(arch, r) {
       if (arch) gpu.value = arch;
       if (r) range.value = r;
@@ -329,6 +331,22 @@
       await embed(plot, frontSpec(points, 0, "max d (relative error in the epicenter zone)"), "front");
       plot.dataset.points = String(points.length);
       plot.dataset.arch = state.arch; plot.dataset.range = state.range;
+      const winner = (data.decision.rows.find((r) => r.architecture === state.arch && r.range === state.range
+        && r.use === "phong" && r.n_per === "material" && r.precision === "fp32") || {}).winner;
+      const cands = ((data.candidates.by_range || {})[state.range] || [])
+        .filter((c) => c.cycles[state.arch] != null && num(c.d) > 0)
+        .map((c) => ({ ...c, cycles: num(c.cycles[state.arch]), d: num(c.d), winner: c.name === winner }));
+      const layers = [{ mark: { type: "point", filled: true, size: 70 },
+        encoding: { x: { field: "cycles", type: "quantitative", title: "cycles (cost model)" },
+          y: { field: "d", type: "quantitative", scale: { type: "log" }, title: "max d" },
+          color: { field: "kind", type: "nominal", title: "candidate" },
+          tooltip: [{ field: "label" }, { field: "kind" }, { field: "cycles" }, { field: "d", title: "max d", format: ".4~g" }] } },
+        { transform: [{ filter: "datum.winner" }], mark: { type: "point", filled: false, size: 260, strokeWidth: 2, color: "#111" },
+          encoding: { x: { field: "cycles", type: "quantitative" }, y: { field: "d", type: "quantitative" } } }];
+      if (data.candidates.max_d) layers.push({ data: { values: [{ budget: data.candidates.max_d }] }, mark: { type: "rule", strokeDash: [5, 4], color: "#b3261e" },
+        encoding: { y: { field: "budget", type: "quantitative" } } });
+      await embed(costPlot, { width: 640, height: 280, data: { name: "candidates", values: cands }, layer: layers }, "cost");
+      costPlot.dataset.points = String(cands.length);
       rowsBox.replaceChildren(table(["name", "kind", "cycles", "max d", "front"],
         points.slice().sort((p, q) => p.cycles - q.cycles).map((p) => ({ cells: [p.name, p.kind, p.cycles, p.error, p.on_front ? "yes" : ""] })), null, "front-table"));
     }
@@ -357,6 +375,24 @@
             y: { field: "residual", type: "quantitative", title: "over y(n) - 1 (%), > 0: energy created" },
             color: { field: "series", type: "nominal", title: "" }, tooltip: [{ field: "series" }, { field: "n", format: ".4~g" }, { field: "residual", format: ".3~g" }] } },
       ] }, "coef"));
+    }
+    if (data.albedo) {
+      const A = data.albedo;
+      const variant = el("select", { id: "albedo-variant" }, Object.keys(A.curves).map((v) => el("option", { value: v, text: v })));
+      const box = el("div", { id: "albedo-plot" });
+      main.append(el("h3", { text: "Directional albedo at every incidence angle (above 1: the lobe reflects more than arrives)" }),
+        el("div", { class: "controls" }, el("label", {}, "form and coef ", variant)), box);
+      const drawAlbedo = () => {
+        const values = [];
+        A.curves[variant.value].forEach((curve, i) => curve.forEach((albedo, j) => values.push({ theta: A.theta[j], albedo, n: A.n[i] })));
+        return embed(box, { width: 640, height: 280, data: { values }, layer: [
+          { mark: { type: "line" }, encoding: { x: { field: "theta", type: "quantitative", title: "incidence angle (degrees)" },
+            y: { field: "albedo", type: "quantitative", title: "albedo (reflected / received)", scale: { zero: false } },
+            color: { field: "n", type: "ordinal", title: "n" }, tooltip: [{ field: "n" }, { field: "theta", format: ".1f" }, { field: "albedo", format: ".5~g" }] } },
+          { data: { values: [{ one: 1 }] }, mark: { type: "rule", strokeDash: [4, 4], color: "#555" }, encoding: { y: { field: "one", type: "quantitative" } } }] }, "albedo");
+      };
+      variant.addEventListener("change", drawAlbedo);
+      pending.push(drawAlbedo());
     }
     for (const image of data.images) {
       main.append(el("figure", {}, el("img", { class: "figure", alt: image.caption, src: `data:image/png;base64,${image.png}` }),
