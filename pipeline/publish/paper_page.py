@@ -2,7 +2,7 @@
 The checks against the paper (filterable by verdict and by how each holds); the decision per
 architecture and n range, each cell opening that range's lobe front; the lobe search's fronts per
 architecture and range (its families' members against compiled cycles, the registry's lobes
-placed) and the decision's candidates (max d against cycles, the budget, the winner); the coef(n)
+placed; each exported form running live on a lit sphere beside cos^n) and the decision's candidates (max d against cycles, the budget, the winner); the coef(n)
 fit and the directional albedo redrawn as plots; every other figure of the run as an
 image inside the file. Every number from the run's results.
 """
@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import base64
 import math
+import re
 from pathlib import Path
 
 import numpy as np
@@ -72,13 +73,33 @@ def _lobe_fronts(r) -> dict:
         name = c.get("grammar") or c["family"]
         out.setdefault(c["architecture"], {}).setdefault(key, []).append(dict(
             name=name, kind="found", cycles=_num(c["cycles"]), error=_num(c["d"]), on_front=bool(c["on_front"]),
-            expression=str(c.get("formula") or c.get("expression") or name), front=""))
+            expression=str(c.get("formula") or c.get("expression") or name), front="", n_range=list(c["n_range"])))
     for p in search.get("placements", []):
         key = _range_text(p["n_range"])
         out.setdefault(p["architecture"], {}).setdefault(key, []).append(dict(
             name=p["label"], kind="exact" if p["lobe"] == "f_b" else "anchor", cycles=_num(p["cycles"]), error=_num(p["d"]), on_front=bool(p["on_front"]),
             expression=p["lobe"], front=""))
     return out
+
+
+def _lobe_functions(out_dir: Path) -> dict[str, str]:
+    """{function name: its whole text} of shader/lobe_search.glsl (the lobe search's exported forms,
+    each of t = cos x and n), for the live sphere; {} where the run wrote none."""
+    path = out_dir / "shader" / "lobe_search.glsl"
+    if not path.exists():
+        return {}
+    functions, lines = {}, path.read_text().splitlines()
+    for i, line in enumerate(lines):
+        match = re.match(r"float (cosfit_\w+)\(float t, float n\)$", line)
+        if match:
+            end = next(j for j in range(i, len(lines)) if lines[j] == "}")
+            functions[match.group(1)] = "\n".join(lines[i:end + 1])
+    return functions
+
+
+def function_of(name: str, n_range) -> str:
+    """The exported function of a lobe search form over a range: cosfit_<form>_n<lo>_<hi>."""
+    return f"cosfit_{name}_n{n_range[0]:g}_{n_range[1]:g}"
 
 
 def _decision(r) -> dict:
@@ -166,6 +187,12 @@ def _images(out_dir: Path, drawn) -> list[dict]:
 def data(config, doc, results, checks, out_dir: Path, drawn) -> dict:
     """The page's data (module docstring)."""
     fronts = _lobe_fronts(results)
+    functions = _lobe_functions(out_dir)
+    for by_range in fronts.values():
+        for points in by_range.values():
+            for p in points:
+                if p["kind"] == "found" and function_of(p["name"], p["n_range"]) in functions:
+                    p["function"] = function_of(p["name"], p["n_range"])
     checks_rows = _checks(checks)
     counts = {}
     for c in checks_rows:
@@ -187,6 +214,7 @@ def data(config, doc, results, checks, out_dir: Path, drawn) -> dict:
         albedo=_albedo(results),
         candidates=_candidates(results),
         images=_images(out_dir, drawn),
+        lobe_functions=functions,
     )
 
 

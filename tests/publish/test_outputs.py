@@ -288,6 +288,26 @@ def test_the_paper_s_report_html_opens_offline_in_a_browser(paper_outputs):
                           and m["n_range"] == [lo, hi] and arch in m["cycles"] and m["d"] > 0]
             page.wait_for_function(f"document.getElementById('cost-plot').dataset.points === '{len(candidates)}'")
         assert page.locator("#albedo-plot svg").count() == 1
+        # a lobe front member live on a lit sphere: its values at the pixels' t are the Python twin's
+        # (float32 arithmetic against float64: 1e-5 relative to the peak, 1)
+        live_rows = page.locator("#front-table tbody tr[data-key^='cosfit_']")
+        if live_rows.count():
+            import importlib.util
+
+            import numpy as np
+
+            live_rows.first.click()
+            page.wait_for_function("window.pageState.live !== null && window.pageState.live.name === window.pageState.lobe")
+            live = page.evaluate("pageState.live")
+            spec = importlib.util.spec_from_file_location("lobe_search_twin", out / "shader" / "lobe_search_twin.py")
+            twin = importlib.util.module_from_spec(spec)
+            spec.loader.exec_module(twin)
+            values = np.asarray(live["values"], dtype=np.float64).reshape(-1, 4)
+            inside = values[values[:, 2] >= 0][::37]
+            assert inside.shape[0] > 100
+            expected = [getattr(twin, live["name"])(float(t), float(np.float32(live["n"]))) for t in inside[:, 2]]
+            np.testing.assert_allclose(inside[:, 0], expected, rtol=0, atol=1e-5)
+            assert page.locator("#lobe-code").text_content().startswith(f"float {live['name']}(float t, float n)")
         assert page.locator("img.figure").count() >= 10
         assert opened.problems == [] and page.evaluate("pageState.errors") == []
         assert all(u.startswith("file://") for u in opened.requests)

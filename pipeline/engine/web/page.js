@@ -347,9 +347,61 @@
         encoding: { y: { field: "budget", type: "quantitative" } } });
       await embed(costPlot, { width: 640, height: 280, data: { name: "candidates", values: cands }, layer: layers }, "cost");
       costPlot.dataset.points = String(cands.length);
-      rowsBox.replaceChildren(table(["name", "kind", "cycles", "max d", "front"],
-        points.slice().sort((p, q) => p.cycles - q.cycles).map((p) => ({ cells: [p.name, p.kind, p.cycles, p.error, p.on_front ? "yes" : ""] })), null, "front-table"));
+      rowsBox.replaceChildren(table(["name", "kind", "cycles", "max d", "front", "live"],
+        points.slice().sort((p, q) => p.cycles - q.cycles).map((p) => ({ key: p.function || "", cells: [p.name, p.kind, p.cycles, p.error, p.on_front ? "yes" : "", p.function ? "open" : ""] })),
+        (fn) => { if (fn) openLobe(fn); }, "front-table"));
+      if (state.lobe && !points.some((p) => p.function === state.lobe)) { liveBox.replaceChildren(); state.lobe = null; state.live = null; }
     }
+    const liveBox = el("section", { id: "lobe-live" });
+    main.append(liveBox);
+    function openLobe(fn) {
+      state.lobe = fn;
+      const [lo, hi] = state.range.replace("n in [", "").replace("]", "").split(", ").map(Number);
+      liveBox.replaceChildren(el("h3", { text: `Live: ${fn} on a lit sphere beside cos^n (WebGL2)` }),
+        el("pre", { id: "lobe-code", text: data.lobe_functions[fn] }));
+      const gl = document.createElement("canvas").getContext("webgl2");
+      if (!gl || !gl.getExtension("EXT_color_buffer_float")) {
+        liveBox.append(el("p", { class: "note", id: "live-note", text: "WebGL2 with float render targets is not available in this browser: the live sphere is not shown (the rest of the page works)." }));
+        return;
+      }
+      const size = 160;
+      const slider = el("input", { type: "range", id: "live-n", min: lo, max: hi, step: (hi - lo) / 200, value: Math.sqrt(lo * hi) });
+      const label = el("span");
+      const canvas = el("canvas", { class: "live", id: "live", width: 3 * size + 40, height: size + 24 });
+      const note = el("p", { class: "note" });
+      liveBox.append(el("div", { class: "controls" }, el("label", {}, "n ", slider, label)), canvas, note);
+      const fragment = "#version 300 es\nprecision highp float;\nout vec4 color;\nuniform float n;\nuniform float size;\n" + data.lobe_functions[fn] +
+        "\nvoid main() {\n  vec2 p = (gl_FragCoord.xy - 0.5 * size) / (0.5 * size - 2.0);\n  float r2 = dot(p, p);\n" +
+        "  if (r2 > 1.0) { color = vec4(0.0, 0.0, -1.0, 0.0); return; }\n  vec3 N = vec3(p, sqrt(1.0 - r2));\n" +
+        "  vec3 L = normalize(vec3(0.35, 0.45, 1.0));\n  vec3 H = normalize(L + vec3(0.0, 0.0, 1.0));\n  float t = max(dot(N, H), 0.0);\n" +
+        `  color = vec4(${fn}(t, n), pow(t, n), t, max(dot(N, L), 0.0));\n}\n`;
+      const draw = () => {
+        const n = Number(slider.value);
+        label.textContent = ` = ${fmt(n, 4)}`;
+        let out;
+        try { out = runShader(gl, fragment, size, size, { n, size }); }
+        catch (e) { note.textContent = `The shader did not compile in this browser: ${e.message}`; return; }
+        state.live = { name: fn, n, values: Array.from(out) };
+        const g = canvas.getContext("2d");
+        g.clearRect(0, 0, canvas.width, canvas.height);
+        const panels = [0, 1, 2].map(() => g.createImageData(size, size));
+        let largest = 0;
+        for (let i = 0; i < size * size; i++) if (out[4 * i + 2] >= 0) largest = Math.max(largest, Math.abs(out[4 * i] - out[4 * i + 1]));
+        for (let row = 0; row < size; row++) for (let col = 0; col < size; col++) {
+          const i = row * size + col, j = ((size - 1 - row) * size + col) * 4;
+          if (out[4 * i + 2] < 0) continue;
+          const lit = out[4 * i + 3];
+          for (const k of [0, 1]) { const v = Math.min(1, out[4 * i + k] * lit + 0.08 * lit) * 255; panels[k].data.set([v, v, v, 255], j); }
+          const d = (out[4 * i] - out[4 * i + 1]) / (largest || 1);
+          panels[2].data.set(d >= 0 ? [255, 255 * (1 - d), 255 * (1 - d), 255] : [255 * (1 + d), 255 * (1 + d), 255, 255], j);
+        }
+        panels.forEach((p, k) => g.putImageData(p, 10 + k * (size + 10), 12));
+        note.textContent = `Left: the form as the specular lobe (t = N.H, times N.L, a little diffuse); middle: cos^n; right: their difference (red above, blue below, full colour at its largest, ${fmt(largest)} of the peak), computed by this browser's GPU.`;
+      };
+      slider.addEventListener("input", draw);
+      draw();
+    }
+    state.openLobe = openLobe;
     gpu.addEventListener("change", () => showLobe());
     range.addEventListener("change", () => showLobe());
     state.showLobe = showLobe;
