@@ -333,3 +333,16 @@ def test_a_constant_at_rounding_s_level_is_dropped_where_the_error_does_not_rise
     shifted = targets.from_expression("x + 1e-12 + 2", "x=0:1")
     kept = forms.Form("line", "found", "polynomial", x + sp.Float(1e-12) + sp.Float(2.0))
     assert engine.without_negligible(kept, shifted, shifted.numpy()) == kept
+
+
+def test_a_run_is_named_by_name_else_by_its_target_or_expression():
+    """--expr names the run by the expression itself (no "expr"), --name replaces any name, a blank
+    --name is refused naming the option; the functions are identifiers made from the name."""
+    from pipeline.approximate import api
+
+    assert api.resolve(expr="exp(-x)", var="x=0:4").name == "exp(-x)"
+    assert api.resolve(target="schlick").name == "schlick"
+    assert api.resolve(expr="exp(-x)", var="x=0:4", name="decay").name == "decay"
+    with pytest.raises(targets.DeriveError, match="--name: give the run a name"):
+        api.resolve(expr="exp(-x)", var="x=0:4", name="  ")
+    assert publish.function_name("exp(-x)", "polynomial_1") == "exp_x_polynomial_1"
