@@ -7,7 +7,8 @@ typed by hand. The records:
   a registered target, or its arguments: schlick in fp16 on two phones, a cancelling expression): the
   run's results.json without the forms' internals, `verdict_rows`, one row per architecture and
   anchor (and the exact target), and `page`: its report.html's size and the seconds headless Chromium
-  takes to draw it (schlick's: also the screenshot `docs/report_html.png`, the README's picture).
+  takes to draw it (schlick's: also the screenshot `docs/report_html.png`, the README's picture;
+  env_brdf's renders.png is copied to `docs/derive_renders.png`, docs/derive.md's picture).
 - `costs`: `pipeline costs` with its default 400 forms on every architecture (docs/gpu.md): the
   tables, their held-out errors, the time announced and taken, and one compiled form (c ^ t).
 - `refits`: the example configs of docs/refits.md, each refitted up to its derivation's numbers, and
@@ -40,6 +41,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parent.parent
 MEASURED = ROOT / "docs" / "measured"
 PAGE_SHOT = ROOT / "docs" / "report_html.png"      # the README's picture of a derive run's report.html
+RENDERS = ROOT / "docs" / "derive_renders.png"     # docs/derive.md's picture: env_brdf's renders.png
 # {target: pipeline.derive's arguments}: every architecture for the one-variable targets, as the page
 # says; the parametric ones on one architecture of each vendor family (AMD RDNA, NVIDIA, Intel, Mali,
 # Adreno), with a 10 s grammar budget.
@@ -116,6 +118,8 @@ def derive_record(target: str) -> dict:
         seconds = time.perf_counter() - started
         found.write(Path(tmp) / "out")
         results = json.loads((Path(tmp) / "out" / "results.json").read_text())
+        if target == "env_brdf":
+            RENDERS.write_bytes((Path(tmp) / "out" / "renders.png").read_bytes())
         page = page_record(Path(tmp) / "out" / "report.html", PAGE_SHOT if target == "schlick" else None)
     results.pop("forms", None)
     verdicts = [dict(architecture=a, anchor=name, **v) for a, anchors in results["verdicts"].items()

@@ -14,7 +14,7 @@ import dataclasses
 import math
 from pathlib import Path
 
-from . import engine, parametric, publish, targets
+from . import engine, parametric, publish, rendered, targets
 from .targets import DeriveError, Target
 
 
@@ -156,13 +156,15 @@ def derive(target=None, *, expr: str | None = None, var: str = "x=0:1", table: s
         if precision not in (None, "fp32"):
             raise DeriveError(f"{chosen.name}: --precision {precision}: a pair of outputs is executed and costed in "
                               "float32 only")
-        return Derivation(chosen, parametric.derive_pair(chosen, gpu, seconds, max_cycles, max_complexity, log=log,
-                                                         formula_complexity=formula_complexity))
-    if isinstance(chosen, parametric.ParametricTarget):
-        return Derivation(chosen, parametric.derive(chosen, gpu, seconds, max_cycles, max_complexity, log=log,
-                                                    formula_complexity=formula_complexity,
-                                                    precision=precision or "fp32"))
-    if formula_complexity:
-        raise DeriveError(f"{chosen.name} has no parameter: --formula-complexity applies to targets with one")
-    return Derivation(chosen, engine.derive(chosen, gpu, seconds, max_cycles, max_complexity, log=log,
-                                            precision=precision or chosen.precision))
+        raw = parametric.derive_pair(chosen, gpu, seconds, max_cycles, max_complexity, log=log,
+                                     formula_complexity=formula_complexity)
+    elif isinstance(chosen, parametric.ParametricTarget):
+        raw = parametric.derive(chosen, gpu, seconds, max_cycles, max_complexity, log=log,
+                                formula_complexity=formula_complexity, precision=precision or "fp32")
+    else:
+        if formula_complexity:
+            raise DeriveError(f"{chosen.name} has no parameter: --formula-complexity applies to targets with one")
+        raw = engine.derive(chosen, gpu, seconds, max_cycles, max_complexity, log=log,
+                            precision=precision or chosen.precision)
+    rendered.compare(raw, chosen, log=log)
+    return Derivation(chosen, raw)

@@ -53,6 +53,7 @@ import numpy as np
 
 from ..engine import expressions
 from ..isa.shaders import FORM_CONSTANTS
+from ..optics.roles import role_fault
 from . import minimax
 from .forms import Form, free_numbers, gpu_form
 from .targets import METRICS, Anchor, DeriveError, paper_lobes, parse
@@ -156,6 +157,7 @@ class ParametricTarget:
     description: str = ""
     table: Table | None = None
     max_degree: int = 4         # the family templates' largest total degree
+    role: str = ""              # where it enters a shading (`optics.roles`): rendered there (`rendered`)
 
     @property
     def axes(self) -> tuple[Axis, ...]:
@@ -258,6 +260,9 @@ def check(target: ParametricTarget) -> ParametricTarget:
             raise DeriveError(f"{target.expression} {why} at {at}: narrow the ranges")
     for anchor in target.anchors:
         parse(anchor.expression, names, f"anchor {anchor.name!r}")
+    fault = role_fault(target.role, len(target.variables), target.parameter is not None)
+    if fault:
+        raise DeriveError(f"{target.name}: {fault}")
     return target
 
 
@@ -1141,7 +1146,8 @@ def cos_n_target(level: float = COS_N_LEVEL, n: tuple[float, float] = (2.0, 1000
     return ParametricTarget(
         "cos_n", "t**n", (Axis("t", lowest, 1.0, lo_of=f"{level!r}**(1/n)"),), Axis("n", float(n[0]), float(n[1])),
         "rel", anchors=paper_lobes(), max_degree=2,
-        description=f"cos^n in its epicenter zone cos^n >= {level:g} (the paper's lobe search), n the Phong exponent")
+        description=f"cos^n in its epicenter zone cos^n >= {level:g} (the paper's lobe search), n the Phong exponent",
+        role="lobe")
 
 
 def with_range(target, parameter_range):
@@ -1188,7 +1194,7 @@ def registry() -> dict[str, ParametricTarget]:
                      Anchor("Filament_fast", "0.5/(NoV*(NoL*(1 - alpha) + alpha) + NoL*(NoV*(1 - alpha) + alpha))",
                             brdf.FILAMENT_2018)),
             description="the height-correlated Smith-GGX visibility V = G2 / (4 NoV NoL) (Heitz 2014), alpha the "
-                        "GGX roughness"),
+                        "GGX roughness", role="visibility"),
         **env_brdf_targets(),
         "cos_n": cos_n_target(),
     }
@@ -1455,7 +1461,7 @@ def from_file(path):
     table = data.get("target")
     if unknown or not isinstance(table, dict):
         raise DeriveError(f"{path}: unknown table {unknown[0]!r}" if unknown else f"{path}: no [target] table")
-    keys = {"name", "expression", "metric", "floor", "description"}
+    keys = {"name", "expression", "metric", "floor", "description", "role"}
     bad = sorted(set(table) - keys)
     if bad or "expression" not in table:
         raise DeriveError(f"{path}: [target] has an unknown key {bad[0]!r} (keys: {', '.join(sorted(keys))})" if bad
@@ -1478,7 +1484,7 @@ def from_file(path):
         tuple(axis(v, f"[[variable]] {i + 1}") for i, v in enumerate(variables)),
         axis(data["parameter"], "[parameter]") if "parameter" in data else None,
         str(table.get("metric", "abs")), targets.read_floor(table, path), targets.read_anchors(data, path),
-        str(table.get("description", ""))))
+        str(table.get("description", "")), role=str(table.get("role", ""))))
 
 
 # ---- a table in a CSV file ------------------------------------------------------------------------
@@ -1549,6 +1555,7 @@ class PairTarget:
     scale: ParametricTarget
     bias: ParametricTarget
     description: str = ""
+    role: str = ""              # (`optics.roles`)
 
     @property
     def variable(self) -> str:
@@ -1562,7 +1569,7 @@ def pairs() -> dict[str, PairTarget]:
     targets = env_brdf_targets()
     return {"env_brdf": PairTarget("env_brdf", targets["env_brdf_scale"], targets["env_brdf_bias"],
                                    "the split-sum environment BRDF of GGX: its scale A and bias B together, "
-                                   "as a shader computes F0 A + B")}
+                                   "as a shader computes F0 A + B", role="env_brdf")}
 
 
 def check_pair(target: PairTarget) -> PairTarget:
@@ -1570,6 +1577,9 @@ def check_pair(target: PairTarget) -> PairTarget:
     check(target.bias)
     if target.scale.axes != target.bias.axes or target.scale.metric != target.bias.metric:
         raise DeriveError(f"{target.name}: its two targets need the same variables, parameter and metric")
+    fault = role_fault(target.role, len(target.scale.variables), target.scale.parameter is not None)
+    if fault:
+        raise DeriveError(f"{target.name}: {fault}")
     return target
 
 

@@ -14,6 +14,9 @@ folder renamed into place, so that a failure leaves nothing half written):
 - `report.html`: the same to explore, one file that works offline (`derive_page`): the fronts per
   GPU, each form's error curve, code, machine code and cycles, its shader running live in the page;
 - `front.png`: error against compiled cycles, one panel per vendor (its first architecture);
+- `renders.png` and `rendered_front.png`, for a target with a role in a shading (`rendered`): the
+  forms rendered in its place and compared by FLIP, and the largest FLIP against cycles; front.csv's
+  rows then carry flip_mean, flip_p99 and flip_max, results.json an object `rendered`;
 - `derive.glsl`, `derive.hlsl`, `derive_twin.py`: each front member as a function of the
   target's variables (in fp16, GLSL's explicit float16_t and HLSL's half; every number the format's
   value that was executed) (a parametric target's pixel members of its parameter too, its material members
@@ -30,6 +33,7 @@ import textwrap
 from pathlib import Path
 
 from ..engine import escape
+from . import rendered_report
 from .executed import GAP
 from .shader_export import (GLSL_FLOAT16, TYPES, arguments_of, domain_text, exported, function_name,  # noqa: F401
                             function_names, member_functions, shader_sources, shader_text)
@@ -65,8 +69,9 @@ def _json_value(v):
 
 
 def results_json(results) -> dict:
-    """results.json's content: the results without the sympy forms (their text is in `members`)."""
-    return _json_value({k: v for k, v in results.items() if k != "forms"})
+    """results.json's content: the results without the sympy forms (their text is in `members`) and
+    the rendered images (`rendered`: in renders.png)."""
+    return _json_value({k: v for k, v in results.items() if k not in ("forms", "renders")})
 
 
 def _error_text(v) -> str:
@@ -250,6 +255,7 @@ def report(results) -> str:
         lines.append("")
     lines += _gaps_text(results)
     lines += _special_text(results)
+    lines += rendered_report.report_lines(results)
     lines += ["## Limits", ""]
     if results.get("execution"):
         run = results["execution"]
@@ -370,7 +376,7 @@ def write(out: Path, results, log=print) -> list[Path]:
     from . import derive_page
 
     names = ["front.csv", "results.json", "report.md", "report.html", "front.png", "derive.glsl", "derive.hlsl",
-             "derive_twin.py"]
+             "derive_twin.py"] + (["renders.png", "rendered_front.png"] if results.get("renders") else [])
 
     def write_all(tmp: Path) -> str:
         write_csv(tmp / "front.csv", results["rows"])
@@ -378,6 +384,9 @@ def write(out: Path, results, log=print) -> list[Path]:
         (tmp / "report.md").write_text(report(results))
         derive_page.write(tmp / "report.html", results)
         figure(tmp / "front.png", results)
+        if results.get("renders"):
+            rendered_report.figure_renders(tmp / "renders.png", results)
+            rendered_report.figure_front(tmp / "rendered_front.png", results)
         for name, text in shader_sources(results).items():
             (tmp / name).write_text(text)
         return f"{len(results['rows'])} rows"

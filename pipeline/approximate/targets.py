@@ -17,6 +17,7 @@ besselj, ... even where no shader has it) or a TOML file (`from_file`):
     metric = "abs"          # or "rel"
     floor = 0.0             # rel only: |f| below floor counts as floor
     precision = "fp32"      # or "fp16": the format the shader computes in (`executed`)
+    role = "fresnel"        # optional: where it enters a shading (`optics.roles`), rendered there
     [[anchor]]
     name = "mine"
     expression = "x * (0.97 - 0.19 * x * x)"
@@ -36,6 +37,8 @@ import tomllib
 from pathlib import Path
 
 import numpy as np
+
+from ..optics.roles import role_fault
 
 METRICS = ("abs", "rel")
 PRECISIONS = ("fp32", "fp16")   # the formats a shader computes in (`executed`)
@@ -69,6 +72,7 @@ class Target:
     anchors: tuple[Anchor, ...] = ()
     description: str = ""
     precision: str = "fp32"
+    role: str = ""              # where it enters a shading (`optics.roles`): rendered there (`rendered`)
 
     def symbol(self):
         import sympy as sp
@@ -146,6 +150,9 @@ def check(target: Target) -> Target:
     fault = expressions.name_fault(target.variable) or ("c names the constants" if target.variable == "c" else None)
     if fault:
         raise DeriveError(f"variable {target.variable!r}: {fault}")
+    fault = role_fault(target.role, 1, False)
+    if fault:
+        raise DeriveError(f"{target.name}: {fault}")
     x = np.linspace(lo, hi, CHECK_POINTS)
     f = target.numpy()(x)
     bad = ~np.isfinite(f)
@@ -188,7 +195,7 @@ def registry() -> dict[str, Target]:
             "schlick", "(1 - x)**5", "x", (0.0, 1.0), "abs",
             anchors=(Anchor("Karis", "exp2((-5.55473*x - 6.98316)*x)",
                             "Karis 2013, Real Shading in Unreal Engine 4 (spherical Gaussian form of Schlick's Fresnel)"),),
-            description="Schlick's Fresnel term (1 - x)^5, x = cos of the angle to the half vector"),
+            description="Schlick's Fresnel term (1 - x)^5, x = cos of the angle to the half vector", role="fresnel"),
         "acos": Target(
             "acos", "acos(x)", "x", (0.0, 1.0), "abs",
             anchors=(Anchor("Lagarde", "(-0.156583*x + pi/2)*sqrt(1 - x)",
@@ -240,7 +247,7 @@ def from_expression(expression: str, var: str = "x=0:1", metric: str = "abs", fl
                         description=f"{expression} on [{domain[0]:g}, {domain[1]:g}]"))
 
 
-TARGET_KEYS = {"name", "expression", "variable", "domain", "metric", "floor", "description", "precision"}
+TARGET_KEYS = {"name", "expression", "variable", "domain", "metric", "floor", "description", "precision", "role"}
 ANCHOR_KEYS = {"name", "expression", "source"}
 
 
@@ -262,7 +269,8 @@ def from_file(path: Path) -> Target:
         raise DeriveError(f"{path}: domain = {domain!r}: give [lo, hi]")
     return check(Target(str(table.get("name", path.stem)), str(table["expression"]), str(table.get("variable", "x")),
                         (float(domain[0]), float(domain[1])), str(table.get("metric", "abs")), read_floor(table, path),
-                        read_anchors(data, path), str(table.get("description", "")), str(table.get("precision", "fp32"))))
+                        read_anchors(data, path), str(table.get("description", "")), str(table.get("precision", "fp32")),
+                        str(table.get("role", ""))))
 
 
 def read_toml(path: Path) -> dict:

@@ -107,6 +107,7 @@ def schlick_runs(tmp_path_factory):
     (karis,) = schlick.anchors
     (tmp_path / "schlick.toml").write_text(
         f'[target]\nname = "{HOSTILE_NAME}"\nexpression = "{schlick.expression}"\ndescription = "a | b $x$ `c`"\n'
+        f'role = "{schlick.role}"\n'
         f'[[anchor]]\nname = "Karis"\nexpression = "{karis.expression}"\nsource = "{HOSTILE_SOURCE}"\n')
     out = tmp_path / "schlick"
     command = [sys.executable, "-m", "pipeline", "derive", "--target", str(tmp_path / "schlick.toml"), "--gpu",
@@ -119,6 +120,32 @@ def schlick_runs(tmp_path_factory):
                            timeout=600)
     assert again.returncode == 0, again.stdout + again.stderr
     return tmp_path, out, half, done.stdout, again.stdout
+
+
+def test_pipeline_derive_renders_schlick_in_its_place(schlick_runs):
+    """The whole command with the file's role: every row's FLIP in front.csv, the rule's answer per
+    architecture in results.json (the cheapest invisible form no dearer than the exact target's
+    cycles, its FLIP under the threshold), the figures, the report's section; in float16 too."""
+    tmp_path, out, half, stdout, stdout_half = schlick_runs
+    for folder in (out, half):
+        results = json.loads((folder / "results.json").read_text())
+        r = results["rendered"]
+        assert r["role"] == "fresnel" and 0.02 < r["threshold"] < 0.1
+        assert set(r["architectures"]) == {"rdna3", "gcn5"}
+        with open(folder / "front.csv") as f:
+            rows = list(csv.DictReader(f))
+        assert all(r_["flip_max"] != "" and 0 <= float(r_["flip_mean"]) <= float(r_["flip_max"]) <= 1 for r_ in rows)
+        for a, v in r["architectures"].items():
+            seen = v["cheapest_invisible"]
+            exact = next(r_ for r_ in rows if r_["architecture"] == a and r_["kind"] == "exact")
+            assert seen["flip"] <= r["threshold"] and seen["cycles"] <= float(exact["cycles"])
+            assert all(float(r_["flip_max"]) > r["threshold"] for r_ in rows
+                       if r_["architecture"] == a and float(r_["cycles"]) < seen["cycles"])
+            assert v["anchors"]["Karis"]["verdict"] in ("beaten", "matched", "missed")
+        assert (folder / "renders.png").stat().st_size > 20_000 and (folder / "rendered_front.png").is_file()
+        report = (folder / "report.md").read_text()
+        assert "## As rendered" in report and f"({r['threshold']:.3g} here)" in report
+    assert "rendered: the exact" in stdout
 
 
 def test_pipeline_derive_on_schlick(schlick_runs):
@@ -166,8 +193,9 @@ def test_pipeline_derive_on_schlick(schlick_runs):
     report = (out / "report.md").read_text()
     assert "<" not in report and escape.markdown(HOSTILE_NAME) in report and HOSTILE_NAME not in report
     assert f"Karis: {escape.markdown(HOSTILE_SOURCE)}" in report and escape.markdown("a | b $x$ `c`") in report
-    # (the verdicts' rows: 7 cells; the special functions' rows: 4)
-    assert all(line.count("|") in (8, 5) for line in report.splitlines() if line.startswith("| rdna3 |"))
+    # (the verdicts' rows and the rendered cheapest forms': 7 cells; the special functions' rows: 4; the
+    # rendered verdicts': 8)
+    assert all(line.count("|") in (8, 5, 9) for line in report.splitlines() if line.startswith("| rdna3 |"))
     assert publish.function_name(HOSTILE_NAME, "polynomial_1") == "script_script_alert_1_script_polynomial_1"
     assert "<" not in (out / "derive.glsl").read_text() + (out / "derive_twin.py").read_text()
     # Karis's error as measured, in the report as in results.json
