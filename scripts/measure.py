@@ -52,6 +52,11 @@ DERIVE_RUNS = {
     "cancelling": dict(expr="sqrt(1 + x) - 1", var="x=1e-6:1e-3", metric="rel", gpu="rdna3"),
     "smith_ggx_visibility": dict(gpu="rdna3,sm_89,xe_hpg,g610,a740", seconds=10),
     "env_brdf": dict(gpu="rdna3,sm_89,xe_hpg,g610,a740", seconds=10),
+    # rendered in their place and compared by FLIP (docs/derive.md's "The error as seen"): three
+    # architectures, as the benchmark runs them
+    "rendered_schlick": dict(target="schlick", gpu="rdna3,sm_89,xe_hpg", seconds=10),
+    "rendered_smith_ggx_visibility": dict(target="smith_ggx_visibility", gpu="rdna3,sm_89,xe_hpg", seconds=10),
+    "rendered_env_brdf": dict(target="env_brdf", gpu="rdna3,sm_89,xe_hpg", seconds=10),
 }
 REFIT_CONFIGS = ("q_0_5", "absolute_error", "minimax_line", "n_up_to_256")
 # the stages the refits page states, and the stages they read
@@ -118,7 +123,7 @@ def derive_record(target: str) -> dict:
         seconds = time.perf_counter() - started
         found.write(Path(tmp) / "out")
         results = json.loads((Path(tmp) / "out" / "results.json").read_text())
-        if target == "env_brdf":
+        if target == "rendered_env_brdf":
             RENDERS.write_bytes((Path(tmp) / "out" / "renders.png").read_bytes())
         page = page_record(Path(tmp) / "out" / "report.html", PAGE_SHOT if target == "schlick" else None)
     results.pop("forms", None)
