@@ -113,9 +113,11 @@ def results_page() -> str:
     lines += [f"- `{path}`" for path in TIMINGS]
     for stage in graph.STAGES:
         reads = ", ".join(f"`{k}`" for k in stage.reads)
-        inputs = "; the fields " + ", ".join(f"`{p}`" for p in stage.inputs) if stage.inputs else ""
+        inputs = ", ".join(f"`{p}`" for p in stage.inputs)
+        read = " and ".join(part for part in (f"the config keys {reads}" if reads else "",
+                                              f"the fields {inputs}" if inputs else "") if part)
         lines += ["", f"## {stage.name}", "",
-                  f"Paper: {_escape(stage.paper)}. Reads the config keys {reads}{inputs}.", "",
+                  f"Paper: {_escape(stage.paper)}. Reads {read or 'nothing'}.", "",
                   "| field | meaning [unit] |", "|---|---|"]
         lines += [f"| `{field}` | {_escape(meaning).replace('|', '&#124;')} |"
                   for field, meaning in stage.outputs.items()]

@@ -157,47 +157,59 @@ def _statistics(fmap, inside) -> dict:
     return dict(flip_mean=float(values.mean()), flip_p99=float(np.percentile(values, 99)), flip_max=float(values.max()))
 
 
+def table_env_brdf():
+    """env_brdf(NoV, roughness) -> (A, B): the split-sum tables (`parametric.env_brdf_table`), their
+    inputs clamped to the tables' box."""
+    from .parametric import env_brdf_table
+
+    A, B = env_brdf_table()
+    (nov_lo, nov_hi), (r_lo, r_hi) = ((min(a[0], a[-1]), max(a[0], a[-1])) for a in A.axes)
+
+    def env_brdf(nov, roughness):
+        nov, roughness = np.clip(nov, nov_lo, nov_hi), np.clip(roughness, r_lo, r_hi)
+        return A(nov, roughness), B(nov, roughness)
+    return env_brdf
+
+
+def compare_images(scene, base: dict, exact: tuple, factors: dict) -> dict:
+    """The scene shaded with `base` (`material_balls.exact_terms`) and the exact factor `exact` (key,
+    values), then with each of `factors` ({name: (key, values)}) in its place: the displayed images,
+    the FLIP maps against the exact one, their statistics over the spheres, and the rule's threshold
+    (the FLIP of the exact image raised one display level)."""
+    from ..optics import material_balls as balls
+    from ..optics.images import flip_map
+
+    key, value = exact
+    reference = balls.display(balls.shade(scene, base | {key: value}))
+    inside = balls.mask(scene)
+    raised = np.minimum(reference.astype(np.int32) + 1, 255).astype(np.uint8)
+    threshold = _statistics(flip_map(reference, raised), inside)[STATISTIC]
+    images, maps, statistics = {}, {}, {}
+    for name, (key, value) in factors.items():
+        image = balls.display(balls.shade(scene, base | {key: value}))
+        fmap = flip_map(reference, image)
+        images[name], maps[name], statistics[name] = image, fmap.astype(np.float16), _statistics(fmap, inside)
+    return dict(exact=reference, images=images, maps=maps, statistics=statistics, threshold=threshold)
+
+
 def render(target, forms: dict, precision: str = "fp32", size: int | None = None, log=print) -> dict:
     """The exact term's image and each form's ({name: sympy expression, constants substituted}), its
     FLIP map and statistics, and the rule's threshold (module docstring)."""
     from ..optics import material_balls as balls
-    from ..optics.images import flip_map
 
     role = role_of(target)
     scene = scene_of(target, size)
     dtype = np.float16 if precision == "fp16" else np.float32
-    if role.name != "env_brdf":
-        from .parametric import env_brdf_table
-
-        A, B = env_brdf_table()
-        lo, hi = A.axes[0][0], A.axes[0][-1]
-        r_lo, r_hi = A.axes[1][0], A.axes[1][-1]
-
-        def env_brdf(nov, roughness):
-            nov, roughness = np.clip(nov, min(lo, hi), max(lo, hi)), np.clip(roughness, min(r_lo, r_hi), max(r_lo, r_hi))
-            return A(nov, roughness), B(nov, roughness)
-    else:
-        def env_brdf(nov, roughness):       # (replaced by the exact factor below)
-            return np.zeros_like(nov), np.zeros_like(nov)
     started = time.perf_counter()
-    base = balls.exact_terms(scene, env_brdf)
-    key, value = exact_factor(target, role, scene)
-    exact_terms = base | {key: value}
-    exact = balls.display(balls.shade(scene, exact_terms))
-    inside = balls.mask(scene)
-    raised = np.minimum(exact.astype(np.int32) + 1, 255).astype(np.uint8)
-    threshold = _statistics(flip_map(exact, raised), inside)[STATISTIC]
-    images, maps, statistics = {}, {}, {}
-    for name, expr in forms.items():
-        key, value = form_factor(expr, target, role, scene, dtype)
-        image = balls.display(balls.shade(scene, base | {key: value}))
-        fmap = flip_map(exact, image)
-        images[name], maps[name], statistics[name] = image, fmap.astype(np.float16), _statistics(fmap, inside)
+    # (a pair's own environment BRDF replaces the table's, which its role leaves unread)
+    base = balls.exact_terms(scene, table_env_brdf() if role.name != "env_brdf" else
+                             lambda nov, roughness: (np.zeros_like(nov), np.zeros_like(nov)))
+    drawn = compare_images(scene, base, exact_factor(target, role, scene),
+                           {name: form_factor(expr, target, role, scene, dtype) for name, expr in forms.items()})
     seconds = time.perf_counter() - started
     log(f"rendered: the exact {target.name} and {len(forms)} forms in {role.name}'s place, FLIP each "
         f"({seconds:.1f} s)")
-    return dict(role=role, scene=scene, exact=exact, images=images, maps=maps, statistics=statistics,
-                threshold=threshold, seconds=seconds)
+    return drawn | dict(role=role, scene=scene, seconds=seconds)
 
 
 def forms_of(results) -> dict:

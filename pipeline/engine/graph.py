@@ -509,7 +509,7 @@ STAGES: tuple[Stage, ...] = (
         "candidates": "per candidate, use (lobe: against cos^n; ndf: against Beckmann) and n range: max d and D at "
                       "equal peak, the normalized peak over the reference's, the float16 error and its route, cycles "
                       "per architecture with n per material, and per pixel each normalization's cycles, largest "
-                      "albedo and float16 error [list]",
+                      "albedo and float16 error, and its descriptor (`decision.evaluator`) [list]",
         "table": "per architecture, n range, use (phong, blinn, ndf), n_per (material, pixel) and precision (fp32, "
                  "fp16): winner, runner_up, reason, qualifying candidates and the winner's cycles, d, D, peak ratio "
                  "and float16 error [list]",
@@ -522,6 +522,17 @@ STAGES: tuple[Stage, ...] = (
         "fp16_executed_by": "what computed the candidates' float16 errors: lavapipe, or the emulation and why [text]",
         "fp16_changed_by_execution": "the fp16 scenarios whose winner differs between the float16 errors as executed "
                                      "and as numpy's per-operation emulation, with both winners [list]",
+    }),
+    _stage("lobe_renders", "beyond", (), ("lobe_search.ranges", "decision.candidates", "decision.table"), {
+        "rule": "when a render counts as invisible (`approximate.rendered.RULE`) [text]",
+        "statistic": "the FLIP statistic the rule reads [text]",
+        "thresholds": "per n range: the rule's threshold in its scene and the spheres' roughness [list]",
+        "candidates": "per lobe candidate and n range: FLIP mean, 99th percentile and largest against cos^n over the "
+                      "material balls, and whether invisible [list]",
+        "table": "per architecture and n range (Blinn lobe, n per material, fp32): the decision's winner by max d and "
+                 "the cheapest invisible candidate, their cycles and largest FLIP, and whether they differ [list]",
+        "differs": "scenarios whose rendered answer differs from the max-d answer [count]",
+        "seconds": "time of the renders [s]",
     }),
 )
 

@@ -117,14 +117,13 @@ def schlick(voh):
 def prefiltered(reflected, alpha) -> np.ndarray:
     """The environment prefiltered for the split sum at reflection directions (P, 3), each with its
     GGX alpha (P,): sum over the texels of L D(h) NoL dw / sum of D(h) NoL dw, N = V = R (Karis 2013),
-    h the half vector of R and the texel's direction."""
+    h the half vector of R and the texel's direction: NoH = sqrt((1 + NoL) / 2)."""
     d, radiance, solid = environment_texels()
     out = np.empty((len(reflected), 3))
     for start in range(0, len(reflected), 2048):
         r, a = reflected[start:start + 2048], alpha[start:start + 2048, None]
         nol = r @ d.T
-        h = _unit(r[:, None, :] + d[None, :, :])
-        noh = np.einsum("pk,ptk->pt", r, h)
+        noh = np.sqrt(np.maximum(0.5 * (1.0 + nol), 0.0))
         w = np.where(nol > 0, ggx(noh, a) * nol, 0.0) * solid
         out[start:start + 2048] = (w @ radiance) / w.sum(axis=1, keepdims=True)
     return out
@@ -137,28 +136,48 @@ def irradiance(normals) -> np.ndarray:
 
 
 @functools.cache
+def _cell(size: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """One sphere's cell of `size` pixels: (rows, columns, normals) of the pixels inside its disc
+    (every sphere has the same)."""
+    centre = (np.arange(size) + 0.5) / size * 2.0 - 1.0          # in half cells
+    v, u = np.meshgrid(-centre / RADIUS, centre / RADIUS, indexing="ij")     # image rows go down: y = -v
+    inside = u * u + v * v < 1.0
+    z = np.sqrt(np.maximum(1.0 - u * u - v * v, 0.0))
+    rows, columns = np.nonzero(inside)
+    return rows, columns, np.stack([u, v, z], axis=-1)[inside]
+
+
+@functools.cache
+def _environment_light(size: int, roughness: float | None) -> np.ndarray:
+    """One cell's environment light (P, 3): the diffuse irradiance (roughness None), or the radiance
+    prefiltered for GGX at that roughness."""
+    normals = _cell(size)[2]
+    if roughness is None:
+        return irradiance(normals)
+    reflected = 2.0 * normals[:, 2:3] * normals - np.array([0.0, 0.0, 1.0])
+    return prefiltered(reflected, np.full(len(normals), roughness ** 2))
+
+
+@functools.cache
 def geometry(scene: Scene) -> dict:
     """Per sphere pixel (flattened, P of them): its place in the image, normal, roughness, alpha,
     F0 and base colour (RGB), NoV, and per light (L = LIGHTS) NoL, NoH, VoH and the light's
     irradiance E (RGB, 0 where NoL <= 0); the environment's prefiltered radiance and the diffuse
     irradiance (RGB). All float64."""
-    height, width = scene.shape
     s = scene.size
-    centre = (np.arange(s) + 0.5) / s * 2.0 - 1.0                 # in half cells
-    v, u = np.meshgrid(-centre / RADIUS, centre / RADIUS, indexing="ij")     # image rows go down: y = -v
-    inside = u * u + v * v < 1.0
-    z = np.sqrt(np.maximum(1.0 - u * u - v * v, 0.0))
-    cell_normal = np.stack([u, v, z], axis=-1)
-    rows, columns, normals, roughness, F0, base, centres = [], [], [], [], [], [], []
+    cell_rows, cell_columns, cell_normals = _cell(s)
+    count = len(cell_rows)
+    rows, columns, normals, roughness, F0, base, prefiltered_light = [], [], [], [], [], [], []
     for i, material in enumerate((DIELECTRIC, METAL)):
         for j, r in enumerate(scene.roughness):
-            yy, xx = np.nonzero(inside)
-            rows.append(yy + i * s)
-            columns.append(xx + j * s)
-            normals.append(cell_normal[inside])
-            roughness.append(np.full(yy.size, r))
-            F0.append(np.broadcast_to(material["F0"], (yy.size, 3)))
-            base.append(np.broadcast_to(material["base"], (yy.size, 3)))
+            rows.append(cell_rows + i * s)
+            columns.append(cell_columns + j * s)
+            normals.append(cell_normals)
+            roughness.append(np.full(count, r))
+            F0.append(np.broadcast_to(material["F0"], (count, 3)))
+            base.append(np.broadcast_to(material["base"], (count, 3)))
+            if scene.environment:
+                prefiltered_light.append(_environment_light(s, float(r)))
     g = dict(rows=np.concatenate(rows), columns=np.concatenate(columns), normal=np.concatenate(normals),
              roughness=np.concatenate(roughness), F0=np.concatenate(F0), base=np.concatenate(base))
     n = g["normal"]
@@ -180,9 +199,8 @@ def geometry(scene: Scene) -> dict:
     g["VoH"] = H @ view
     g["E"] = np.where(g["NoL"][..., None] > 0, np.stack(irradiances), 0.0)
     if scene.environment:
-        reflected = 2.0 * g["NoV"][:, None] * n - view
-        g["prefiltered"] = prefiltered(reflected, g["alpha"])
-        g["irradiance"] = irradiance(n)
+        g["prefiltered"] = np.concatenate(prefiltered_light)
+        g["irradiance"] = np.tile(_environment_light(s, None), (2 * len(scene.roughness), 1))
     else:
         g["prefiltered"] = g["irradiance"] = np.zeros_like(n)
     return g

@@ -708,11 +708,68 @@ def decision_section(config, r, figures) -> list[str]:
     return lines + [""] + embed(figures, "decision")
 
 
+def lobe_renders_section(config, r) -> list[str]:
+    """The decision's lobes rendered on the material balls (`lobe_renders`): each candidate's largest FLIP
+    against cos^n per range, and the scenarios whose rendered answer differs from the max-d one."""
+    v = r.get("lobe_renders")
+    if not v:
+        return []
+    ranges = [tuple(t["n_range"]) for t in v["thresholds"]]
+    names = list(dict.fromkeys(c["name"] for c in v["candidates"]))
+    flips = {(c["name"], tuple(c["n_range"])): c for c in v["candidates"]}
+    lines = ["## The decision's lobes as seen", "",
+             f"Each lobe candidate of the decision rendered as the specular lobe (Blinn: of N.H) of material balls "
+             "whose roughness spans each range of n (`pipeline/stages/lobe_renders.py`, the scene of "
+             "`pipeline/optics/material_balls.py`), against cos^n's render, by FLIP over the spheres; "
+             f"{v['rule']} (thresholds: "
+             + "; ".join(f"n in [{t['n_range'][0]:g}, {t['n_range'][1]:g}]: {t['threshold']:.3g}" for t in v["thresholds"])
+             + f"). {v['seconds']} s. Largest FLIP per candidate and range (* invisible):", "",
+             "| candidate | " + " | ".join(f"n in [{lo:g}, {hi:g}]" for lo, hi in ranges) + " |",
+             "|---|" + "---|" * len(ranges)]
+    for name in names:
+        cells = [(f"{flips[(name, rg)]['flip_max']:.3g}" + ("*" if flips[(name, rg)]["invisible"] else ""))
+                 if (name, rg) in flips else "-" for rg in ranges]
+        lines.append(f"| {name} | " + " | ".join(cells) + " |")
+    shown = []
+    for key, label in (("render", "the JAX renders of the paper's scene"), ("mitsuba_render", "Mitsuba's")):
+        if r.get(key):
+            shown.append(f"{label}: f_Q2 {r[key]['flip_f_Q2_max']:.3g}, f_2 {r[key]['flip_f_2_max']:.3g}")
+    if shown:
+        lines += ["", "Beside them, the existing renders' largest mean FLIP over a sphere's highlight ("
+                  + "; ".join(shown) + "): the tails outside the epicenter zone, which d does not measure, are what "
+                  "both see."]
+    lines += ["", f"The common Blinn case (n per material, fp32): of {len(v['table'])} scenarios (architecture x range), "
+              f"the cheapest invisible candidate differs from the winner by max d in {v['differs']}"
+              + (", by range:" if v["differs"] else "."), ""]
+    for line in rendered_differences(v["table"]):
+        lines.append(f"- {line}")
+    return lines + [""]
+
+
+def rendered_differences(table) -> list[str]:
+    """The scenarios whose rendered answer differs from the max-d one, grouped by range and by the two
+    answers (the architectures sharing them named together)."""
+    grouped: dict = {}
+    for t in table:
+        if t["differs"]:
+            key = (tuple(t["n_range"]), t["max_d_winner"], t["rendered_winner"])
+            grouped.setdefault(key, []).append(t)
+    out = []
+    for (n_range, winner, seen), rows in grouped.items():
+        first = rows[0]
+        out.append(f"n in [{n_range[0]:g}, {n_range[1]:g}], {', '.join(t['architecture'] for t in rows)}: by max d "
+                   f"{winner} (largest FLIP {first['max_d_winner_flip']:.3g}); rendered, "
+                   + (f"{seen} (largest FLIP {first['rendered_winner_flip']:.3g}; on {first['architecture']} "
+                      f"{first['rendered_winner_cycles']:g} cycles against the max-d winner's "
+                      f"{first['max_d_winner_cycles']:g})" if seen else "none of the candidates is invisible") + ".")
+    return out
+
+
 def sections(config, r, figures) -> list[str]:
     return (exact_section(config, r, figures) + albedo_section(config, r, figures)
             + comparison_section(config, r, figures) + cost_section(config, r) + machine_code_section(config, r)
             + front_section(config, r, figures) + lobe_search_section(config, r, figures) + half_section(config, r)
-            + decision_section(config, r, figures) + verdict_section(config, r)
+            + decision_section(config, r, figures) + lobe_renders_section(config, r) + verdict_section(config, r)
             + render_section(config, r, figures) + mitsuba_section(config, r, figures)
             + ndf_section(config, r, figures))
 

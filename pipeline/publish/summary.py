@@ -157,6 +157,12 @@ def lines(config, results) -> list[str]:
     none = "; none of them: " + ", ".join(s.replace("_", " ") for s in still) if still else ""
     out += ["", f"**What changes the answer**, most first (scenarios of the common case it changes{none}):", ""]
     out += [f"{i}. {fact_text(f, d)}" for i, f in enumerate(changing, 1)]
+    seen = results.get("lobe_renders")
+    if seen and seen["table"]:
+        out += ["", f"**As seen** (`lobe_renders`: each lobe rendered on material balls against cos^n, compared by "
+                f"FLIP; {seen['rule']}): the rendered answer differs from the max-d one in {seen['differs']} of "
+                f"{len(seen['table'])} scenarios of the common Blinn case"
+                + (": the report's section \"The decision's lobes as seen\" lists them." if seen["differs"] else ".")]
     return out + [""]
 
 

@@ -567,7 +567,7 @@ def run(config, inputs, memo):
             jobs.append([desc, c["target"], [float(x) for x in n_here]])
             measure = dict(name=c["name"], label=c["label"], kind=c["kind"],
                            use="ndf" if c["target"] == "beckmann" else "lobe",
-                           n_range=[lo, hi], d=float(d), D=float(D), **shaped, cycles={}, pixel={})
+                           n_range=[lo, hi], d=float(d), D=float(D), **shaped, cycles={}, pixel={}, descriptor=desc)
             for arch in chips:
                 if c["target"] == "beckmann":
                     cycles = _cycles(gpu_rows, arch, c["ndf_row"], "NDF")
