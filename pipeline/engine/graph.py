@@ -509,7 +509,7 @@ STAGES: tuple[Stage, ...] = (
         "candidates": "per candidate, use (lobe: against cos^n; ndf: against Beckmann) and n range: max d and D at "
                       "equal peak, the normalized peak over the reference's, the float16 error and its route, cycles "
                       "per architecture with n per material, and per pixel each normalization's cycles, largest "
-                      "albedo and float16 error, and its descriptor (`decision.evaluator`) [list]",
+                      "albedo and float16 error, and its descriptor (what `optics/lobe_candidates.py` makes it from) [list]",
         "table": "per architecture, n range, use (phong, blinn, ndf), n_per (material, pixel) and precision (fp32, "
                  "fp16): winner, runner_up, reason, qualifying candidates and the winner's cycles, d, D, peak ratio "
                  "and float16 error [list]",

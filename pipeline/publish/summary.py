@@ -152,17 +152,17 @@ def lines(config, results) -> list[str]:
                           ("NDF, n per pixel, fp32", dict(uses=("ndf",), n_per="pixel"))):
         cells = [f"{group_name(group)} {_cell(table, group, widest, **kwargs)}" for group in grouped]
         out.append(f"- {label}: " + "; ".join(cells) + "." + (fp16_execution(d) if label == "n per material, fp16" else ""))
+    seen = results.get("lobe_renders")
+    if seen and seen["table"]:
+        out.append(f"- As seen (`lobe_renders`: Blinn, n per material, fp32, each lobe rendered on material balls against "
+                   f"cos^n; {seen['rule']}): the cheapest invisible candidate differs from the answer in "
+                   f"{seen['differs']} of {len(seen['table'])} scenarios"
+                   + (" (the report's section \"The decision's lobes as seen\")." if seen["differs"] else "."))
     changing = [f for f in d["facts"] if f["count"]]
     still = [f["fact"] for f in d["facts"] if not f["count"]]
     none = "; none of them: " + ", ".join(s.replace("_", " ") for s in still) if still else ""
     out += ["", f"**What changes the answer**, most first (scenarios of the common case it changes{none}):", ""]
     out += [f"{i}. {fact_text(f, d)}" for i, f in enumerate(changing, 1)]
-    seen = results.get("lobe_renders")
-    if seen and seen["table"]:
-        out += ["", f"**As seen** (`lobe_renders`: each lobe rendered on material balls against cos^n, compared by "
-                f"FLIP; {seen['rule']}): the rendered answer differs from the max-d one in {seen['differs']} of "
-                f"{len(seen['table'])} scenarios of the common Blinn case"
-                + (": the report's section \"The decision's lobes as seen\" lists them." if seen["differs"] else ".")]
     return out + [""]
 
 

@@ -16,7 +16,7 @@ import numpy as np
 
 from ..approximate import rendered
 from ..optics import material_balls as balls
-from .decision import cos_power, evaluator, phong_integral
+from ..optics.lobe_candidates import cos_power, evaluator, phong_integral
 
 USE = "blinn"                   # the lobe of t = N.H: the decision's scenarios that these renders answer
 

@@ -1,6 +1,7 @@
 """The error as seen (`rendered`): forms rendered in their term's place and compared by FLIP, the
 rule that calls a render invisible, and the roles a target declares."""
 
+import numpy as np
 import pytest
 import sympy as sp
 
@@ -121,3 +122,18 @@ def test_a_target_without_a_role_says_why_it_is_not_rendered():
     rendered.compare(results, targets.registry()["acos"])
     assert results["rendered"]["role"] is None and "acos has no role" in results["rendered"]["why"]
     assert "renders" not in results
+
+
+def test_the_exact_term_shaded_in_float16_throughout_is_invisible_by_the_rule():
+    """Every factor and the composition in float16 (a phone's mediump), the exact Fresnel: its
+    largest FLIP stays under the rule's threshold, as docs/derive.md says."""
+    from pipeline.optics import material_balls as balls
+
+    schlick = targets.registry()["schlick"]
+    scene = rendered.scene_of(schlick, SIZE)
+    base = balls.exact_terms(scene, rendered.table_env_brdf())
+    exact = rendered.exact_factor(schlick, rendered.role_of(schlick), scene)
+    drawn = rendered.compare_images(scene, base, exact, {})
+    half = balls.display(balls.shade(scene, base | {exact[0]: exact[1]}, dtype=np.float16))
+    fmap = flip_map(drawn["exact"], half)[balls.mask(scene)]
+    assert 0.0 < fmap.max() <= drawn["threshold"]

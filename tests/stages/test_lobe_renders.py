@@ -9,13 +9,14 @@ import pytest
 
 from pipeline.optics import material_balls as balls
 from pipeline.publish import report_beyond, summary
-from pipeline.stages import decision, lobe_renders
+from pipeline.optics.lobe_candidates import cos_power
+from pipeline.stages import lobe_renders
 
 
 def test_cos_n_as_the_lobe_is_blinn_phong_s_normalized_ndf():
     """cos^n normalized by its own coef (a quadrature) is (n + 2) / (2 pi) cos^n: Blinn-Phong's NDF."""
     scene = balls.Scene((0.3, 0.6), size=12)
-    key, D = lobe_renders.lobe_factor(scene, decision.cos_power)
+    key, D = lobe_renders.lobe_factor(scene, cos_power)
     g = balls.geometry(scene)
     n = 2.0 / g["alpha"] ** 2 - 2.0
     expected = (n + 2.0) / (2.0 * np.pi) * np.clip(g["NoH"], 0.0, 1.0) ** n
@@ -57,10 +58,10 @@ def test_the_paper_run_s_lobes_as_seen(paper_run, paper_config):
         assert 0.0 <= c["flip_mean"] <= c["flip_p99"] <= c["flip_max"] <= 1.0
     assert v["differs"] == sum(t["max_d_winner"] != t["rendered_winner"] for t in v["table"])
     text = "\n".join(summary.lines(paper_config, paper_run))
-    assert f"differs from the max-d one in {v['differs']} of {len(v['table'])} scenarios" in text
+    assert f"differs from the answer in {v['differs']} of {len(v['table'])} scenarios" in text
     planted = copy.deepcopy(v)
     for t in planted["table"]:
         t.update(rendered_winner=t["max_d_winner"], differs=False)
     planted["differs"] = 0
     text = "\n".join(summary.lines(paper_config, dict(paper_run, lobe_renders=planted)))
-    assert "differs from the max-d one in 0 of" in text and "lists them" not in text
+    assert "differs from the answer in 0 of" in text and "lobes as seen" not in text
