@@ -46,6 +46,13 @@ def report_lines(results) -> list[str]:
                                                                 if least else "- | - | -"))
                      + " | " + (f"{escape.markdown(within['name'])} ({within['kind']}) | {within['cycles']:g} | "
                                 f"{within['error']:.3g} |" if within else "none | - | - |"))
+    lines += ["", "The FLIP front of each architecture (the found forms no cheaper form renders closer; cycles, largest "
+              "FLIP):", ""]
+    for a, v in r["architectures"].items():
+        rows = {x["name"]: x for x in results["rows"] if x["architecture"] == a}
+        lines.append(f"- {a}: " + ("; ".join(f"{escape.markdown(name)} ({rows[name]['cycles']:g}, "
+                                             f"{_flip_text(rows[name].get('flip_max'))})" for name in v["front"])
+                                  or "no found form") + ".")
     verdicts = [(a, name, v, results["verdicts"].get(a, {}).get(name)) for a, x in r["architectures"].items()
                 for name, v in x["anchors"].items()]
     if verdicts:
