@@ -218,7 +218,12 @@ def _live(results, names: list[str], functions: dict) -> dict:
     else:
         axes = target["variables"] + ([target["parameter"]] if target.get("parameter") else [])
         if len(axes) != 3 or target["variable"].endswith("F0"):
-            return dict(why="The live shader draws targets of two variables and a parameter.")
+            sphere = _sphere(results)
+            if sphere and exact and functions.get(exact, {}).get("gles"):
+                return dict(kind="sphere", sphere=sphere, exact=functions[exact]["gles"],
+                            exact_call=functions[exact]["call"])
+            return dict(why="The live shader draws targets of two variables and a parameter, and terms with a "
+                            "role in a shading on a lit sphere.")
         out = dict(kind="heat", size=LIVE_SIZE, names=[a["name"] for a in axes[:2]],
                    lo=[_glsl_float(a["lo"]) for a in axes[:2]], hi=[_glsl_float(a["hi"]) for a in axes[:2]],
                    parameter=dict(name=axes[2]["name"], lo=axes[2]["lo"], hi=axes[2]["hi"],
@@ -226,7 +231,31 @@ def _live(results, names: list[str], functions: dict) -> dict:
                    relative=target["metric"] == "rel")
     if exact and functions.get(exact, {}).get("gles"):
         out |= dict(exact=functions[exact]["gles"], exact_call=functions[exact]["call"])
+        sphere = _sphere(results)
+        if sphere:
+            out["sphere"] = sphere
     return out
+
+
+def _sphere(results) -> dict | None:
+    """What the live lit sphere needs for a target with a role (`rendered`) that is not a pair: the
+    role, the target's variable and parameter names in the role's order with their box (the inputs
+    clamped to it, as the renders clamp them), and the spheres' roughness span."""
+    from ..optics.roles import ROLES
+
+    rendered = results.get("rendered") or {}
+    role = ROLES.get(rendered.get("role") or "")
+    target = results["target"]
+    if role is None or role.name == "env_brdf":
+        return None
+    axes = (target["variables"] + ([target["parameter"]] if target.get("parameter") else [])
+            if target.get("variables") else [dict(name=target["variable"], lo=target["domain"][0], hi=target["domain"][1])])
+    roughness = rendered["scene"]["roughness"]
+    inputs = list(role.inputs) + ([role.parameter] if role.parameter else [])
+    box = [(0.0, 1.0) if name == "NoH" else (a["lo"], a["hi"]) for name, a in zip(inputs, axes)]   # (as `rendered`)
+    return dict(role=role.name, what=role.what, names=[a["name"] for a in axes], inputs=inputs,
+                lo=[_glsl_float(lo) for lo, _ in box], hi=[_glsl_float(hi) for _, hi in box],
+                roughness=[roughness[0], roughness[-1]])
 
 
 def _glsl_float(value: float) -> str:

@@ -297,9 +297,10 @@ def _function_in(text: str, name: str) -> str:
 def test_report_html_opens_offline_in_a_browser(schlick_runs):
     """report.html from file:// in headless Chromium, the network blocked: one file under 3 MB that
     asks for nothing else, draws without a console error, shows each GPU's rows of front.csv as its
-    points, opens a member's code as derive.glsl holds it, and runs the member's GLSL live, whose
-    values equal the Python twin's at the inputs the shader used (float32: 1e-5 relative, 1e-6
-    absolute: the twin in float64 of the same constants, the shader's exp2 and rounding in float32)."""
+    points, opens a member's code as derive.glsl holds it, and runs the member's GLSL live, as a curve
+    and in its role on a lit sphere, whose values equal the Python twin's at the inputs the shader used
+    (float32: 1e-5 relative, 1e-6 absolute: the twin in float64 of the same constants, the shader's
+    exp2 and rounding in float32)."""
     from tests.helpers import open_page
 
     _, out, half, _, _ = schlick_runs
@@ -333,6 +334,14 @@ def test_report_html_opens_offline_in_a_browser(schlick_runs):
         x = np.array(live["x"], dtype=np.float64)
         expected = np.array([getattr(twin, name)(float(v)) for v in x])
         np.testing.assert_allclose(live["form"], expected, rtol=1e-5, atol=1e-6)
+        # in its place (the role the file declares): the Fresnel weight on a lit sphere, its inputs (VoH
+        # from a light near the sphere) spread, the shader's values the twin's there
+        sphere = page.evaluate("pageState.sphere")
+        assert sphere is not None and sphere["name"] == member, page.locator("#live-note").all_text_contents()
+        x = np.array(sphere["x"], dtype=np.float64)
+        assert x.size > 10_000 and x.max() - x.min() > 0.2
+        expected = np.array([getattr(twin, name)(float(v)) for v in x])
+        np.testing.assert_allclose(sphere["term"], expected, rtol=1e-5, atol=1e-6)
         # the anchors' verdicts: one row per architecture
         assert page.locator("#verdicts tbody tr").count() == 2
         assert opened.problems == [] and page.evaluate("pageState.errors") == []

@@ -4,7 +4,7 @@
   "use strict";
   const data = JSON.parse(document.getElementById("data").textContent);
   const main = document.getElementById("page");
-  const state = { arch: null, overlay: "", form: null, views: {}, live: null, errors: [] };
+  const state = { arch: null, overlay: "", form: null, views: {}, live: null, sphere: null, errors: [] };
   window.pageState = state;
   window.addEventListener("error", (e) => state.errors.push(String(e.message)));
 
@@ -510,7 +510,7 @@
         const canvas = el("canvas", { class: "live", id: "live", width: 640, height: 260 });
         box.append(canvas, el("p", { class: "note", text: `The form (blue) and the exact target (grey) computed by this browser's GPU at ${L.count} points; below, their difference (red, own scale: largest ${fmt(Math.max(...form.map((v, i) => Math.abs(v - exact[i]))))}).` }));
         drawLine(canvas, x, form, exact, Boolean(L.exact));
-      } else {
+      } else if (L.kind === "heat") {
         const canvas = el("canvas", { class: "live", id: "live", width: 3 * L.size + 40, height: L.size + 24 });
         const slider = el("input", { type: "range", min: L.parameter.lo, max: L.parameter.hi, step: (L.parameter.hi - L.parameter.lo) / 200, value: L.parameter.middle, id: "live-parameter" });
         const label = el("span");
@@ -532,10 +532,75 @@
         slider.addEventListener("input", draw);
         draw();
       }
+      if (L.sphere) sphere(box, gl, f, name);
     } catch (e) {
       box.append(el("p", { class: "note", id: "live-note", text: `The shader did not compile in this browser: ${e.message}` }));
     }
   }
+
+  // The form in its role on a lit sphere (a light two radii from its centre, whose angle to the view
+  // is on a slider, so that the inputs vary over the sphere; GGX's
+  // D, the height-correlated Smith V and Schlick's F, the role's factor replaced), beside the exact
+  // target in the same place and their difference.
+  const SPHERE_SIZE = 160;
+  function sphere(box, gl, f, name) {
+    const S = data.live.sphere, size = SPHERE_SIZE;
+    const roughness = el("input", { type: "range", id: "sphere-roughness", min: S.roughness[0], max: S.roughness[1], step: (S.roughness[1] - S.roughness[0]) / 200, value: 0.5 * (S.roughness[0] + S.roughness[1]) });
+    const angle = el("input", { type: "range", id: "sphere-angle", min: 0, max: 170, step: 1, value: 100 });
+    const material = el("select", { id: "sphere-material" }, el("option", { value: "0.04", text: "dielectric (F0 0.04)" }), el("option", { value: "0.95", text: "metal (F0 0.95)" }));
+    const label = el("span");
+    const canvas = el("canvas", { class: "live", id: "sphere", width: 3 * size + 40, height: size + 24 });
+    const note = el("p", { class: "note" });
+    box.append(el("h4", { text: `In its place: ${S.what}, on a lit sphere` }),
+      el("div", { class: "controls" }, el("label", {}, "roughness ", roughness), el("label", {}, " light to view ", angle, "\u00b0"), el("label", {}, " ", material), label),
+      canvas, note);
+    const source = { VoH: "gVoH", NoV: "gNoV", NoL: "gNoL", NoH: "gNoH", alpha: "gAlpha", n: "gN" };
+    const inputs = S.names.map((v, i) => `  float ${v} = clamp(${source[S.inputs[i]]}, ${S.lo[i]}, ${S.hi[i]});`).join("\n");
+    const shade = (T) => {
+      const F = S.role === "fresnel" ? `(F0 + (1.0 - F0) * ${T})` : "(F0 + (1.0 - F0) * pow(1.0 - gVoH, 5.0))";
+      const Vis = S.role === "visibility" ? T : "smith(gNoV, gNoL, gAlpha)";
+      const D = S.role === "lobe" ? `((gN + 2.0) / (2.0 * 3.14159265) * max(${T}, 0.0))` : "ggx(gNoH, gAlpha)";
+      return `${D} * ${Vis} * ${F} * gNoL * 2.5 + (F0 < 0.5 ? 0.5 / 3.14159265 * gNoL * 2.5 : 0.0) + 0.12`;
+    };
+    const fragment = "#version 300 es\nprecision highp float;\nprecision highp int;\nout vec4 color;\nuniform float size;\nuniform float roughness;\nuniform float angle;\nuniform float F0;\n" +
+      f.gles + "\n" + data.live.exact + "\n" +
+      "float ggx(float t, float a) { float a2 = a * a; float d = t * t * (a2 - 1.0) + 1.0; return a2 / (3.14159265 * d * d); }\n" +
+      "float smith(float v, float l, float a) { float a2 = a * a; return 0.5 / (l * sqrt(v * v * (1.0 - a2) + a2) + v * sqrt(l * l * (1.0 - a2) + a2)); }\n" +
+      "void main() {\n  vec2 p = (gl_FragCoord.xy - 0.5 * size) / (0.5 * size - 2.0);\n  float r2 = dot(p, p);\n" +
+      "  if (r2 > 1.0) { color = vec4(-1.0); return; }\n  vec3 gNormal = vec3(p, sqrt(1.0 - r2));\n  vec3 gView = vec3(0.0, 0.0, 1.0);\n" +
+      "  vec3 gLight = normalize(2.0 * vec3(-sin(angle) * 0.6, sin(angle) * 0.8, cos(angle)) - gNormal);\n  vec3 gHalf = normalize(gLight + gView);\n" +
+      "  float gNoV = gNormal.z, gNoL = max(dot(gNormal, gLight), 0.0), gNoH = clamp(dot(gNormal, gHalf), 0.0, 1.0), gVoH = clamp(dot(gView, gHalf), 0.0, 1.0);\n" +
+      "  float gAlpha = roughness * roughness, gN = 2.0 / (gAlpha * gAlpha) - 2.0;\n" + inputs + "\n" +
+      `  float form = ${f.call};\n  float exact = ${data.live.exact_call};\n` +
+      `  color = vec4(${shade("form")}, ${shade("exact")}, ${S.names[0]}, form);\n}\n`;
+    const draw = () => {
+      const r = Number(roughness.value), a = Number(angle.value) * Math.PI / 180, F0 = Number(material.value);
+      label.textContent = ` roughness ${fmt(r, 3)}, light ${angle.value}\u00b0 from the view`;
+      let out;
+      try { out = runShader(gl, fragment, size, size, { size, roughness: r, angle: a, F0 }); }
+      catch (e) { note.textContent = `The sphere's shader did not compile in this browser: ${e.message}`; return; }
+      const g = canvas.getContext("2d");
+      g.clearRect(0, 0, canvas.width, canvas.height);
+      const panels = [0, 1, 2].map(() => g.createImageData(size, size));
+      let largest = 0;
+      const x = [], term = [];
+      for (let i = 0; i < size * size; i++) if (out[4 * i] >= 0) { largest = Math.max(largest, Math.abs(out[4 * i] - out[4 * i + 1])); x.push(out[4 * i + 2]); term.push(out[4 * i + 3]); }
+      const display = (v) => 255 * Math.pow(Math.max(v, 0) / (1 + Math.max(v, 0)), 1 / 2.2);
+      for (let row = 0; row < size; row++) for (let col = 0; col < size; col++) {
+        const i = row * size + col, j = ((size - 1 - row) * size + col) * 4;
+        if (out[4 * i] < 0) continue;
+        for (const k of [0, 1]) { const v = display(out[4 * i + k]); panels[k].data.set([v, v, v, 255], j); }
+        const d = (out[4 * i] - out[4 * i + 1]) / (largest || 1);
+        panels[2].data.set(d >= 0 ? [255, 255 * (1 - d), 255 * (1 - d), 255] : [255 * (1 + d), 255 * (1 + d), 255, 255], j);
+      }
+      panels.forEach((p, k) => g.putImageData(p, 10 + k * (size + 10), 12));
+      state.sphere = { name, roughness: r, angle: a, F0, x, term };
+      note.textContent = `Left: the form in its place; middle: the exact target; right: their difference in radiance (red above, blue below, full colour at its largest, ${fmt(largest)}), computed by this browser's GPU (Reinhard tone map, gamma 2.2).`;
+    };
+    for (const control of [roughness, angle, material]) control.addEventListener("input", draw);
+    draw();
+  }
+
   function drawLine(canvas, x, form, exact, withExact) {
     const g = canvas.getContext("2d");
     const w = canvas.width, h = canvas.height, top = 160;
