@@ -216,24 +216,39 @@ def exact_terms(scene: Scene, env_brdf) -> dict:
                 D=ggx(np.clip(g["NoH"], 0.0, 1.0), g["alpha"]), env=g["F0"] * A[:, None] + B[:, None])
 
 
-@functools.partial(jax.jit, static_argnames=("dtype",))
-def _shade(F, V, D, env, NoL, E, F0, base, prefiltered_radiance, diffuse_irradiance, dtype):
-    c = lambda a: jnp.asarray(a).astype(dtype)                     # noqa: E731 (each factor in the format)
+def _composed(xp, F, V, D, env, NoL, E, F0, base, prefiltered_radiance, diffuse_irradiance, dtype):
+    """The shading of the module docstring in the array namespace `xp`, every factor rounded to `dtype`
+    and each operation in it."""
+    c = lambda a: xp.asarray(a).astype(dtype)                      # noqa: E731 (each factor in the format)
     F, V, D, env, NoL, E, F0, base = (c(a) for a in (F, V, D, env, NoL, E, F0, base))
-    fresnel = F0[None] + (1.0 - F0[None]) * F[..., None]          # (LIGHTS, P, 3)
-    nol = jnp.maximum(NoL, 0.0)[..., None]
-    specular = jnp.sum(fresnel * (D * V)[..., None] * nol * E, axis=0)
-    diffuse = base / np.pi * (jnp.sum(nol * E, axis=0) + c(diffuse_irradiance))
+    one, zero, pi = (xp.asarray(v).astype(dtype) for v in (1.0, 0.0, np.pi))
+    fresnel = F0[None] + (one - F0[None]) * F[..., None]          # (LIGHTS, P, 3)
+    nol = xp.maximum(NoL, zero)[..., None]
+    per_light = fresnel * (D * V)[..., None] * nol * E
+    specular, received = per_light[0], nol[0] * E[0]
+    for light in range(1, LIGHTS):                                  # (summed in order, each sum rounded)
+        specular, received = specular + per_light[light], received + nol[light] * E[light]
+    diffuse = base / pi * (received + c(diffuse_irradiance))
     ambient = c(prefiltered_radiance) * env
-    return (specular + diffuse + ambient).astype(jnp.float32)
+    return (specular + diffuse + ambient).astype(xp.float32)
 
 
-def shade(scene: Scene, terms: dict, dtype=jnp.float32) -> np.ndarray:
+_shade_jax = jax.jit(functools.partial(_composed, jnp), static_argnames=("dtype",))
+
+
+def shade(scene: Scene, terms: dict, dtype=np.float32) -> np.ndarray:
     """The scene's radiance image (height, width, 3; float32) with the factors `terms` (`exact_terms`,
-    one of them replaced), every factor rounded to `dtype` and the shading composed in it."""
+    one of them replaced), every factor rounded to `dtype` and the shading composed in it: float32 by
+    XLA (jitted), float16 by numpy, whose float16 operations round each result (XLA's CPU float16
+    needs the F16C instructions, which the oldest x86 machines lack)."""
     g = geometry(scene)
-    radiance = _shade(terms["F"], terms["V"], terms["D"], terms["env"], g["NoL"], g["E"], g["F0"], g["base"],
-                      g["prefiltered"], g["irradiance"], dtype)
+    arguments = (terms["F"], terms["V"], terms["D"], terms["env"], g["NoL"], g["E"], g["F0"], g["base"],
+                 g["prefiltered"], g["irradiance"])
+    if np.dtype(dtype) == np.float16:
+        with np.errstate(over="ignore"):
+            radiance = _composed(np, *arguments, dtype=np.float16)
+    else:
+        radiance = _shade_jax(*arguments, dtype=np.float32)
     image = np.empty(scene.shape + (3,), dtype=np.float32)
     image[:] = BACKGROUND
     image[g["rows"], g["columns"]] = np.asarray(radiance)
