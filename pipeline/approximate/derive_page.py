@@ -323,26 +323,12 @@ def data(results) -> dict:
                ["search", _coverage_text(results.get("coverage") or {})],
                ["time", f"{results['seconds']} s"]]
     notes = [f"{vendor}: {why}" for vendor, why in (results.get("missing") or {}).items()]
-    from .parametric import pairs, registry
-    from .targets import registry as one_variable
-
-    command = ["pipeline", "derive"]
-    if target["name"] in one_variable() | registry() | pairs():
-        command += ["--target", target["name"]]
-    elif not target.get("variables"):         # (an expression's: the same target as --expr)
-        command += ["--expr", shlex.quote(target["expression"]),
-                     f"--var {target['variable']}={target['domain'][0]:g}:{target['domain'][1]:g}"]
-        if target["name"] != target["expression"]:
-            command += ["--name", shlex.quote(target["name"])]
-    command += ["--gpu", ",".join(results["architectures"])]
-    if precision != "fp32":
-        command += ["--precision", precision]
     return dict(
         kind="derive",
         title=target["name"] if target["name"] == target["expression"] else f"{target['name']}: {target['expression']}",
         target=dict(name=target["name"], expression=target["expression"], description=target.get("description") or "",
                     domain_text=publish.domain_text(target), metric=target["metric"], precision=precision),
-        command=" ".join(command),
+        command=rerun_command(results),
         summary=summary, notes=notes,
         error_label=f"largest {metric} error as executed in {precision}",
         floor=results.get("rounding_floor") or 0.0,
@@ -355,6 +341,28 @@ def data(results) -> dict:
         special=[dict(arch=a, functions=f) for a, f in (results.get("special_functions") or {}).items()],
         live=_live(results, names, functions) | how,
     )
+
+
+def rerun_command(results) -> str:
+    """The command that reruns the run: its registered target by name, an expression's by --expr and
+    --var (and --name where the run was named otherwise), its architectures and its precision."""
+    from .parametric import pairs, registry
+    from .targets import registry as one_variable
+
+    target = results["target"]
+    precision = results.get("precision") or "fp32"
+    command = ["pipeline", "derive"]
+    if target["name"] in one_variable() | registry() | pairs():
+        command += ["--target", target["name"]]
+    elif not target.get("variables"):         # (an expression's: the same target as --expr)
+        command += ["--expr", shlex.quote(target["expression"]),
+                     f"--var {target['variable']}={target['domain'][0]:g}:{target['domain'][1]:g}"]
+        if target["name"] != target["expression"]:
+            command += ["--name", shlex.quote(target["name"])]
+    command += ["--gpu", ",".join(results["architectures"])]
+    if precision != "fp32":
+        command += ["--precision", precision]
+    return " ".join(command)
 
 
 def _coverage_text(coverage: dict) -> str | None:

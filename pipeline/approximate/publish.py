@@ -159,6 +159,15 @@ def _executed_text(results) -> str:
             f"{run['inputs']} inputs of the domain)")
 
 
+def no_verdict_text(results) -> str:
+    """Why a run has no verdict at all: no anchor, and its exact form not compiled (where, and why) or
+    not judged (several variables)."""
+    return ("No verdict: the target has no hand fit to compare with (a target file's `[[anchor]]` tables add "
+            "them), and its exact form "
+            + ("was not compiled on any architecture (" + "; ".join(f"{k}: {v}" for k, v in results["missing"].items())
+               + ")." if results["missing"] else "is not judged for a target of several variables."))
+
+
 def report(results) -> str:
     """report.md: every number from `results` (results.json's fields)."""
     from ..isa.architectures import ARCHITECTURES
@@ -199,10 +208,7 @@ def report(results) -> str:
     lines += ["## The anchors", ""]
     if not any(results["verdicts"].values()):
         # (no table with a header and no rows: what is missing, and why)
-        lines += ["No verdict: the target has no hand fit to compare with (a target file's `[[anchor]]` tables add "
-                  "them), and its exact form "
-                  + ("was not compiled on any architecture (" + "; ".join(f"{k}: {v}" for k, v in results["missing"].items())
-                     + ")." if results["missing"] else "is not judged for a target of several variables.")]
+        lines += [no_verdict_text(results)]
     else:
         lines += ["| architecture | anchor | cycles | error | verdict | by | error ratio |", "|---|---|---|---|---|---|---|"]
     for a, verdicts in results["verdicts"].items():

@@ -383,3 +383,33 @@ def test_a_run_is_named_by_name_else_by_its_target_or_expression():
     with pytest.raises(targets.DeriveError, match="--name: give the run a name"):
         api.resolve(expr="exp(-x)", var="x=0:4", name="  ")
     assert publish.function_name("exp(-x)", "polynomial_1") == "exp_x_polynomial_1"
+
+
+@pytest.mark.parametrize("target, name, precision, expected", [
+    (dict(name="schlick", expression="(1 - x)**5", variable="x", domain=[0.0, 1.0]), None, "fp32",
+     "pipeline derive --target schlick --gpu rdna3,sm_89"),
+    (dict(name="exp(-x)", expression="exp(-x)", variable="x", domain=[0.0, 4.0]), None, "fp16",
+     "pipeline derive --expr 'exp(-x)' --var x=0:4 --gpu rdna3,sm_89 --precision fp16"),
+    (dict(name="decay", expression="exp(-t)", variable="t", domain=[0.5, 2.0]), "decay", "fp32",
+     "pipeline derive --expr 'exp(-t)' --var t=0.5:2 --name decay --gpu rdna3,sm_89"),
+])
+def test_the_page_s_rerun_command_names_the_run_as_it_was_made(target, name, precision, expected):
+    """A registered target by name; an expression by --expr and --var, and --name where the run was
+    named otherwise; read back by the CLI's own parser and `api.resolve`, the same target."""
+    import shlex
+
+    from pipeline.approximate import api, derive_page
+    from pipeline.cli import build_parser
+
+    command = derive_page.rerun_command(dict(target=target, architectures=["rdna3", "sm_89"], precision=precision))
+    assert command == expected
+    args = build_parser().parse_args(shlex.split(command)[1:])
+    again = api.resolve(args.target, args.expr, args.var, name=args.name)
+    assert (again.name, again.expression, again.variable, list(again.domain)) == (
+        target["name"], target["expression"], target["variable"], target["domain"])
+
+
+def test_a_run_without_anchors_says_why_it_has_no_verdict():
+    text = publish.no_verdict_text(dict(missing={"nvidia": "ptxas is not installed"}))
+    assert text.startswith("No verdict: the target has no hand fit") and "(nvidia: ptxas is not installed)." in text
+    assert publish.no_verdict_text(dict(missing={})).endswith("is not judged for a target of several variables.")
