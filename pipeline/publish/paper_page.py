@@ -215,7 +215,19 @@ def data(config, doc, results, checks, out_dir: Path, drawn) -> dict:
         candidates=_candidates(results),
         images=_images(out_dir, drawn),
         lobe_functions=functions,
+        per_n=_per_n(results),
     )
+
+
+def _per_n(r) -> dict | None:
+    """Each lobe-search form's per-n optimum: max d at each n of the search's grid (`lobe_search.per_n`),
+    beside which the page draws the shipped line's max d over the range."""
+    search = r.get("lobe_search") or {}
+    grid = search.get("n_grid")
+    if grid is None or not search.get("per_n"):
+        return None
+    return dict(n=np.asarray(grid, dtype=np.float64).tolist(),
+                d={row["family"]: [_num(v) for v in np.asarray(row["d"], dtype=np.float64)] for row in search["per_n"]})
 
 
 def write(path: Path, config, doc, results, checks, drawn) -> None:

@@ -310,6 +310,11 @@ def test_the_paper_s_report_html_opens_offline_in_a_browser(paper_outputs):
             expected = [getattr(twin, live["name"])(float(t), float(np.float32(live["n"]))) for t in inside[:, 2]]
             np.testing.assert_allclose(inside[:, 0], expected, rtol=0, atol=1e-5)
             assert page.locator("#lobe-code").text_content().startswith(f"float {live['name']}(float t, float n)")
+            # its family's per-n optimum over the range's n of the search's grid, the line's max d above it
+            page.wait_for_selector("#per-n-plot[data-points]")
+            grid = np.asarray(paper_outputs[1].results["lobe_search"]["n_grid"], dtype=np.float64)
+            lo, hi = (float(v) for v in page.evaluate("pageState.range").removeprefix("n in [").removesuffix("]").split(", "))
+            assert int(page.locator("#per-n-plot").get_attribute("data-points")) == np.sum((grid >= lo) & (grid <= hi))
         assert page.locator("img.figure").count() >= 10
         assert opened.problems == [] and page.evaluate("pageState.errors") == []
         assert all(u.startswith("file://") for u in opened.requests)

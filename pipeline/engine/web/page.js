@@ -359,6 +359,7 @@
       const [lo, hi] = state.range.replace("n in [", "").replace("]", "").split(", ").map(Number);
       liveBox.replaceChildren(el("h3", { text: `Live: ${fn} on a lit sphere beside cos^n (WebGL2)` }),
         el("pre", { id: "lobe-code", text: data.lobe_functions[fn] }));
+      perN(fn, lo, hi);
       const gl = document.createElement("canvas").getContext("webgl2");
       if (!gl || !gl.getExtension("EXT_color_buffer_float")) {
         liveBox.append(el("p", { class: "note", id: "live-note", text: "WebGL2 with float render targets is not available in this browser: the live sphere is not shown (the rest of the page works)." }));
@@ -402,6 +403,20 @@
       draw();
     }
     state.openLobe = openLobe;
+    // the form's family fitted at each n of the range (its per-n optimum) beside the shipped line's max d
+    function perN(fn, lo, hi) {
+      const point = ((data.fronts[state.arch] || {})[state.range] || []).find((p) => p.function === fn);
+      const curve = point && data.per_n && data.per_n.d[point.name];
+      if (!curve) return;
+      const values = data.per_n.n.map((n, i) => ({ n, d: num(curve[i]) })).filter((v) => v.n >= lo && v.n <= hi && Number.isFinite(v.d));
+      const box = el("div", { id: "per-n-plot" });
+      liveBox.append(el("h4", { text: `${point.name}: max d at each n, its parameters fitted at that n (the per-n optimum), and the shipped line's max d over the range (dashed)` }), box);
+      embed(box, { width: 640, height: 200, layer: [
+        { data: { values }, mark: { type: "line", point: true }, encoding: { x: { field: "n", type: "quantitative", scale: { type: "log" } },
+          y: { field: "d", type: "quantitative", scale: { type: "log" }, title: "max d (relative, in the zone)" }, tooltip: [{ field: "n", format: ".4~g" }, { field: "d", format: ".4~g" }] } },
+        { data: { values: [{ line: num(point.error) }] }, mark: { type: "rule", strokeDash: [5, 4], color: "#b3261e" }, encoding: { y: { field: "line", type: "quantitative" } } }] }, "per_n");
+      box.dataset.points = String(values.length);
+    }
     gpu.addEventListener("change", () => showLobe());
     range.addEventListener("change", () => showLobe());
     state.showLobe = showLobe;
