@@ -428,6 +428,7 @@ def main(argv=None) -> int:
             print(f"wrote {target.relative_to(ROOT)}")
     if args.no_build:
         return 0
+    print(paper_page_shot(path.parent / "report.html"))
     with tempfile.TemporaryDirectory(dir=DOCS.parent, prefix=".docs-build-") as tmp:
         build(Path(tmp) / "site")
         if SITE.exists():
@@ -435,6 +436,38 @@ def main(argv=None) -> int:
         shutil.move(str(Path(tmp) / "site"), SITE)
     print(f"built the site in {SITE.relative_to(ROOT)}/ (open index.html)")
     return 0
+
+
+PAPER_PAGE_SHOT = DOCS / "report_html_paper.png"   # the README's picture of the paper's report.html
+
+
+def paper_page_shot(html: Path) -> str:
+    """A screenshot of the paper's report.html (`make reproduce` writes it) with the first lobe front
+    member that runs live opened: PAPER_PAGE_SHOT, taken by headless Chromium from file://. Says what
+    it did, or why not (no page, no Playwright, no Chromium): the picture is then left as it is."""
+    if not html.exists():
+        return f"{html} not found: {PAPER_PAGE_SHOT.relative_to(ROOT)} is left as it is (`make reproduce` writes the page)"
+    try:
+        from playwright.sync_api import sync_playwright
+    except ImportError:
+        return f"Playwright is not installed: {PAPER_PAGE_SHOT.relative_to(ROOT)} is left as it is"
+    browser_path = shutil.which("chromium") or shutil.which("chromium-browser")
+    if browser_path is None:
+        return f"Chromium is not installed: {PAPER_PAGE_SHOT.relative_to(ROOT)} is left as it is"
+    with sync_playwright() as p:
+        browser = p.chromium.launch(executable_path=browser_path, args=["--no-sandbox", "--disable-background-networking",
+                                                                        "--use-angle=swiftshader", "--enable-unsafe-swiftshader"])
+        page = browser.new_page(viewport={"width": 1280, "height": 2100})
+        page.goto(html.resolve().as_uri())
+        page.wait_for_selector("body[data-ready='1']", state="attached", timeout=60000)
+        live = page.locator("#front-table tbody tr[data-key^='cosfit_']")
+        if live.count():
+            live.first.click()
+            page.wait_for_function("window.pageState.live !== null || document.getElementById('live-note')")
+        page.evaluate("document.getElementById('lobe').scrollIntoView({block: 'start'})")
+        page.screenshot(path=str(PAPER_PAGE_SHOT), full_page=False)
+        browser.close()
+    return f"wrote {PAPER_PAGE_SHOT.relative_to(ROOT)} (a screenshot of {html.name})"
 
 
 # ---------------------------------------------------------------------------------------------------
