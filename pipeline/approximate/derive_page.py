@@ -299,7 +299,8 @@ def data(results) -> dict:
         cycles.setdefault(r["name"], {})[r["architecture"]] = r["cycles"]     # (the row's, where it has one)
         rows.setdefault(r["architecture"], []).append(dict(
             name=r["name"], kind=r["kind"], cycles=r["cycles"], error=r[error_key], error_real=r.get(error_key + "_real"),
-            on_front=bool(r["on_front"]), expression=r["expression"], front=r.get("parameter_per") or ""))
+            on_front=bool(r["on_front"]), expression=r["expression"], front=r.get("parameter_per") or "",
+            flip=r.get("flip_max")))
     if target.get("variables"):
         curves, how = _several_variable_curves(results, names), {}
     else:
@@ -372,9 +373,23 @@ def _coverage_text(coverage: dict) -> str | None:
                      for r in coverage["rungs"])
 
 
+def _rendered(results, folder) -> dict | None:
+    """The rendered comparison (`rendered`): results.json's object and renders.png (written beside the
+    page before it) as PNG data; None where the run rendered nothing."""
+    import base64
+
+    r = results.get("rendered")
+    if not r or not r.get("role"):
+        return dict(why=r["why"]) if r else None
+    figure = folder / "renders.png"
+    return dict(rule=r["rule"], threshold=r["threshold"], what=r["what"], budget=r["budget"], budget_is=r["budget_is"],
+                architectures=r["architectures"],
+                png=base64.b64encode(figure.read_bytes()).decode("ascii") if figure.exists() else None)
+
+
 def write(path, results) -> None:
-    """report.html at `path`."""
+    """report.html at `path` (after renders.png beside it, which it embeds)."""
     from ..engine import web_page
 
-    page = data(results)
+    page = data(results) | dict(rendered=_rendered(results, path.parent))
     path.write_text(web_page.page(page["title"], page))

@@ -388,11 +388,11 @@ def write(out: Path, results, log=print) -> list[Path]:
         write_csv(tmp / "front.csv", results["rows"])
         (tmp / "results.json").write_text(json.dumps(results_json(results), indent=1))
         (tmp / "report.md").write_text(report(results))
-        derive_page.write(tmp / "report.html", results)
         figure(tmp / "front.png", results)
         if results.get("renders"):
             rendered_report.figure_renders(tmp / "renders.png", results)
             rendered_report.figure_front(tmp / "rendered_front.png", results)
+        derive_page.write(tmp / "report.html", results)     # (after renders.png, which it embeds)
         for name, text in shader_sources(results).items():
             (tmp / name).write_text(text)
         return f"{len(results['rows'])} rows"

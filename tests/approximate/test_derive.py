@@ -344,6 +344,14 @@ def test_report_html_opens_offline_in_a_browser(schlick_runs):
         np.testing.assert_allclose(sphere["term"], expected, rtol=1e-5, atol=1e-6)
         # the anchors' verdicts: one row per architecture
         assert page.locator("#verdicts tbody tr").count() == 2
+        # as seen: each row's largest FLIP as front.csv has it, the rule's answer on the selected GPU, the renders
+        assert page.locator("#front-table thead th").all_text_contents()[-1] == "largest FLIP"
+        shown = {tr.get_attribute("data-key"): float(tr.locator("td").last.text_content())
+                 for tr in page.locator("#front-table tbody tr").all()}
+        assert shown == pytest.approx({r["name"]: float(r["flip_max"]) for r in rows if r["architecture"] == "gcn5"},
+                                      rel=1e-3, abs=1e-6)       # (the table prints 4 significant digits)
+        assert page.locator("#rendered-verdicts tbody tr").count() == 1
+        assert page.locator("#rendered img").count() == 1
         assert opened.problems == [] and page.evaluate("pageState.errors") == []
         assert all(u.startswith("file://") for u in opened.requests) and len(set(opened.requests)) == 1
     # the float16 run's page: its live shader in mediump

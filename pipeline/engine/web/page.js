@@ -141,6 +141,26 @@
     main.append(formBox);
     main.append(el("h2", { text: "The hand fits (anchors) against the fronts" }));
     main.append(verdictTable());
+    const renderedBox = el("section", { id: "rendered" });
+    if (data.rendered) main.append(el("h2", { text: "As seen: each form rendered in its place, compared by FLIP" }), renderedBox);
+    // the rendered comparison on the selected GPU: the rule's answer beside the max-error budget's
+    function drawRendered() {
+      const R = data.rendered;
+      if (!R) return;
+      if (R.why) { renderedBox.replaceChildren(el("p", { class: "note", text: `Not rendered: ${R.why}.` })); return; }
+      const a = R.architectures[state.arch] || {};
+      const named = (x, value) => x ? `${x.name} (${x.kind}, ${fmt(x.cycles)} cycles, ${value})` : "none";
+      renderedBox.replaceChildren(
+        el("p", {}, `Each form replaces ${R.what}; the rule: ${R.rule} (${fmt(R.threshold, 3)} here).`),
+        facts([["cheapest invisible", named(a.cheapest_invisible, a.cheapest_invisible ? `largest FLIP ${fmt(a.cheapest_invisible.flip, 3)}` : "")],
+               ["cheapest within the max-error budget", named(a.cheapest_within_budget, a.cheapest_within_budget ? `error ${fmt(a.cheapest_within_budget.error, 3)}` : "")],
+               ["least FLIP (the exact target aside)", named(a.least_flip, a.least_flip ? `largest FLIP ${fmt(a.least_flip.flip, 3)}` : "")],
+               ["max-error budget", `${fmt(R.budget, 3)}: ${R.budget_is}`]]),
+        table(["anchor", "cycles", "its largest FLIP", "verdict by FLIP", "by", "its FLIP"],
+          Object.entries(a.anchors || {}).map(([name, v]) => ({ cells: [name, num(v.cycles), num(v.flip), v.verdict, v.by || "", num(v.rival_flip)] })), null, "rendered-verdicts"));
+      if (R.png) renderedBox.append(el("figure", {}, el("img", { class: "figure", alt: "the renders and their FLIP maps", src: `data:image/png;base64,${R.png}` }),
+        el("figcaption", { class: "note", text: "renders.png: the exact term, the anchors and the first GPU's FLIP front, each beside its FLIP map." })));
+    }
     if (data.special.length) {
       main.append(el("h2", { text: "Special functions on the selected GPU" }));
       main.append(el("div", { id: "special" }));
@@ -156,9 +176,11 @@
       });
       plot.dataset.points = String(points.filter((p) => p.arch === state.arch).length);
       const rows = (data.rows[state.arch] || []).slice().sort((p, q) => num(p.cycles) - num(q.cycles));
-      rowsBox.replaceChildren(table(["name", "kind", "cycles", "error", "front"],
-        rows.map((r) => ({ key: r.name, cells: [r.name, r.kind, num(r.cycles), num(r.error), r.on_front ? "yes" : ""] })),
+      const flips = rows.some((r) => r.flip != null);
+      rowsBox.replaceChildren(table(["name", "kind", "cycles", "error", "front"].concat(flips ? ["largest FLIP"] : []),
+        rows.map((r) => ({ key: r.name, cells: [r.name, r.kind, num(r.cycles), num(r.error), r.on_front ? "yes" : ""].concat(flips ? [num(r.flip)] : []) })),
         (name) => openForm(name), "front-table"));
+      drawRendered();
       const special = document.getElementById("special");
       if (special) {
         special.replaceChildren(table(["function", "accuracy", "source", "Mesa's own lowering"],
