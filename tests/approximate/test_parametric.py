@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 import sympy as sp
 
-from pipeline.approximate import engine, parametric
+from pipeline.approximate import engine, formulas, parametric, parametric_search, templates
 from pipeline.approximate.parametric import Axis, ParametricTarget
 from pipeline.approximate.targets import DeriveError
 from pipeline.optics import brdf
@@ -228,11 +228,11 @@ def test_a_csv_table_runs_through_derive(tmp_path, monkeypatch):
     from pipeline import derive
 
     _planted_csv(tmp_path / "law.csv")
-    monkeypatch.setattr(parametric, "BASES", {1: (("degree1", 1, False),)})
-    monkeypatch.setattr(parametric, "OUTERS", {"reciprocal": "reciprocal_polynomial"})
+    monkeypatch.setattr(templates, "BASES", {1: (("degree1", 1, False),)})
+    monkeypatch.setattr(templates, "OUTERS", {"reciprocal": "reciprocal_polynomial"})
     # (the grammar's forms depend on how far its time budget reaches on a loaded machine: left out here)
     searched = dict(rungs=[], points=0, loss="max")
-    monkeypatch.setattr(parametric, "_grammar_search", lambda *args: ([], dict(
+    monkeypatch.setattr(parametric_search, "_grammar_search", lambda *args: ([], dict(
         templates=searched | dict(count=0, seconds=0.0, at=1.25), pixel_search=searched)))
     from pipeline.engine import paths
 
@@ -312,7 +312,7 @@ def test_coefficients_at_rounding_level_are_dropped(tmp_path, monkeypatch):
     """GGX's quartic has no odd powers of NoH: the fitted template's k1 and k3 come back at rounding's
     level, and the member drops them (its material form has no c1, c3), no less accurate. (The
     formulas a + b p + c / p alone: the others are not what this tests.)"""
-    monkeypatch.setattr(parametric, "formula_variants", lambda count, reduce, laurent=False: [("laurent",) * count])
+    monkeypatch.setattr(formulas, "formula_variants", lambda count, reduce, laurent=False: [("laurent",) * count])
     (tmp_path / "d.toml").write_text(GGX)
     target = parametric.from_file(tmp_path / "d.toml")
     f = target.numpy()
