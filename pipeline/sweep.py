@@ -37,7 +37,6 @@ import itertools
 import logging
 import os
 import time
-import tomllib
 from pathlib import Path
 from typing import Any
 
@@ -88,13 +87,10 @@ def load_sweep(path: str | Path) -> Sweep:
     """Reads and checks a sweep file; every point's config is validated here, before anything runs."""
     from .engine import graph
 
+    from .engine.toml_files import read_toml
+
     path = Path(path)
-    try:
-        raw = tomllib.loads(path.read_text(encoding="utf-8"))
-    except FileNotFoundError:
-        raise ConfigError(f"sweep file '{path}' does not exist") from None
-    except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError) as e:
-        raise ConfigError(f"sweep file '{path}' cannot be read as TOML: {e}") from None
+    raw = read_toml(path, "sweep file", ConfigError)
     unknown = set(raw) - {"sweep", "axes"}
     if unknown:
         raise ConfigError(f"sweep file '{path}': unknown section '[{sorted(unknown)[0]}]'; allowed: [sweep], [axes]")

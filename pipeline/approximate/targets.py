@@ -33,7 +33,6 @@ from __future__ import annotations
 
 import dataclasses
 import math
-import tomllib
 from pathlib import Path
 
 import numpy as np
@@ -274,13 +273,10 @@ def from_file(path: Path) -> Target:
 
 
 def read_toml(path: Path) -> dict:
-    """A target file's TOML. Raises DeriveError: no such file, not a TOML file."""
-    if not path.is_file():
-        raise DeriveError(f"{path}: no such file")
-    try:
-        return tomllib.loads(path.read_text(encoding="utf-8"))
-    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as e:
-        raise DeriveError(f"{path}: not a TOML file ({e})") from None
+    """A target file's TOML (`engine.toml_files.read_toml`). Raises DeriveError naming the fault."""
+    from ..engine.toml_files import read_toml as read
+
+    return read(path, "target file", DeriveError)
 
 
 def read_anchors(data: dict, path: Path) -> tuple[Anchor, ...]:

@@ -500,19 +500,10 @@ def _config_from(values: dict, expectations, source: str, file_values: dict) -> 
 
 def load_config(path: str | Path, overrides: tuple[str, ...] = (), name: str | None = None) -> Config:
     """Reads a TOML config, applies `--set` overrides and an output name, and validates it all."""
+    from .toml_files import read_toml
+
     path = Path(path)
-    try:
-        raw = tomllib.loads(path.read_text(encoding="utf-8"))
-    except FileNotFoundError:
-        raise ConfigError(f"config file '{path}' does not exist") from None
-    except IsADirectoryError:
-        raise ConfigError(f"config file '{path}' is a directory, not a TOML file") from None
-    except UnicodeDecodeError as e:
-        raise ConfigError(f"config file '{path}' is not UTF-8 text (byte {e.start}): not a TOML file") from None
-    except OSError as e:
-        raise ConfigError(f"config file '{path}' cannot be read: {e.strerror}") from None
-    except tomllib.TOMLDecodeError as e:
-        raise ConfigError(f"config file '{path}' is not valid TOML: {e}") from None
+    raw = read_toml(path, "config file", ConfigError)
     values, expectations = _flatten(raw)
     file_values = dict(values)
     for text in overrides:

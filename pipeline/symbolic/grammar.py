@@ -354,16 +354,12 @@ def read_cost_table(path, ops) -> dict:
     """A cost table from a TOML file: a `[cost]` table (or top-level keys) giving each operation of
     `ops` a cost > 0, and optionally "constant" and "variable" (default 1). Raises ValueError naming
     a missing operation, an unknown key or a bad value."""
-    import tomllib
     from pathlib import Path
 
+    from ..engine.toml_files import read_toml
+
     path = Path(path)
-    if not path.is_file():
-        raise ValueError(f"{path}: no such file")
-    try:
-        data = tomllib.loads(path.read_text(encoding="utf-8"))
-    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as e:
-        raise ValueError(f"{path}: not a TOML file ({e})") from None
+    data = read_toml(path, "cost file")
     table = data.get("cost", data)
     if not isinstance(table, dict):
         raise ValueError(f"{path}: [cost] must be a table of operation = cost")
