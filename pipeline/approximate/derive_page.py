@@ -306,7 +306,12 @@ def data(results) -> dict:
     else:
         curves, how = _one_variable_curves(results, names)
     if not curves:
-        curves = dict(kind="none", error={}, title="No error curve: the target has no exact form to compare with")
+        axis_count = len(target.get("variables") or []) + bool(target.get("parameter"))
+        curves = dict(kind="none", error={}, title=(
+            f"No error map: the page draws one over two variables and a parameter, and this target has "
+            f"{len(target['variables'])} variable(s){' and a parameter' if target.get('parameter') else ''} "
+            "(each form's error is in the table)" if target.get("variables") and axis_count != 3 else
+            "No error curve: the target has no exact form to compare with"))
     forms = {}
     for n in names:
         form, member = results["forms"][n], results["members"].get(n, {})

@@ -220,6 +220,7 @@
       async function drawCurve() {
         const names = [name].concat(shown.anchors ? data.anchors : [], shown.exact && data.exact ? [data.exact] : [])
           .filter((n, i, all) => all.indexOf(n) === i && data.curves.error[n]);
+        if (data.curves.kind === "none") { toggles.replaceChildren(); return; }      // (the title says why)
         if (data.curves.kind === "line") {
           const values = [];
           for (const n of names) data.curves.error[n].forEach((e, i) => values.push({ x: data.curves.x[i], error: e, form: n }));
