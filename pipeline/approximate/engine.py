@@ -48,13 +48,7 @@ def constant_error(target, f) -> float:
     """The error of the best constant (minimax, on the measuring grid): a form worth a cycle beats it.
     abs: (max f - min f) / 2; rel (f of one sign): (max |f| - min |f|) / (max |f| + min |f|), the
     floor raising min |f|."""
-    values = f(measure.grid(*target.domain))
-    if target.metric == "abs":
-        return float(values.max() - values.min()) / 2
-    if values.min() < 0 < values.max():
-        return 1.0
-    size = np.maximum(np.abs(values), target.floor)
-    return float((size.max() - size.min()) / (size.max() + size.min()))
+    return measure.best_constant_error(f(measure.grid(*target.domain)), target.metric, target.floor)
 
 
 def available_architectures() -> list[str]:

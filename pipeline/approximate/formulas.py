@@ -383,10 +383,6 @@ def _error_key(target) -> str:
 
 def _constant_error(target, f) -> float:
     """The error of the best constant over the measuring grid (a form worth a cycle beats it)."""
-    values = f(*mesh(target, 17))
-    if target.metric == "abs":
-        return float(values.max() - values.min()) / 2
-    if values.min() < 0 < values.max():
-        return 1.0
-    size = np.maximum(np.abs(values), target.floor)
-    return float((size.max() - size.min()) / (size.max() + size.min()))
+    from .measure import best_constant_error
+
+    return best_constant_error(f(*mesh(target, 17)), target.metric, target.floor)

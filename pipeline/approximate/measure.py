@@ -74,3 +74,16 @@ def max_error(approx, target, lo: float, hi: float, floor: float = 0.0) -> dict:
     abs_error, x_abs = largest(error_function(approx, target, "abs"), lo, hi)
     rel_error, x_rel = largest(error_function(approx, target, "rel", floor), lo, hi)
     return dict(max_abs_error=abs_error, max_rel_error=rel_error, x_abs=x_abs, x_rel=x_rel)
+
+
+def best_constant_error(values, metric: str, floor: float = 0.0) -> float:
+    """The error of the best constant (minimax) against the target's `values`: abs, (max f - min f) / 2;
+    rel (f of one sign), (max |f| - min |f|) / (max |f| + min |f|), the floor raising min |f|; 1 where
+    f changes sign. A form worth a cycle beats it."""
+    values = np.asarray(values, dtype=np.float64)
+    if metric == "abs":
+        return float(values.max() - values.min()) / 2
+    if values.min() < 0 < values.max():
+        return 1.0
+    size = np.maximum(np.abs(values), floor)
+    return float((size.max() - size.min()) / (size.max() + size.min()))

@@ -120,3 +120,14 @@ def test_a_form_printed_compiles_and_its_twin_is_its_value(tmp_path):
     for args in ([str(tmp_path / "a.frag")], ["-D", "-e", "main", "-S", "frag", str(tmp_path / "a.hlsl")]):
         done = subprocess.run([validator, "-V", "-o", str(tmp_path / "out.spv"), *args], capture_output=True, text=True)
         assert done.returncode == 0, done.stdout + done.stderr
+
+
+def test_the_best_constant_s_error_is_its_closed_form():
+    """abs: half the range; rel: (max - min) / (max + min) of |f|, the floor raising the least; 1 where f
+    changes sign (no constant has a relative error below 1 there)."""
+    from pipeline.approximate.measure import best_constant_error
+
+    assert best_constant_error([0.0, 0.3, 1.0], "abs") == 0.5
+    assert best_constant_error([1.0, 2.0, 3.0], "rel") == 0.5
+    assert best_constant_error([0.0, 2.0], "rel", floor=1.0) == pytest.approx(1 / 3, rel=1e-15)
+    assert best_constant_error([-1.0, 2.0], "rel") == 1.0
