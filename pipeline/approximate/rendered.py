@@ -99,7 +99,7 @@ def _inputs(target, role, scene, dtype) -> list:
     return [np.clip(source[name], lo, hi).astype(dtype) for name, (lo, hi) in zip(names, ranges)]
 
 
-def _in_role(role, value, scene, F0=None):
+def _in_role(role, value, scene):
     """A term's values as the factor it replaces (`material_balls.exact_terms`' key, its array)."""
     from ..optics import material_balls as balls
 
