@@ -32,7 +32,8 @@ from dataclasses import dataclass
 from itertools import product
 
 import numpy as np
-from scipy.optimize import minimize
+
+from . import nelder_mead
 
 HEITZ_2014 = ("Heitz, 'Understanding the Masking-Shadowing Function in Microfacet-Based BRDFs', "
               "JCGT 3(2), 2014 (height-correlated Smith G2); as Filament writes V_SmithGGXCorrelated")
@@ -330,8 +331,8 @@ def largest(e, lo, hi, cells: int = GRID, chebyshev: int = CHEBYSHEV, peaks: int
     array), (inf, x) where e is not finite somewhere on the grid.
 
     The grid is the product of `axis_grid`s. The `peaks` largest local maxima of |e| on it are each
-    refined by Nelder-Mead (scipy, derivative-free: these errors have kinks, from min() in the anchors)
-    bounded to the grid cells around the peak, restarted once from where it stopped with a fresh
+    refined by Nelder-Mead (scipy's, derivative-free: these errors have kinks, from min() in the
+    anchors; the peaks' runs evaluated together, `nelder_mead`) bounded to the grid cells around the peak, restarted once from where it stopped with a fresh
     simplex (Nelder-Mead can stall on a ridge). Assumption: the true maximum lies in the cells around
     one of the grid's largest local maxima; the tests check it against denser grids."""
     lo, hi = np.asarray(lo, dtype=np.float64), np.asarray(hi, dtype=np.float64)
@@ -346,25 +347,29 @@ def largest(e, lo, hi, cells: int = GRID, chebyshev: int = CHEBYSHEV, peaks: int
     best = int(np.argmax(v))
     value, where = float(v.flat[best]), np.array([m.flat[best] for m in mesh])
 
-    def objective(x):
-        return -float(np.abs(e(*x)))
-
-    for flat in candidates:
+    def refine(flat):
+        """The peak at `flat` refined (a run of `nelder_mead.minimize_all`)."""
         index = np.unravel_index(flat, v.shape)
         x0 = np.array([ax[i] for ax, i in zip(axes, index)])
-        bounds = [(ax[max(i - 1, 0)], ax[min(i + 1, ax.size - 1)]) for ax, i in zip(axes, index)]
-        scale = np.array([b - a for a, b in bounds])
+        lower = np.array([ax[max(i - 1, 0)] for ax, i in zip(axes, index)])
+        upper = np.array([ax[min(i + 1, ax.size - 1)] for ax, i in zip(axes, index)])
+        scale = upper - lower
         for size in (0.25, 0.01):
             # the simplex's other corners step inward from x0 along each axis
-            steps = np.where(x0 + size * scale <= np.array([b for _, b in bounds]), 1.0, -1.0) * size * scale
+            steps = np.where(x0 + size * scale <= upper, 1.0, -1.0) * size * scale
             simplex = np.vstack([x0, x0 + np.diag(steps)])
             # stops when the simplex spans 1e-8 of the box's size and its values 1e-12 of the peak's
-            with np.errstate(invalid="ignore"):        # (a simplex corner where e is not finite)
-                found = minimize(objective, x0, method="Nelder-Mead", bounds=bounds,
-                                 options={"initial_simplex": simplex, "xatol": 1e-8 * float(np.max(hi - lo)),
-                                          "fatol": 1e-12 * float(v.flat[flat]), "maxfev": 1000})
-            x0 = np.clip(found.x, [a for a, _ in bounds], [b for _, b in bounds])
-        found_value = -objective(x0)
+            x, _ = yield from nelder_mead.run(simplex, lower, upper, xatol=1e-8 * float(np.max(hi - lo)),
+                                              fatol=1e-12 * float(v.flat[flat]), maxfev=1000)
+            x0 = np.clip(x, lower, upper)
+        return x0
+
+    with np.errstate(invalid="ignore"):        # (a simplex corner where e is not finite)
+        found = nelder_mead.minimize_all(lambda points: -np.abs(e(*points.T)),
+                                         [refine(flat) for flat in candidates])
+        found_values = np.abs(e(*np.array(found).T)) if found else []
+    for x0, found_value in zip(found, found_values):
+        found_value = float(found_value)
         if np.isfinite(found_value) and found_value > value:
             value, where = found_value, x0
     return value, where

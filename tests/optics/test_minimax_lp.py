@@ -22,14 +22,39 @@ def whole_program(J, r, radius):
 def rows_solved(monkeypatch):
     """The number of points of every program HiGHS is given (each point two rows)."""
     sizes = []
-    solve = minimax_lp.linprog
+    solve = minimax_lp.solve
 
-    def counted(c, A_ub, b_ub, **kwargs):
-        sizes.append(A_ub.shape[0] // 2)
-        return solve(c, A_ub=A_ub, b_ub=b_ub, **kwargs)
+    def counted(c, A, b, lower, upper):
+        sizes.append(A.shape[0] // 2)
+        return solve(c, A, b, lower, upper)
 
-    monkeypatch.setattr(minimax_lp, "linprog", counted)
+    monkeypatch.setattr(minimax_lp, "solve", counted)
     return sizes
+
+
+def test_solve_is_linprog_bit_for_bit():
+    """HiGHS called directly with linprog's options: the same solution to the last bit as linprog's,
+    on 400 random minimax programs (1 to 6 constants, 5 to 80 points, scales 1e-3 to 1e3, a column of
+    zeros in a fifth of them), and None where linprog finds no optimum (an infeasible program)."""
+    rng = np.random.default_rng(0)
+    for trial in range(400):
+        k, points = int(rng.integers(1, 7)), int(rng.integers(5, 80))
+        J = rng.normal(size=(points, k)) * rng.choice([1e-3, 1.0, 1e3])
+        if trial % 5 == 0:
+            J[:, 0] = 0.0
+        r = rng.normal(size=points)
+        radius = rng.uniform(0.01, 10.0, size=k)
+        A = np.block([[J, -np.ones((points, 1))], [-J, -np.ones((points, 1))]])
+        b = np.r_[-r, r]
+        c = np.r_[np.zeros(k), 1.0]
+        lp = linprog(c, A_ub=A, b_ub=b, bounds=[(-radius[j], radius[j]) for j in range(k)] + [(0, None)],
+                     method="highs", options=minimax_lp.HIGHS)
+        x = minimax_lp.solve(c, A, b, np.r_[-radius, 0.0], np.r_[radius, np.inf])
+        assert lp.status == 0 and np.array_equal(x, lp.x), trial
+    # infeasible: x <= -1 and x >= 1
+    A = np.array([[1.0], [-1.0]])
+    assert linprog([1.0], A_ub=A, b_ub=[-1.0, -1.0], bounds=[(None, None)], method="highs").status == 2
+    assert minimax_lp.solve(np.array([1.0]), A, np.array([-1.0, -1.0]), np.array([-np.inf]), np.array([np.inf])) is None
 
 
 def test_one_variable_the_best_polynomial_of_the_whole_program(rows_solved):
