@@ -101,17 +101,23 @@ def errors(values, inputs, truth, floor: float = 0.0) -> dict:
     `inputs` against `truth` (float64 at the same inputs): |value - truth|, and that over
     max(|truth|, floor) (0 where both are equal); inf at the first input where a value is not finite
     and the truth is."""
-    x = np.asarray(inputs, dtype=np.float64).ravel()
-    v = np.asarray(values, dtype=np.float64).ravel()
+    x = np.asarray(inputs).ravel()
     f = np.asarray(truth, dtype=np.float64).ravel()
     with np.errstate(all="ignore"):
-        diff = np.abs(v - f)
-        rel = np.where(diff == 0, 0.0, diff / np.maximum(np.abs(f), floor))
+        diff = np.abs(np.subtract(np.asarray(values).ravel(), f, dtype=np.float64))
+        denominator = np.maximum(np.abs(f), floor)
+        rel = diff / denominator
+        zero = denominator == 0
+        if zero.any():
+            rel[zero & (diff == 0)] = 0.0
     out = {}
     for key, where, e in (("max_abs_error", "x_abs", diff), ("max_rel_error", "x_rel", rel)):
-        bad = ~np.isfinite(e)
-        k = int(np.flatnonzero(bad)[0]) if bad.any() else int(np.argmax(e))
-        out[key], out[where] = (math.inf if bad.any() else float(e[k])), float(x[k])
+        largest = e.max() if e.size else 0.0
+        if np.isfinite(largest):
+            k = int(np.argmax(e))
+        else:
+            k = int(np.flatnonzero(~np.isfinite(e))[0])
+        out[key], out[where] = (float(e[k]) if np.isfinite(largest) else math.inf), float(x[k])
     return out
 
 
