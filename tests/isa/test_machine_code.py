@@ -186,6 +186,26 @@ def test_a_shader_compiled_once_is_kept_and_a_damaged_entry_is_compiled_again(mo
     assert _Counting.calls[-1] == (["a"], ["c1"]) and again == first
 
 
+def test_the_kept_entries_are_keyed_by_every_module_that_compiles_and_reads_a_shader():
+    """The key's modules (`COMPILING`) hold every module of the wing that machine_code imports, and the
+    scripts its back ends run in their own processes; a module it neither imports nor runs (lavapipe's
+    execution) changes no key."""
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    loaded = subprocess.run([sys.executable, "-c", "import sys, pipeline.isa.machine_code; print(' '.join(m for m in "
+                             "sys.modules if m.startswith('pipeline.isa.')))"], capture_output=True, text=True,
+                            check=True).stdout.split()
+    wing = Path(machine_code.__file__).parent
+    run = {name for name in ("vulkan_pipeline", "gles_driver")
+           if any(name in (wing / f"{b}.py").read_text() for b in ("radv", "gles"))}
+    assert {m.rsplit(".", 1)[1] for m in loaded} | run <= set(machine_code.COMPILING)
+    assert run == {"vulkan_pipeline", "gles_driver"}
+    assert all((wing / f"{name}.py").exists() for name in machine_code.COMPILING)
+    assert "execution" not in machine_code.COMPILING and "pipeline.isa.execution" not in loaded
+
+
 HALF_MARKERS = {"rdna3": r"_f16\b", "sm_89": r"^(HFMA2|HADD2|HMUL2)\b", "xe_hpg": r":hf\b", "a740": r"\.f16\b|\bhr\d",
                 "g610": r"\.v2f16\b|\.f16\b"}
 
