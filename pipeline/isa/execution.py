@@ -96,28 +96,28 @@ def execute(body: str, inputs, precision: str = "fp32", variable: str = "x", nam
     return outcome
 
 
-def errors(values, inputs, truth, floor: float = 0.0) -> dict:
+def errors(values, inputs, truth, floor: float = 0.0, denominator=None) -> dict:
     """{max_abs_error, max_rel_error, x_abs, x_rel} of `values` (a form's outputs in the format) at
     `inputs` against `truth` (float64 at the same inputs): |value - truth|, and that over
     max(|truth|, floor) (0 where both are equal); inf at the first input where a value is not finite
-    and the truth is."""
+    and the truth is. `denominator`: max(|truth|, floor), where the caller has it (one per set of
+    inputs, for every form executed there)."""
     x = np.asarray(inputs).ravel()
     f = np.asarray(truth, dtype=np.float64).ravel()
-    with np.errstate(all="ignore"):
-        diff = np.abs(np.subtract(np.asarray(values).ravel(), f, dtype=np.float64))
+    if denominator is None:
         denominator = np.maximum(np.abs(f), floor)
+    with np.errstate(all="ignore"):
+        diff = np.subtract(np.asarray(values).ravel(), f, dtype=np.float64)
+        np.abs(diff, out=diff)
         rel = diff / denominator
-        zero = denominator == 0
-        if zero.any():
-            rel[zero & (diff == 0)] = 0.0
+        if floor <= 0:
+            rel[(denominator == 0) & (diff == 0)] = 0.0
     out = {}
     for key, where, e in (("max_abs_error", "x_abs", diff), ("max_rel_error", "x_rel", rel)):
-        largest = e.max() if e.size else 0.0
-        if np.isfinite(largest):
-            k = int(np.argmax(e))
-        else:
+        k = int(np.argmax(e))                   # (the first largest; the first NaN where there is one)
+        if not np.isfinite(e[k]):
             k = int(np.flatnonzero(~np.isfinite(e))[0])
-        out[key], out[where] = (float(e[k]) if np.isfinite(largest) else math.inf), float(x[k])
+        out[key], out[where] = (float(e[k]) if np.isfinite(e[k]) else math.inf), float(x[k])
     return out
 
 
@@ -290,6 +290,7 @@ def _run_set(vk, physical, device, queue, command, fence, folder: Path, forms: l
     destroyed here."""
     values = arrays[0]
     dtype = values.dtype
+    denominator = None if truth is None else np.maximum(np.abs(truth), described["floor"])
     groups = max(1, -(-values.size // LOCAL_SIZE))
     width = min(groups, MAX_GROUPS)
     height = -(-groups // width)
@@ -365,7 +366,8 @@ def _run_set(vk, physical, device, queue, command, fence, folder: Path, forms: l
                 np.save(folder / f"{stem}.partial.npy", outputs)
                 os.replace(folder / f"{stem}.partial.npy", folder / f"{stem}.out.npy")
             else:
-                (folder / f"{stem}.errors.json").write_text(json.dumps(errors(outputs, values, truth, described["floor"])))
+                (folder / f"{stem}.errors.json").write_text(json.dumps(errors(outputs, values, truth, described["floor"],
+                                                                                         denominator)))
     finally:
         for function, arguments in reversed(destroy):
             function(*arguments)

@@ -6,6 +6,8 @@ does not compile, one line. Skipped with the reason where lavapipe is not instal
 that stands in for it there (`execution.emulate`) is checked against the same numpy operations
 everywhere, and against lavapipe where it runs."""
 
+import math
+
 import numpy as np
 import pytest
 
@@ -112,3 +114,26 @@ def test_without_lavapipe_one_line_says_what_is_missing_and_the_emulation_runs(m
     if spirv_tools_missing():
         pytest.skip(spirv_tools_missing())
     assert np.array_equal(execution.emulate("x*0.5 + 1.0", np.ones(4, np.float32)), np.full(4, 1.5, np.float32))
+
+
+def test_errors_on_planted_values():
+    """The largest absolute and relative error and where: the first largest; 0 where value and truth
+    are both 0; inf at the first input whose value is not finite (NaN or inf); the floor bounds the
+    relative error's denominator; a denominator passed in gives the same answer."""
+    x = np.array([0.0, 0.25, 0.5, 0.75, 1.0], dtype=np.float32)
+    truth = np.array([0.0, 1.0, 2.0, -4.0, 1.0])
+    values = np.array([0.0, 1.5, 2.0, -3.0, 2.0], dtype=np.float32)
+    got = execution.errors(values, x, truth)
+    assert got == dict(max_abs_error=1.0, x_abs=0.75, max_rel_error=1.0, x_rel=1.0)
+    assert execution.errors(values, x, truth, 2.0) == dict(max_abs_error=1.0, x_abs=0.75, max_rel_error=0.5,
+                                                           x_rel=1.0)
+    denominator = np.maximum(np.abs(truth), 2.0)
+    assert execution.errors(values, x, truth, 2.0, denominator) == execution.errors(values, x, truth, 2.0)
+    for bad in (np.nan, np.inf):
+        planted = values.copy()
+        planted[[2, 4]] = [bad, np.nan]
+        assert execution.errors(planted, x, truth) == dict(max_abs_error=math.inf, x_abs=0.5, max_rel_error=math.inf,
+                                                           x_rel=0.5)
+    off = values.copy()
+    off[0] = 0.5                                    # truth 0: relative error inf there, absolute 0.5
+    assert execution.errors(off, x, truth)["max_rel_error"] == math.inf
