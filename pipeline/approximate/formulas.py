@@ -15,9 +15,15 @@ from . import minimax
 from .forms import free_numbers
 from .parametric_targets import (
     _numpy_of, _place, _unit_box, AXIS_POINTS, EXCHANGES, MAX_CONSTANTS, MEASURE_GRID, mesh, parameter_values,
-    ParametricTarget, PRUNE, weight_of)
-from .per_value import fit_per_value, Model, PerValue
+    PARAMETER_VALUES, ParametricTarget, PRUNE, weight_of)
+from .per_value import Dropped, fit_per_value, Model, PerValue
 from .templates import constant_symbols, sympy_functions, Template
+
+
+# The rule that drops a template before its formulas (`material_forms`), as the report states it.
+DROP_RULE = ("a template whose optimum at one value of the parameter is already no better than the best "
+             "constant's error over the whole box is dropped there: no formula of the parameter beats its "
+             "per-value optimum, so none of its forms would beat a constant; its other values are not fitted")
 
 
 @dataclasses.dataclass
@@ -216,11 +222,15 @@ def measure_box(expression, target: ParametricTarget, f) -> dict:
     return out
 
 
-def material_forms(templates, target, f, log, formula_complexity: int = 0) -> list[Fitted]:
+def material_forms(templates, target, f, log, formula_complexity: int = 0,
+                   dropped: list | None = None) -> list[Fitted]:
     """Steps 2 and 3 for every template: every template's constants as lines and quadratics; the
     templates no other of `templates` with as few constants beats per value (the front of constants
     against the per-value optimum) also with cheaper formulas (`formula_variants`) and, with
-    `formula_complexity` > 0, with their lines corrected by the symbolic regression (`corrected`)."""
+    `formula_complexity` > 0, with their lines corrected by the symbolic regression (`corrected`).
+    A template whose optimum at a value is already no better than the best constant's error over the
+    box is dropped there (`DROP_RULE`; the rest of its values not fitted), and appended to `dropped`
+    as {template, at, per_value_error, constant_error, values_fitted}."""
     import sympy as sp
 
     symbols = target.symbols()
@@ -232,19 +242,23 @@ def material_forms(templates, target, f, log, formula_complexity: int = 0) -> li
     floor = engine.rounding_floor(target, constant)
     fits = []
     for template in templates:
-        per_value = fit_per_value(template, target, f)
+        per_value = fit_per_value(template, target, f, give_up=constant)
         if per_value is None:
             log(f"  {template.name}: no finite fit at some value of {target.parameter.name}; left out")
+            continue
+        if isinstance(per_value, Dropped):
+            # no formula beats the per-value optimum, and no form at least the best constant's error is
+            # on a front: nothing more to fit
+            log(f"  {template.name}: dropped at {target.parameter.name} = {per_value.value:.4g} (value "
+                f"{per_value.fitted} of {2 * PARAMETER_VALUES - 1} fitted): per value {per_value.error:.4g}, no better "
+                f"than a constant ({constant:.4g}); no formulas")
+            if dropped is not None:
+                dropped.append(dict(template=template.name, at=per_value.value, per_value_error=per_value.error,
+                                    constant_error=float(constant), values_fitted=per_value.fitted))
             continue
         fits.append((template, per_value))
     out = []
     for template, per_value in fits:
-        if per_value.errors.max() >= constant:
-            # no formula beats the per-value optimum, and no form at least the best constant's error is
-            # on a front: nothing to fit
-            log(f"  {template.name}: per value {per_value.errors.max():.4g}, no better than a constant "
-                f"({constant:.4g}); no formulas")
-            continue
         started = time.perf_counter()
         reduce = not any(other.count <= template.count and other_fit.errors.max() < per_value.errors.max()
                          for other, other_fit in fits if other is not template)

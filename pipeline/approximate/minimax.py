@@ -183,13 +183,15 @@ def slp_points(model, jacobian, c0, target_values, weights, x, steps: int = SLP_
     return c, value
 
 
-def along(problems, start, own=None, previous: float | None = None) -> tuple[np.ndarray, np.ndarray]:
+def along(problems, start, own=None, previous: float | None = None,
+          give_up: float = np.inf) -> tuple[np.ndarray, np.ndarray]:
     """`slp_points` at each of `problems` in order (a parameter's values, neighbours in turn), each a
     tuple (model, jacobian, target_values, weights, x): the first from `start` (the optimum of a
     neighbour whose error was `previous`, if any), each other from the previous one's constants; also
     from `own(i)` (a start of the form's own at problem i, or None) where an error is not finite or
     more than GROWTH times the previous one's (a neighbour's optimum can lead into another basin). The
-    better is kept. Returns (constants (problems, count), errors)."""
+    better is kept. Returns (constants (problems, count), errors), cut after the first problem whose
+    error is finite and `give_up` or more."""
     constants, errors = [], []
     c = np.asarray(start, dtype=np.float64)
     for i, (model, jacobian, y, w, x) in enumerate(problems):
@@ -203,6 +205,8 @@ def along(problems, start, own=None, previous: float | None = None) -> tuple[np.
         constants.append(c)
         errors.append(e)
         previous = e
+        if np.isfinite(e) and e >= give_up:
+            break
         if not np.isfinite(e):
             c = np.asarray(start, dtype=np.float64)
     return np.array(constants).reshape(len(constants), np.size(start)), np.array(errors)

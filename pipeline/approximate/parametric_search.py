@@ -140,9 +140,10 @@ def _family_search(target, f, log, formula_complexity: int = 0) -> tuple[list[di
     log(f"{len(templates)} family templates{' (the target is symmetric in its two variables)' if symmetric else ''}: "
         f"constants fitted at {2 * PARAMETER_VALUES - 1} values of {target.parameter.name}, then as formulas")
     started = time.perf_counter()
-    materials = material_forms(templates, target, f, log, formula_complexity)
+    dropped: list[dict] = []
+    materials = material_forms(templates, target, f, log, formula_complexity, dropped)
     return _records(materials, target), dict(parameter_values=2 * PARAMETER_VALUES - 1, symmetric=symmetric,
-                                             family_templates=len(templates),
+                                             family_templates=len(templates), families_dropped=dropped,
                                              family_seconds=round(time.perf_counter() - started, 1))
 
 
@@ -159,9 +160,10 @@ def _grammar_search(target, f, seconds: float, max_complexity: int, log, formula
         log(f"{len(templates)} grammar templates: constants fitted per value of {target.parameter.name}, then as "
             "formulas")
         started = time.perf_counter()
-        found += _records(material_forms(templates, target, f, log, formula_complexity), target)
+        dropped: list[dict] = []
+        found += _records(material_forms(templates, target, f, log, formula_complexity, dropped), target)
         coverage["templates"].update(count=len(templates), seconds=round(time.perf_counter() - started, 1),
-                                     at=_middle(target.parameter))
+                                     at=_middle(target.parameter), dropped=dropped)
     # the pixel search: the grammar in the variables and the parameter together
     x = mesh(target, SEARCH_AXIS_POINTS)
     y = f(*x)

@@ -1,5 +1,6 @@
 """A template's constants fitted by minimax at each value of the parameter (`fit_per_value`, the
-parametric engine's step 2): its per-value optimum, which no formula of the parameter beats."""
+parametric engine's step 2): its per-value optimum, which no formula of the parameter beats; the
+fitting stops at the first value whose optimum is already no better than a bound (`Dropped`)."""
 
 from __future__ import annotations
 
@@ -60,11 +61,23 @@ class PerValue:
     on_grid: np.ndarray             # which values are the grid's (the others are halfway)
 
 
-def fit_per_value(template: Template, target: ParametricTarget, f) -> PerValue | None:
+@dataclasses.dataclass
+class Dropped:
+    """A template whose optimum at `value` (the `fitted`-th value fitted) is `error`, no better than
+    the bound it was fitted against: no formula of the parameter does better than that anywhere."""
+
+    value: float
+    error: float
+    fitted: int
+
+
+def fit_per_value(template: Template, target: ParametricTarget, f,
+                  give_up: float = np.inf) -> PerValue | Dropped | None:
     """Step 2 of the module docstring (`minimax.along`: from the middle value outward, each value from
     its neighbour's constants, and from the template's own start where that leads astray; the halfway
     values from the grid value below them): None where the template has no finite fit at some value
-    of the parameter."""
+    of the parameter; Dropped at the first value fitted whose optimum is `give_up` or more (the others
+    are not fitted)."""
     symbols = target.symbols()[:len(target.variables)]
     model = Model(template.expression, symbols, constant_symbols(template.count))
     weight = weight_of(target)
@@ -88,12 +101,28 @@ def fit_per_value(template: Template, target: ParametricTarget, f) -> PerValue |
     constants = np.full((values.size, template.count), np.nan)
     errors = np.full(values.size, np.inf)
     up, down = list(range(middle, grid.size)), list(range(middle - 1, -1, -1))
-    constants[up], errors[up] = minimax.along([problems[j] for j in up], own(middle), lambda i: own(up[i]))
-    constants[down], errors[down] = minimax.along([problems[j] for j in down], constants[middle],
-                                                  lambda i: own(down[i]), errors[middle])
-    for i in range(halfway.size):
-        j = grid.size + i
-        constants[[j]], errors[[j]] = minimax.along([problems[j]], constants[i], lambda _, j=j: own(j), errors[i])
-    if not np.all(np.isfinite(errors)):
+    order = []                                          # the values in the order they are fitted
+
+    def fitted(indices, found) -> Dropped | None:
+        c, e = found
+        constants[indices[:e.size]], errors[indices[:e.size]] = c, e
+        order.extend(indices[:e.size])
+        if e.size and np.isfinite(e[-1]) and e[-1] >= give_up:
+            return Dropped(float(values[indices[e.size - 1]]), float(e[-1]), len(order))
         return None
+
+    dropped = fitted(up, minimax.along([problems[j] for j in up], own(middle), lambda i: own(up[i]), give_up=give_up))
+    if dropped is None:
+        dropped = fitted(down, minimax.along([problems[j] for j in down], constants[middle], lambda i: own(down[i]),
+                                             errors[middle], give_up=give_up))
+    for i in range(halfway.size):
+        if dropped is not None:
+            break
+        j = grid.size + i
+        dropped = fitted([j], minimax.along([problems[j]], constants[i], lambda _, j=j: own(j), errors[i],
+                                            give_up=give_up))
+    if not np.all(np.isfinite(errors[order])):
+        return None
+    if dropped is not None:
+        return dropped
     return PerValue(values, constants, errors, on_grid)

@@ -35,6 +35,7 @@ from pathlib import Path
 from ..engine import escape
 from . import rendered_report
 from .executed import GAP
+from .formulas import DROP_RULE
 from .shader_export import (GLSL_FLOAT16, TYPES, arguments_of, domain_text, exported, function_name,  # noqa: F401
                             function_names, member_functions, shader_sources, shader_text)
 
@@ -99,6 +100,12 @@ def _parametric_coverage(results) -> list[str]:
                   f"of the grammar ({c['templates']['seconds']} s).",
                   f"- The grammar's templates, at {p} = {c['templates']['at']:g} on {c['templates']['points']} points, "
                   f"loss {c['templates']['loss']}: " + _rungs_text(c["templates"]["rungs"]) + "."]
+        dropped = c.get("families_dropped", []) + c["templates"].get("dropped", [])
+        if dropped:
+            lines.append(f"- Dropped before their formulas ({DROP_RULE}; the best constant errs "
+                         f"{dropped[0]['constant_error']:.4g}): "
+                         + ", ".join(f"{d['template']} ({d['per_value_error']:.4g} at {p} = {d['at']:.4g}, "
+                                     f"value {d['values_fitted']} of {c['parameter_values']})" for d in dropped) + ".")
     s = c["pixel_search"]
     lines += [f"- The grammar over every variable{' and the parameter' if t.get('parameter') else ''} "
               f"(per pixel), on {s['points']} points, loss {s['loss']}: " + _rungs_text(s["rungs"])

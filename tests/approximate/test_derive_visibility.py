@@ -32,6 +32,10 @@ def test_pipeline_derive_on_the_smith_ggx_visibility(tmp_path):
     assert {r["range"] for r in rows} == {"alpha in [0.02, 1]"}
     assert all("c0 = " in r["expression"] for r in rows if r["parameter_per"] == "material")
     results = json.loads((out / "results.json").read_text())
+    # the templates no better than a constant at some value: dropped there, listed with the rule's numbers
+    dropped = results["coverage"]["families_dropped"]
+    assert dropped and all(d["per_value_error"] >= d["constant_error"] for d in dropped)
+    assert "Dropped before their formulas" in (out / "report.md").read_text()
     hammon = results["verdicts"]["rdna3"]["Hammon"]
     assert hammon["verdict"] == "beaten", hammon
     by = results["members"][hammon["by"]]

@@ -96,6 +96,42 @@ def test_a_planted_law_comes_back_exactly_with_lines_in_the_parameter():
     np.testing.assert_allclose(sp.lambdify((x, y, a), scaled)(*points), sp.lambdify((x, y, a), pixel)(*points), rtol=1e-13)
 
 
+def test_a_template_no_better_than_a_constant_at_one_value_is_dropped_there(monkeypatch):
+    """Planted bounds against a template's per-value errors on the planted law: a bound at the first
+    value's error drops it after that value; one between the errors drops it at the first value (in
+    the order they are fitted) whose error reaches it; one above them all gives every value's fit, bit
+    for bit the unbounded one's. material_forms drops by the best constant's error and lists the
+    template with the rule's numbers, and fits the others as before."""
+    from pipeline.approximate.per_value import Dropped
+
+    target = parametric.check(PLANTED)
+    f = target.numpy()
+    template = next(t for t in parametric.family_templates(target, True) if t.name == "polynomial_degree1_symmetric")
+    full = parametric.fit_per_value(template, target, f)
+    grid, _ = parametric.parameter_values(target.parameter)
+    middle = grid.size // 2
+    order = list(range(middle, grid.size)) + list(range(middle - 1, -1, -1)) + list(range(grid.size, full.values.size))
+    first = parametric.fit_per_value(template, target, f, give_up=full.errors[middle])
+    assert isinstance(first, Dropped) and first.fitted == 1
+    assert (first.value, first.error) == (full.values[middle], full.errors[middle])
+    later = max(full.errors[order[:3]]) * (1 + 1e-9)            # above the first three values' errors
+    assert later < full.errors.max()
+    k = next(i for i, j in enumerate(order) if full.errors[j] >= later)
+    dropped = parametric.fit_per_value(template, target, f, give_up=later)
+    assert isinstance(dropped, Dropped) and dropped.fitted == k + 1 and dropped.value == full.values[order[k]]
+    kept = parametric.fit_per_value(template, target, f, give_up=full.errors.max() * 1.01)
+    assert np.array_equal(kept.constants, full.constants) and np.array_equal(kept.errors, full.errors)
+    # the constant's error planted between the two templates' per-value errors: the worse one is dropped
+    good = next(t for t in parametric.family_templates(target, True)
+                if t.name == "reciprocal_polynomial_bilinear_no_constant_symmetric")
+    listed: list = []
+    planted = full.errors.max() / 2
+    monkeypatch.setattr(formulas, "_constant_error", lambda target, f: planted)
+    forms = parametric.material_forms([template, good], target, f, lambda s: None, dropped=listed)
+    assert [d["template"] for d in listed] == [template.name] and listed[0]["constant_error"] == planted
+    assert listed[0]["per_value_error"] >= planted and {m.template.name for m in forms} == {good.name}
+
+
 def test_the_per_value_optimum_bounds_the_formulas_on_the_visibility():
     """On V(NoV, NoL; alpha): the reciprocal bilinear template's lines are no better than its
     constants fitted at each value alone, and Hammon's error is its closed form 1 - sqrt(0.51)."""
