@@ -179,7 +179,7 @@ def reproduce_rows(py) -> list:
     return rows
 
 
-def derive_rows(py, several: bool = True) -> list:
+def derive_rows(py, several: bool = True, one_variable: bool = True) -> list:
     """`pipeline derive` on Schlick's (1 - x)^5 and on acos, three architectures, the default budget,
     every form executed in float32: cold (empty machine-code and XLA caches; target 120 s) and again
     with the compiled programs kept (target 30 s); Schlick's in float16 cold (target 120 s); each with
@@ -191,7 +191,7 @@ def derive_rows(py, several: bool = True) -> list:
     with tempfile.TemporaryDirectory() as tmp:
         for target, precision, runs in (("schlick", "fp32", (("cold", 120.0), ("kept", 30.0))),
                                         ("acos", "fp32", (("cold", 120.0), ("kept", 30.0))),
-                                        ("schlick", "fp16", (("cold", 120.0),))):
+                                        ("schlick", "fp16", (("cold", 120.0),))) if one_variable else ():
             env = _cold_env(tmp, f"{target}_{precision}")
             for label, allowed in runs:
                 out = os.path.join(tmp, f"{target}_{precision}")
@@ -209,9 +209,9 @@ def derive_rows(py, several: bool = True) -> list:
         if not several:
             return rows
         # targets of two variables and a parameter: cold, then with other architectures (only compiled)
-        for target in ("smith_ggx_visibility", "env_brdf"):
+        for target, cold in (("smith_ggx_visibility", 90.0), ("env_brdf", 150.0)):
             env = _cold_env(tmp, target)
-            for label, gpu, allowed in (("cold", DERIVE_ARCHITECTURES, 600.0), ("other --gpu", "rdna3,g610", 60.0)):
+            for label, gpu, allowed in (("cold", DERIVE_ARCHITECTURES, cold), ("other --gpu", "rdna3,g610", 60.0)):
                 seconds, _ = timed([py, "-m", "pipeline", "derive", "--target", target, "--gpu", gpu,
                                     "--out", os.path.join(tmp, target)], env)
                 rows.append((f"derive {target}, {label}", seconds, None,
@@ -284,9 +284,11 @@ def main() -> int:
     floor = statistics.median(timed([py, "-c", FLOOR], dict(os.environ))[0] for _ in range(3))
     rows = []
     # BENCH_ONLY=tests: the floor and `make test` alone (the pipeline's timings take ~10 minutes more);
-    # BENCH_ONLY=derive: the floor and `pipeline derive` alone; BENCH_ONLY=regress: the floor and
+    # BENCH_ONLY=derive: the floor and `pipeline derive` alone (derive_parametric: its targets of two
+    # variables and a parameter alone); BENCH_ONLY=regress: the floor and
     # `pipeline regress`'s default engine alone; BENCH_ONLY=reproduce: a cold and a warm reproduce.
-    if os.environ.get("BENCH_ONLY") not in ("tests", "derive", "derive_one", "regress", "reproduce"):
+    only = os.environ.get("BENCH_ONLY")
+    if only not in ("tests", "derive", "derive_one", "derive_parametric", "regress", "reproduce"):
         with tempfile.TemporaryDirectory() as tmp:
             env = _run_env(tmp)
             rows.append(cold_reproduce_row(py, env))
@@ -408,12 +410,12 @@ def main() -> int:
             rows.append(("bad config (exit 2)", seconds, None, "target < 1 s"))
     if os.environ.get("BENCH_ONLY") == "reproduce":
         rows += reproduce_rows(py)
-    if os.environ.get("BENCH_ONLY") in (None, "derive", "derive_one"):
-        rows += derive_rows(py, several=os.environ.get("BENCH_ONLY") != "derive_one")
+    if only in (None, "derive", "derive_one", "derive_parametric"):
+        rows += derive_rows(py, several=only != "derive_one", one_variable=only != "derive_parametric")
     if os.environ.get("BENCH_ONLY") == "regress":
         rows += regress_rows(py, dict(os.environ, JAX_ENABLE_X64="1", JAX_PLATFORMS="cpu"))
-    if os.environ.get("BENCH_TESTS", "1") != "0" and os.environ.get("BENCH_ONLY") not in ("derive", "derive_one", "regress",
-                                                                                          "reproduce"):
+    if os.environ.get("BENCH_TESTS", "1") != "0" and only not in ("derive", "derive_one", "derive_parametric", "regress",
+                                                                  "reproduce"):
         # Twice, on one folder of compiled XLA programs: empty at first (a fresh clone, as CI runs
         # it), then holding the first session's programs (`make test` keeps them between runs).
         with tempfile.TemporaryDirectory() as xla:
@@ -430,7 +432,7 @@ def main() -> int:
     except RuntimeError:
         pass
     throughput = [(label, lobe_throughput(device)) for label, device in devices
-                  if os.environ.get("BENCH_ONLY") not in ("derive", "derive_one", "regress")]
+                  if only not in ("derive", "derive_one", "derive_parametric", "regress")]
 
     print(f"import floor ({FLOOR}): {floor:.2f} s\n")
     print(f"{'':<30} {'seconds':>8} {'x floor':>8}  {'target':>8}  note")
