@@ -332,8 +332,9 @@ def largest(e, lo, hi, cells: int = GRID, chebyshev: int = CHEBYSHEV, peaks: int
 
     The grid is the product of `axis_grid`s. The `peaks` largest local maxima of |e| on it are each
     refined by Nelder-Mead (scipy's, derivative-free: these errors have kinks, from min() in the
-    anchors; the peaks' runs evaluated together, `nelder_mead`) bounded to the grid cells around the peak, restarted once from where it stopped with a fresh
-    simplex (Nelder-Mead can stall on a ridge). Assumption: the true maximum lies in the cells around
+    anchors; the peaks' runs evaluated together, `nelder_mead`) bounded to the grid cells around the
+    peak, restarted once from where it stopped with a fresh simplex (Nelder-Mead can stall on a
+    ridge). Assumption: the true maximum lies in the cells around
     one of the grid's largest local maxima; the tests check it against denser grids."""
     lo, hi = np.asarray(lo, dtype=np.float64), np.asarray(hi, dtype=np.float64)
     axes = [axis_grid(a, b, cells, chebyshev) for a, b in zip(lo, hi)]

@@ -3,7 +3,7 @@ method="Nelder-Mead", bounds=..., options=dict(initial_simplex=..., xatol=..., f
 scipy 1.17, its default coefficients) step for step, with the function evaluated at every run's next
 point in one call of a function of arrays.
 
-Each run is scipy's algorithm written as a generator (`_run`): it yields the point it needs, receives
+Each run is scipy's algorithm written as a generator (`run`): it yields the point it needs, receives
 the value, and returns its result; `minimize_all` advances every run to its next point, evaluates
 them together and sends each its value. The runs are independent, so each run's steps, and its
 result, are scipy's to the last bit where the function of arrays gives at each point the value the
@@ -26,9 +26,11 @@ class _Exhausted(Exception):
     """The run asked for more evaluations than `maxfev` (scipy's _MaxFuncCallError)."""
 
 
-def _run(simplex, lower, upper, xatol: float, fatol: float, maxfev: int) -> Generator:
-    """scipy's `_minimize_neldermead` with bounds and an initial simplex, as a generator of the points
-    it evaluates; returns (x, f(x)) as scipy's result (its x and fun)."""
+def run(simplex, lower, upper, xatol: float, fatol: float, maxfev: int) -> Generator:
+    """One bounded Nelder-Mead run from `simplex` ((n + 1, n)) for `minimize_all`: scipy's
+    `_minimize_neldermead` with bounds and an initial simplex, as a generator of the points it
+    evaluates; returns (x, f(x)) as scipy's result (its x and fun)."""
+    lower, upper = np.asarray(lower, dtype=np.float64), np.asarray(upper, dtype=np.float64)
     calls = [0]
 
     def func(x):
@@ -100,7 +102,7 @@ def _run(simplex, lower, upper, xatol: float, fatol: float, maxfev: int) -> Gene
 
 
 def minimize_all(function: Callable, runs: list[Generator]) -> list:
-    """Every run of `runs` (generators as `_run`'s, or of several `_run`s in turn) to its end, the
+    """Every run of `runs` (generators as `run`'s, or of several `run`s in turn) to its end, the
     points all runs need next evaluated together: function(points (count, dimensions)) -> values
     (count,). Returns each run's return value."""
     results: list = [None] * len(runs)
@@ -121,8 +123,3 @@ def minimize_all(function: Callable, runs: list[Generator]) -> list:
                 del pending[i]
     return results
 
-
-def run(simplex, lower, upper, xatol: float, fatol: float, maxfev: int) -> Generator:
-    """One bounded Nelder-Mead run from `simplex` ((n + 1, n)) for `minimize_all`."""
-    return _run(simplex, np.asarray(lower, dtype=np.float64), np.asarray(upper, dtype=np.float64),
-                xatol, fatol, maxfev)
