@@ -2,19 +2,20 @@
 architecture.
 
 1. Families fitted by minimax directly (`families`), and each anchor's own form with its decimal
-   numbers refitted by minimax (`refitted_anchors`: the same operations, so mostly the same cost).
+   numbers refitted by minimax (`anchor_refits`: the same operations, so mostly the same cost).
 2. The grammar's forms (`symbolic.grammar`, the ten operations), by the ladder of grammars within
    the budget (`symbolic.ladder`: every form of + - * / as deep as it reaches, then of the ten
    operations and of those the target suggests, by `symbolic.search`, loss max or max-relative on
-   `SEARCH_POINTS` Chebyshev points; pyoperon to `max_complexity` in the rest). Each architecture's cost table
+   Chebyshev points; pyoperon to `max_complexity` in the rest). Each architecture's cost table
    (`symbolic.gpu_costs`, fitted to `CALIBRATION` compiled forms) predicts every form's cycles;
-   the forms on some architecture's front of predicted cycles against error go on.
+   the forms on some architecture's front of predicted cycles against error go on. Steps 1 and 2
+   are kept between runs (`grammar_search`).
 3. Every form, and each anchor and the exact target, measured over the whole domain
    (`measure.max_error`), compiled for every architecture (`isa.machine_code`, each shader kept
-   on disk), and the front per architecture read off: the forms no other beats at equal or fewer
-   compiled cycles. The grammar's front members are then polished on the whole interval
-   (`minimax.slp`), measured and compiled again, and the fronts read off again.
-4. Each anchor's verdict per architecture, by `verdict`: beaten, matched or missed.
+   on disk), and the front per architecture read off (`fronts.front`): the forms no other beats at
+   equal or fewer compiled cycles. The grammar's front members are then polished on the whole
+   interval (`minimax.slp`), measured and compiled again, and the fronts read off again.
+4. Each anchor's verdict per architecture, by `fronts.verdict`: beaten, matched or missed.
 """
 
 from __future__ import annotations
@@ -24,31 +25,20 @@ import time
 
 import numpy as np
 
-from . import bounds, executed, families, measure, minimax, representable
-from .forms import Form, free_numbers, glsl, predicted_cycles
-from .targets import DeriveError, check, numpy_function
+from . import anchor_refits, bounds, executed, families, grammar_search, representable
+from .forms import Form, glsl, predicted_cycles
+from .fronts import constant_error, front, rounding_floor, verdict
+from .targets import DeriveError, check
 
-SEARCH_POINTS = 129
 DEFAULT_SECONDS = 60.0
 MAX_COMPLEXITY = 12
 CALIBRATION = 200               # forms compiled per architecture to fit its cost table
-PER_ARCHITECTURE = 24           # grammar forms taken from each architecture's predicted front, at most
-MATCH = 0.01                    # an error within 1 % of an anchor's matches it
-TIE = 1e-6                      # errors within this (relative) are equal on a front
-NEGLIGIBLE = 1e-9               # a constant below this share of a form's largest is tried without it
 # Times measured on this 2-core machine, for the time a run announces: the families' fits (about 10 s
 # per target), the forms measured and polished (about 6 s), the command's start (its imports, 6 s).
 FAMILY_SECONDS = 12.0
 MEASURE_SECONDS = 6.0
 START_SECONDS = 6.0
 EXECUTE_SECONDS = {"fp32": 10.0, "fp16": 2.0}     # every form executed (about 60 forms; fp32: 5 M inputs)
-
-
-def constant_error(target, f) -> float:
-    """The error of the best constant (minimax, on the measuring grid): a form worth a cycle beats it.
-    abs: (max f - min f) / 2; rel (f of one sign): (max |f| - min |f|) / (max |f| + min |f|), the
-    floor raising min |f|."""
-    return measure.best_constant_error(f(measure.grid(*target.domain)), target.metric, target.floor)
 
 
 def available_architectures() -> list[str]:
@@ -64,243 +54,6 @@ def available_architectures() -> list[str]:
             continue
         out.append(name)
     return out
-
-
-FLOAT32 = 2.0 ** -23        # float32's rounding: errors below it (of the target's range, or relative) are equal
-
-
-def rounding_floor(target, constant: float, precision: str = "fp32") -> float:
-    """The error below which two forms are equal in a shader (the format's rounding): its unit
-    (`executed.UNIT`: float32 2^-23, float16 2^-10) of the target's range (abs; the range is twice the
-    best constant's error), or the unit itself (rel)."""
-    from .executed import UNIT
-
-    return UNIT[precision] * (2 * constant if target.metric == "abs" else 1.0)
-
-
-def front(rows: list[dict], error: str, floor: float = 0.0) -> list[dict]:
-    """The rows no other beats at equal or fewer cycles: sorted by cycles, each with an error below
-    every cheaper row's by more than TIE (relative); errors below `floor` count as `floor` (float32
-    rounding: a form exact to 1e-15 and the exact one are equal). Rows of equal cycles and errors
-    equal to 6 significant digits are a tie, kept by the row listed first (the same function written
-    twice differs in its last bits). The fronts of `pipeline derive` and of the lobe search."""
-    ordered = sorted((r for r in rows if np.isfinite(r[error]) and r["cycles"] is not None),
-                     key=lambda r: (r["cycles"], float(f"{max(r[error], floor):.6g}")))
-    out, best = [], math.inf
-    for r in ordered:
-        if max(r[error], floor) < best * (1.0 - TIE):
-            out.append(r)
-            best = max(r[error], floor)
-    return out
-
-
-def verdict(anchor_cycles: float, anchor_error: float, found: list[dict], error: str, floor: float = 0.0) -> dict:
-    """How the found front places an anchor: the most accurate found form at no more cycles, and
-    `beaten` (its error below the anchor's by more than MATCH), `matched` (within MATCH) or
-    `missed` (none as accurate at no more cycles; `ratio` says by how much), `by` that form and
-    `by_cycles` its cycles; errors below `floor` count as `floor`."""
-    cheaper = [r for r in found if r["cycles"] <= anchor_cycles and np.isfinite(r[error])]
-    if not cheaper:
-        return dict(verdict="missed", ratio=math.inf, by=None, by_cycles=None)
-    best = min(cheaper, key=lambda r: r[error])
-    ratio = max(best[error], floor) / max(anchor_error, floor) if max(anchor_error, floor) > 0 else 1.0
-    word = "beaten" if ratio < 1 - MATCH else "matched" if ratio <= 1 + MATCH else "missed"
-    return dict(verdict=word, ratio=float(ratio), by=best["name"], by_cycles=best["cycles"])
-
-
-def _grammar_search(target, f, seconds: float, max_complexity: int, log) -> tuple[list, list, np.ndarray, dict]:
-    """The grammar's forms (module docstring, step 2): (trees, constants, search losses, the
-    search's coverage)."""
-    from ..symbolic import grammar, ladder
-
-    lo, hi = target.domain
-    x = minimax.chebyshev_points(lo, hi, SEARCH_POINTS)
-    y = f(x)
-    loss = "max-relative" if target.metric == "rel" and target.floor == 0 else "max"
-    ops = grammar.TEN
-    started = time.perf_counter()
-    candidates, rungs, fitted = ladder.run(x[None], y, max_complexity, ops, seconds, loss,
-                                           log=lambda s: log("grammar: " + s))
-    whole = [r.complexity for r in rungs if r.engine == "exhaustive" and set(r.operations) == set(ops)]
-    operon = [r for r in rungs if r.engine == "operon"]
-    coverage = dict(operations=list(ops), loss=loss, points=int(y.size), exhaustive_complexity=int(max(whole, default=0)),
-                    exhaustive_forms=int(sum(r.forms for r in rungs if r.engine == "exhaustive")),
-                    operon_seconds=round(operon[0].seconds, 1) if operon else 0.0,
-                    operon_models=int(operon[0].forms) if operon else 0, max_complexity=int(max_complexity),
-                    rungs=[r.row() for r in rungs], seconds=round(time.perf_counter() - started, 1))
-    # every form the exhaustive rungs fitted (a form off the complexity front may be cheap in cycles)
-    # and pyoperon's
-    others = [c for c in candidates if c[4] == "operon"]
-    trees = list(fitted["forms"]) + [c[0] for c in others]
-    constants = [np.asarray(c, dtype=float) for c in fitted["constants"]] + [np.asarray(c[1], dtype=float) for c in others]
-    return trees, constants, np.array(list(fitted["loss"]) + [c[2] for c in others], dtype=float), coverage
-
-
-def _code_version() -> str:
-    import hashlib
-    from pathlib import Path
-
-    here = Path(__file__).parent
-    files = sorted(here.glob("*.py")) + sorted((here.parent / "symbolic").glob("*.py"))
-    return hashlib.sha256(b"".join(f.read_bytes() for f in files)).hexdigest()
-
-
-def _kept_search(target, seconds: float, max_complexity: int):
-    """The file that keeps the search of a target under a budget (`_searched`)."""
-    import hashlib
-    import json
-
-    from ..engine import paths
-
-    key = json.dumps([_code_version(), target.expression, target.variable, list(target.domain), target.metric,
-                      target.floor, seconds, max_complexity])
-    return paths.DERIVE_CACHE / f"{hashlib.sha256(key.encode()).hexdigest()[:32]}.json"
-
-
-def _searched(target, f, seconds: float, max_complexity: int, log):
-    """(the families' members, the grammar's trees, constants, losses and coverage): kept in
-    `paths.DERIVE_CACHE` by the target, the budget and this code, so that a rerun (another --gpu,
-    --max-cycles) skips the search; an entry that cannot be read is searched again."""
-    from . import kept as keeping
-
-    kept = _kept_search(target, seconds, max_complexity)
-    symbols = {target.variable: target.symbol()}
-    entry = keeping.read(kept, log)
-    try:
-        if entry is not None:
-            found = [Form(m["name"], m["kind"], m["family"], keeping.expression(m["expression"], symbols),
-                          m["source"], m["converged"]) for m in entry["families"]]
-
-            def tree(node):
-                return tuple(tree(a) if isinstance(a, list) else a for a in node)
-
-            trees = [tree(t) for t in entry["trees"]]
-            fitted = [np.array(c, dtype=float) for c in entry["constants"]]
-            losses = np.array([float(v) for v in entry["losses"]], dtype=float)
-            log(f"the search of an earlier run, kept in {kept.parent} (families, grammar to complexity "
-                f"{entry['coverage']['exhaustive_complexity']})")
-            return found, trees, fitted, losses, entry["coverage"] | dict(kept=True)
-    except keeping.Unusable as e:
-        log(f"the kept search {kept.name} is not used ({e}): searched again")
-    except (ValueError, KeyError, TypeError) as e:
-        log(f"the kept search {kept.name} is not readable ({type(e).__name__}): searched again")
-    log("families (minimax):")
-    found = families.fit_families(target, f, lambda s: log(s))
-    trees, fitted, losses, coverage = _grammar_search(target, f, seconds, max_complexity, log)
-    try:
-        texts = [keeping.text(m.expression, symbols) for m in found]
-    except keeping.Unusable as e:
-        log(f"the search is not kept ({e})")
-    else:
-        keeping.write(kept, dict(families=[dict(name=m.name, kind=m.kind, family=m.family, expression=text,
-                                                source=m.source, converged=m.converged) for m, text in zip(found, texts)],
-                                 trees=trees, constants=[np.asarray(c, dtype=float).tolist() for c in fitted],
-                                 losses=[repr(float(v)) for v in losses], coverage=coverage))
-    return found, trees, fitted, losses, coverage | dict(kept=False)
-
-
-def _select(trees, losses, tables: dict) -> list[int]:
-    """The forms on some architecture's front of predicted cycles (its cost table) against the
-    search's loss, at most PER_ARCHITECTURE each."""
-    from ..symbolic import gpu_costs
-
-    from ..symbolic import grammar
-
-    if not trees:
-        return []
-    counts = np.array([gpu_costs.operation_counts(t) for t in trees], dtype=float)
-    variable = np.array([grammar.X in _leaves(t) for t in trees])       # (a constant approximates nothing)
-    chosen: set[int] = set()
-    for table in tables.values():
-        cost = counts @ np.array([table[op] for op in gpu_costs.OPERATIONS])
-        order = np.lexsort((losses, cost))
-        best, picked = math.inf, []
-        for i in order:
-            if variable[i] and np.isfinite(losses[i]) and losses[i] < best * (1 - 1e-9):
-                picked.append(int(i))
-                best = losses[i]
-        chosen.update(picked[-PER_ARCHITECTURE:])        # (the most accurate end)
-    return sorted(chosen)
-
-
-def _leaves(tree) -> set:
-    return {tree} if len(tree) == 1 else set().union(*(_leaves(a) for a in tree[1:]))
-
-
-def _polish(tree, c, target, f, weight) -> np.ndarray:
-    """A grammar form's constants, minimax on the whole interval from c (finite differences)."""
-    from ..symbolic import grammar
-
-    lo, hi = target.domain
-
-    def model(c_, s):
-        return grammar.evaluate_numpy(tree, c_, s)
-
-    if len(c) == 0:
-        return np.asarray(c, dtype=float)
-    polished, _ = minimax.slp(model, minimax.numerical_jacobian(model), np.asarray(c, dtype=float), f, weight, lo, hi,
-                              steps=40, exchanges=2)
-    return polished
-
-
-def refitted_anchors(target, f, log) -> list[Form]:
-    """Each anchor's form with its decimal numbers refitted together by minimax over the domain (from
-    their own values, `minimax.slp`), where that lowers its error: the engines' own form at its own
-    cost, with the numbers the exact function asks for. An anchor without decimal numbers has none."""
-    import sympy as sp
-
-    lo, hi = target.domain
-    key = "max_abs_error" if target.metric == "abs" else "max_rel_error"
-    weight = families.weight_of(target, f)
-    symbol = target.symbol()
-    out = []
-    for anchor, expr in zip(target.anchors, target.anchor_expressions().values()):
-        (free,), q, numbers = free_numbers(expr)
-        if not numbers:
-            continue
-        g = sp.lambdify([q, symbol], free, "numpy")
-
-        def model(c, s, g=g):
-            with np.errstate(all="ignore"):
-                return np.broadcast_to(np.asarray(g(c, s), dtype=np.float64), np.shape(s))
-
-        c, _ = minimax.slp(model, minimax.numerical_jacobian(model), [float(v) for v in numbers], f, weight, lo, hi,
-                           steps=40, exchanges=2)
-        refit = Form(f"{anchor.name}_refitted", "found", "anchor_refit",
-                     free.xreplace({qi: sp.Float(float(ci), 17) for qi, ci in zip(q, c)}),
-                     f"{anchor.name}'s form, its numbers refitted by minimax")
-        before, after = _measure(Form(anchor.name, "anchor", "anchor", expr, ""), target, f)[key], \
-            _measure(refit, target, f)[key]
-        if np.isfinite(after) and after < before * (1 - 1e-6):
-            log(f"{anchor.name} refitted: error {before:.3g} -> {after:.3g}")
-            out.append(refit)
-    return out
-
-
-def without_negligible(form: Form, target, f) -> Form:
-    """`form` with its constants at rounding's level (below NEGLIGIBLE times its largest constant's
-    magnitude, e.g. exp2(3.5e-18 - 1.44 x)) set to 0 where its float64 error does not rise; else the
-    form as it is. Every output then writes the form without them."""
-    import dataclasses
-
-    import sympy as sp
-
-    numbers = [a for a in form.expression.atoms(sp.Float) if a != 0]
-    if len(numbers) < 2:
-        return form
-    largest = max(abs(float(a)) for a in numbers)
-    tiny = {a: sp.Integer(0) for a in numbers if abs(float(a)) < NEGLIGIBLE * largest}
-    if not tiny:
-        return form
-    key = "max_abs_error" if target.metric == "abs" else "max_rel_error"
-    candidate = dataclasses.replace(form, expression=form.expression.xreplace(tiny))
-    before, after = _measure(form, target, f)[key], _measure(candidate, target, f)[key]
-    return candidate if after <= before else form
-
-
-def _measure(form: Form, target, f) -> dict:
-    lo, hi = target.domain
-    return measure.max_error(numpy_function(form.expression, target.symbol()), f, lo, hi, target.floor)
 
 
 def _compile(forms: list[Form], architectures, log, precision: str = "fp32") -> tuple[dict, dict]:
@@ -411,21 +164,22 @@ def derive(target, gpu=None, seconds: float = DEFAULT_SECONDS, max_cycles: float
     # calibration's shaders that no run kept and about three architectures' fronts compiled, the
     # forms measured and polished, and the command's start (its imports).
     search_estimate = 0.0
-    if not _kept_search(target, seconds, max_complexity).is_file():
+    if not grammar_search.kept_file(target, seconds, max_complexity).is_file():
         loss = "max-relative" if target.metric == "rel" and target.floor == 0 else "max"
-        search_estimate = FAMILY_SECONDS + ladder.plan_seconds(1, SEARCH_POINTS, max_complexity, TEN, seconds, loss)
+        search_estimate = FAMILY_SECONDS + ladder.plan_seconds(1, grammar_search.SEARCH_POINTS, max_complexity, TEN,
+                                                               seconds, loss)
     calibration = gpu_costs.not_kept(gpu_costs.calibration_expressions(CALIBRATION)[1], architectures)
-    compile_estimate = estimate_seconds(CALIBRATION * calibration + 3 * PER_ARCHITECTURE, architectures)
+    compile_estimate = estimate_seconds(CALIBRATION * calibration + 3 * grammar_search.PER_ARCHITECTURE, architectures)
     estimate = START_SECONDS + search_estimate + compile_estimate + MEASURE_SECONDS + EXECUTE_SECONDS[precision]
     log(f"{target.name}: {target.expression} on [{target.domain[0]:g}, {target.domain[1]:g}], error {target.metric}; "
         f"{len(architectures)} architecture{'s' * (len(architectures) > 1)}, {precision}; about {estimate:.0f} s")
 
-    found, trees, fitted, losses, coverage = _searched(target, f, seconds, max_complexity, log)
-    found = [without_negligible(m, target, f) for m in found]
-    found += refitted_anchors(target, f, log)
+    found, trees, fitted, losses, coverage = grammar_search.searched(target, f, seconds, max_complexity, log)
+    found = [anchor_refits.without_negligible(m, target, f) for m in found]
+    found += anchor_refits.refitted_anchors(target, f, log)
     log(f"cost tables: {CALIBRATION} forms compiled per architecture")
     tables = gpu_costs.operation_costs(CALIBRATION, architectures)["tables"]
-    chosen = _select(trees, losses, tables)
+    chosen = grammar_search.select(trees, losses, tables)
     symbol = target.symbol()
     grammar_forms = {}
     for k, i in enumerate(chosen):
@@ -439,7 +193,7 @@ def derive(target, gpu=None, seconds: float = DEFAULT_SECONDS, max_cycles: float
     everything = found + anchors + [exact]
     log(f"measuring {len(everything)} forms over the whole domain and compiling them for {len(architectures)} "
         "architectures")
-    errors = {m.name: _measure(m, target, f) for m in everything}          # in float64 (the mathematics)
+    errors = {m.name: anchor_refits.measured(m, target, f) for m in everything}          # in float64 (the mathematics)
     cycles, missing = _compile(everything, architectures, log, precision)
     error_key = "max_abs_error" if target.metric == "abs" else "max_rel_error"
 
@@ -459,9 +213,9 @@ def derive(target, gpu=None, seconds: float = DEFAULT_SECONDS, max_cycles: float
     for m in found:
         if m.family == "grammar" and m.name in on_fronts:
             tree, c = grammar_forms[m.name]
-            better = _polish(tree, c, target, f, weight)
+            better = grammar_search.polish(tree, c, target, f, weight)
             candidate = Form(m.name, "found", "grammar", grammar.to_sympy(tree, better, symbol), m.source)
-            measured = _measure(candidate, target, f)
+            measured = anchor_refits.measured(candidate, target, f)
             if measured[error_key] < errors[m.name][error_key]:
                 errors[m.name] = measured
                 m.expression = candidate.expression
@@ -541,7 +295,8 @@ def derive(target, gpu=None, seconds: float = DEFAULT_SECONDS, max_cycles: float
                 family_members=[m.name for m in found if m.family != "grammar"],
                 fronts=fronts, verdicts=verdicts, rows=rows, error=error_key,
                 constant_error=baseline, rounding_floor=floor, precision=precision, execution=run,
-                special_functions=special_functions(rows, forms_by_name, precision), cost_tables=tables, seconds=round(elapsed, 1), estimated_seconds=round(estimate, 1),
+                special_functions=special_functions(rows, forms_by_name, precision), cost_tables=tables,
+                seconds=round(elapsed, 1), estimated_seconds=round(estimate, 1),
                 members={m.name: dict(kind=m.kind, family=m.family, source=m.source, converged=m.converged,
                                       expression=_text(m, target), **errors[m.name],
                                       max_abs_error_real=real[m.name]["max_abs_error"],

@@ -236,10 +236,10 @@ def material_forms(templates, target, f, log, formula_complexity: int = 0,
     symbols = target.symbols()
     parameter = symbols[-1]
     uniforms = [sp.Symbol(f"c{i}", real=True) for i in range(MAX_CONSTANTS)]
-    from . import engine
+    from .fronts import rounding_floor
 
     constant = _constant_error(target, f)
-    floor = engine.rounding_floor(target, constant)
+    floor = rounding_floor(target, constant)
     fits = []
     for template in templates:
         per_value = fit_per_value(template, target, f, give_up=constant)

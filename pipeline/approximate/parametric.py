@@ -38,7 +38,7 @@ pixel. Its error is the largest over the whole box, variables and parameter
    the CPU computes once per material from the formulas; `pixel`, the formulas compiled into the
    shader with the parameter per pixel (textured roughness), the parameter's read paid by the form. The fronts are read off per
    architecture and per `parameter_per`; the anchors, which engines evaluate with the parameter per
-   pixel, are pixel rows, held against the pixel front (`engine.verdict`).
+   pixel, are pixel rows, held against the pixel front (`fronts.verdict`).
 
 The parts, each in its module (their names importable from here as well): the target, its box and
 the settings they share (`parametric_targets`); the registered targets and a user's file or table
@@ -166,7 +166,8 @@ def _executed(everything, per_of, record, target, f, real, cycles, architectures
     """Every form executed in float32 (`executed_box`) at the box's grid and where the float64 error
     of each member of a float64 front, each anchor and the target itself peaks: dict(measured={name:
     its executed errors, NaN where not executed}, how, inputs, not_executed, peaks, seconds)."""
-    from . import engine, executed_box
+    from . import executed_box
+    from .fronts import front
 
     started = time.perf_counter()
     provisional = set()
@@ -176,7 +177,7 @@ def _executed(everything, per_of, record, target, f, real, cycles, architectures
             rows = [dict(name=m.name, cycles=by_name[m.name], **real[m.name]) for m in everything
                     if m.kind == "found" and per_of[m.name][1] == per and m.name in by_name
                     and real[m.name][error_key] < constant]
-            provisional |= {r["name"] for r in engine.front(rows, error_key, floor)}
+            provisional |= {r["name"] for r in front(rows, error_key, floor)}
     peaks = [where for m in everything if (m.name in provisional and per_of[m.name][1] == "pixel") or m.kind != "found"
              for where in error_peaks(m.expression, target, f)]
     bodies, not_printed = {}, {}
@@ -202,6 +203,7 @@ def derive(target: ParametricTarget, gpu=None, seconds: float = 60.0, max_cycles
     templates also corrected by the symbolic regression (`corrected`). Returns the results
     (results.json's content) with the rows of front.csv."""
     from . import engine
+    from .fronts import front, rounding_floor, verdict
 
     check(target)
     architectures = engine.checked_options(gpu, seconds, max_cycles, max_complexity)
@@ -232,7 +234,7 @@ def derive(target: ParametricTarget, gpu=None, seconds: float = 60.0, max_cycles
               for m in everything}
     cycles, missing = compile_forms(per_of, target, architectures, precision)
     constant = _constant_error(target, f)
-    floor = engine.rounding_floor(target, constant, precision)
+    floor = rounding_floor(target, constant, precision)
     real = errors
     execution = _executed(everything, per_of, record, target, f, real, cycles, architectures, error_key, constant,
                           floor, log, precision)
@@ -247,7 +249,7 @@ def derive(target: ParametricTarget, gpu=None, seconds: float = 60.0, max_cycles
                            if per_of[m.name][1] == per and m.name in by_name
                            and (max_cycles is None or by_name[m.name] <= max_cycles)
                            and errors[m.name][error_key] < constant]
-            fronts[a][per] = [r["name"] for r in engine.front(candidates_, error_key, floor)]
+            fronts[a][per] = [r["name"] for r in front(candidates_, error_key, floor)]
         on_front = set(fronts[a]["pixel"]) | set(fronts[a]["material"])
         for m in everything:
             if m.name not in by_name or (m.kind == "found" and m.name not in on_front):
@@ -262,7 +264,7 @@ def derive(target: ParametricTarget, gpu=None, seconds: float = 60.0, max_cycles
                              max_rel_error_real=real[m.name]["max_rel_error"], precision=precision))
         pixel_front = [r for r in rows if r["architecture"] == a and r["name"] in fronts[a]["pixel"]]
         verdicts[a] = {m.name: dict(cycles=by_name[m.name], error=errors[m.name][error_key],
-                                    **engine.verdict(by_name[m.name], errors[m.name][error_key], pixel_front,
+                                    **verdict(by_name[m.name], errors[m.name][error_key], pixel_front,
                                                      error_key, floor))
                        for m in anchors if m.name in by_name}
     elapsed = time.perf_counter() - started
@@ -342,7 +344,7 @@ def derive_pair(target: PairTarget, gpu=None, seconds: float = 60.0, max_cycles:
     also in its own column); the fronts and verdicts are read off as for one output."""
     import sympy as sp
 
-    from . import engine
+    from .fronts import front, verdict
 
     check_pair(target)
     started = time.perf_counter()
@@ -405,7 +407,7 @@ def derive_pair(target: PairTarget, gpu=None, seconds: float = 60.0, max_cycles:
             candidates = [dict(name=n, cycles=by_name[n], **errors[n]) for n, m in forms.items()
                           if m.kind == "found" and per_of[n][1] == per and n in by_name
                           and (max_cycles is None or by_name[n] <= max_cycles) and errors[n][error_key] < constant]
-            by_parameter[a][per] = [r["name"] for r in engine.front(candidates, error_key, floor)]
+            by_parameter[a][per] = [r["name"] for r in front(candidates, error_key, floor)]
         fronts[a] = by_parameter[a]["pixel"] + [n for n in by_parameter[a]["material"] if n not in by_parameter[a]["pixel"]]
         for n, m in forms.items():
             if n not in by_name or (m.kind == "found" and n not in fronts[a]):
@@ -415,7 +417,7 @@ def derive_pair(target: PairTarget, gpu=None, seconds: float = 60.0, max_cycles:
                              source=m.source, range=target.scale.range_text(), parameter_per=per_of[n][1]))
         pixel_front = [r for r in rows if r["architecture"] == a and r["name"] in by_parameter[a]["pixel"]]
         verdicts[a] = {n: dict(cycles=by_name[n], error=errors[n][error_key],
-                               **engine.verdict(by_name[n], errors[n][error_key], pixel_front, error_key, floor))
+                               **verdict(by_name[n], errors[n][error_key], pixel_front, error_key, floor))
                        for n, m in forms.items() if m.kind == "anchor" and n in by_name}
     kept = {n for fr in fronts.values() for n in fr} | {n for n, m in forms.items() if m.kind == "anchor"}
     elapsed = time.perf_counter() - started

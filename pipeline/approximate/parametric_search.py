@@ -37,10 +37,10 @@ def _kept(key: list, compute, log, what: str, target):
     import json
 
     from ..engine import paths
-    from . import engine
+    from . import grammar_search
     from . import kept as keeping
 
-    text = json.dumps([engine._code_version(), *key])
+    text = json.dumps([grammar_search.code_version(), *key])
     symbols = {s.name: s for s in kept_symbols(target)}
     kept = paths.DERIVE_CACHE / f"{hashlib.sha256(text.encode()).hexdigest()[:32]}.json"
     entry = keeping.read(kept, log)

@@ -306,7 +306,7 @@ def gaps(results, architecture: str) -> list[dict]:
 def figure(path: Path, results) -> None:
     """front.png: per vendor (its first architecture), error against cycles, log error axis: the
     found front joined, each anchor labelled, the exact target as a dashed line at its cycles (and
-    its executed error as a diamond); errors below the format's rounding (`engine.rounding_floor`)
+    its executed error as a diamond); errors below the format's rounding (`fronts.rounding_floor`)
     drawn at it, the line drawn; a row whose executed error exceeds GAP times its float64 one with
     its float64 error beside it, joined (`gaps`)."""
     import matplotlib

@@ -48,7 +48,7 @@ from ..optics.numerics import jax
 import jax.numpy as jnp
 import numpy as np
 
-from ..approximate import engine as derive_engine
+from ..approximate import fronts
 from ..approximate import minimax
 from ..engine import expressions, toolchains
 from ..isa import machine_code
@@ -398,16 +398,16 @@ def predicted_cycles(name: str, table: dict) -> float:
 
 def front_of(rows) -> list[dict]:
     """The rows no other row beats at equal or lower cycles, by max d: `pipeline derive`'s front
-    (`approximate.engine.front`; a tie kept by the row listed first: a family before a grammar form
+    (`approximate.fronts.front`; a tie kept by the row listed first: a family before a grammar form
     that is the same function written in w)."""
-    return derive_engine.front(rows, "d")
+    return fronts.front(rows, "d")
 
 
 def placement(cycles: float, d: float, front) -> dict | None:
     """The front member that beats a lobe of `cycles` and max d `d`: the most accurate member of at
-    most its cycles (`approximate.engine.verdict`, as derive places its anchors), where its d is
+    most its cycles (`approximate.fronts.verdict`, as derive places its anchors), where its d is
     smaller; None where the lobe is on the front (nothing beats it)."""
-    best = derive_engine.verdict(cycles, d, [dict(r, name=i) for i, r in enumerate(front)], "d")
+    best = fronts.verdict(cycles, d, [dict(r, name=i) for i, r in enumerate(front)], "d")
     return front[best["by"]] if best["by"] is not None and best["ratio"] < 1.0 else None
 
 

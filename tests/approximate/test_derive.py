@@ -12,7 +12,7 @@ import sys
 import numpy as np
 import pytest
 
-from pipeline.approximate import engine, forms, publish, targets
+from pipeline.approximate import anchor_refits, engine, forms, fronts, publish, targets
 from pipeline.engine import escape
 from tests.helpers import cli_env
 
@@ -23,23 +23,23 @@ def _rows(*pairs):
 
 def test_the_front_keeps_what_no_cheaper_form_beats():
     rows = _rows((2, 0.1), (4, 0.01), (4, 0.02), (6, 0.05), (8, 0.001), (3, math.inf))
-    assert [(r["cycles"], r["max_abs_error"]) for r in engine.front(rows, "max_abs_error")] == \
+    assert [(r["cycles"], r["max_abs_error"]) for r in fronts.front(rows, "max_abs_error")] == \
         [(2, 0.1), (4, 0.01), (8, 0.001)]
 
 
 def test_errors_below_float32_rounding_are_equal_on_the_front():
     """A form exact to 1e-15 and the exact one at more cycles: one member, at the floor."""
     rows = _rows((2, 0.1), (10, 1e-15), (12, 0.0))
-    assert [r["cycles"] for r in engine.front(rows, "max_abs_error", 1e-7)] == [2, 10]
-    assert [r["cycles"] for r in engine.front(rows, "max_abs_error")] == [2, 10, 12]
-    assert engine.verdict(12, 0.0, engine.front(rows, "max_abs_error", 1e-7), "max_abs_error", 1e-7)["verdict"] == "matched"
+    assert [r["cycles"] for r in fronts.front(rows, "max_abs_error", 1e-7)] == [2, 10]
+    assert [r["cycles"] for r in fronts.front(rows, "max_abs_error")] == [2, 10, 12]
+    assert fronts.verdict(12, 0.0, fronts.front(rows, "max_abs_error", 1e-7), "max_abs_error", 1e-7)["verdict"] == "matched"
 
 
 @pytest.mark.parametrize("anchor, expected", [((4, 0.02), "beaten"), ((4, 0.01005), "matched"), ((4, 0.009), "missed"),
                                               ((3, 0.01), "missed"), ((1, 1.0), "missed")])
 def test_an_anchors_verdict_flips_with_the_numbers(anchor, expected):
-    found = engine.front(_rows((2, 0.1), (4, 0.01), (8, 0.001)), "max_abs_error")
-    v = engine.verdict(*anchor, found, "max_abs_error")
+    found = fronts.front(_rows((2, 0.1), (4, 0.01), (8, 0.001)), "max_abs_error")
+    v = fronts.verdict(*anchor, found, "max_abs_error")
     assert v["verdict"] == expected
     if expected != "missed" or anchor == (4, 0.009):
         assert v["by"] == "f1" and v["ratio"] == pytest.approx(0.01 / anchor[1])
@@ -47,9 +47,9 @@ def test_an_anchors_verdict_flips_with_the_numbers(anchor, expected):
 
 def test_the_best_constant_is_the_floor_of_a_useful_form():
     schlick = targets.registry()["schlick"]
-    assert engine.constant_error(schlick, schlick.numpy()) == pytest.approx(0.5)
+    assert fronts.constant_error(schlick, schlick.numpy()) == pytest.approx(0.5)
     positive = targets.from_expression("1 + x", "x=0:1", "rel")
-    assert engine.constant_error(positive, positive.numpy()) == pytest.approx(1 / 3)
+    assert fronts.constant_error(positive, positive.numpy()) == pytest.approx(1 / 3)
 
 
 def test_an_anchors_numbers_refitted_reach_the_minimax_of_its_form():
@@ -66,10 +66,10 @@ def test_an_anchors_numbers_refitted_reach_the_minimax_of_its_form():
     target = dataclasses.replace(target, anchors=(targets.Anchor("rough", "0.9 + 1.9*x", "planted"),
                                                   targets.Anchor("integers", "1 + 2*x", "planted"),
                                                   targets.Anchor("best", best, "planted")))
-    refits = engine.refitted_anchors(target, target.numpy(), lambda s: None)
+    refits = anchor_refits.refitted_anchors(target, target.numpy(), lambda s: None)
     assert [m.name for m in refits] == ["rough_refitted"] and refits[0].family == "anchor_refit"
     assert chebyshev == pytest.approx(0.105933, abs=1e-6)
-    assert engine._measure(refits[0], target, target.numpy())["max_abs_error"] == pytest.approx(chebyshev, abs=1e-6)
+    assert anchor_refits.measured(refits[0], target, target.numpy())["max_abs_error"] == pytest.approx(chebyshev, abs=1e-6)
 
 
 @pytest.mark.parametrize("argv, message", [
@@ -373,11 +373,11 @@ def test_a_constant_at_rounding_s_level_is_dropped_where_the_error_does_not_rise
     target = targets.from_expression("exp(-x)", "x=0:4")
     form = forms.Form("exp2_polynomial_1", "found", "exp2_polynomial",
                       sp.Pow(2, sp.Float(3.516712879335507e-18) - sp.Float(1.4426950408889634) * x))
-    dropped = engine.without_negligible(form, target, target.numpy())
+    dropped = anchor_refits.without_negligible(form, target, target.numpy())
     assert dropped.expression == sp.Pow(2, -sp.Float(1.4426950408889634) * x)
     shifted = targets.from_expression("x + 1e-12 + 2", "x=0:1")
     kept = forms.Form("line", "found", "polynomial", x + sp.Float(1e-12) + sp.Float(2.0))
-    assert engine.without_negligible(kept, shifted, shifted.numpy()) == kept
+    assert anchor_refits.without_negligible(kept, shifted, shifted.numpy()) == kept
 
 
 def test_a_run_is_named_by_name_else_by_its_target_or_expression():

@@ -49,9 +49,10 @@ def paper_document(paper_run, paper_cache):
 
 def test_the_readme_table_and_the_marked_numbers_are_the_paper_runs(paper_document):
     stale = []
+    generated = docs.generated(paper_document)
     for page in docs.prose_pages():
         text = page.read_text()
-        expected = docs.generated(paper_document)[page]
+        expected = generated[page]
         if expected != text:
             lines = [f"  {a!r}\n  -> {b!r}" for a, b in zip(text.splitlines(), expected.splitlines())
                      if a != b]

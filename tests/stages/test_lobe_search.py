@@ -336,7 +336,7 @@ def test_where_a_line_is_not_enough_the_symbolic_regression_corrects_it(light_co
 
 
 def test_the_fronts_are_the_ones_the_search_had_before_it_used_derive_s_front(search):
-    """The lobe search's fronts and placements are derive's (`approximate.engine.front`, `verdict`);
+    """The lobe search's fronts and placements are derive's (`approximate.fronts.front`, `verdict`);
     they equal those of the search's own front before (`lobe_search_fronts.json`, the paper's run at
     commit 5ac9df7): the same members at the same cycles, d within 1e-5 relative (the fit stops
     where a restart gains less than 1e-6; XLA's last bits differ between CPUs). Architectures whose
