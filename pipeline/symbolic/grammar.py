@@ -125,7 +125,9 @@ def complexity(e, cost=None) -> float:
     return table[e[0]] + sum(complexity(a, cost) for a in e[1:])
 
 
+@lru_cache(maxsize=None)
 def constants(e) -> int:
+    """How many constants e holds (kept per form: the ladder asks it of every form it plans)."""
     if len(e) == 1:
         return int(e == C)
     return sum(constants(a) for a in e[1:])

@@ -62,9 +62,13 @@ class Rung:
         return out
 
 
-def covered(e, searched) -> bool:
-    """Whether an earlier rung fitted the form: searched holds (operations, complexity) per rung."""
-    k, ops = grammar.complexity(e), grammar.operations_of(e)
+def covered(e, searched, complexity=None) -> bool:
+    """Whether an earlier rung fitted the form: searched holds (operations, complexity) per rung;
+    `complexity`, the form's where the caller knows it."""
+    if not searched:
+        return False
+    k = grammar.complexity(e) if complexity is None else complexity
+    ops = grammar.operations_of(e)
     return any(k <= depth and ops <= set(o) for o, depth in searched)
 
 
@@ -72,7 +76,7 @@ def new_forms(ops, variables: int, complexity: int, points: int, searched=()) ->
     """The forms of `ops` of exactly this complexity that no earlier rung fitted and that have fewer
     constants than the data have points (the others cannot be fitted)."""
     return [e for e in grammar.forms_of(complexity, ops, variables)
-            if grammar.constants(e) < points and not covered(e, searched)]
+            if grammar.constants(e) < points and not covered(e, searched, complexity)]
 
 
 def reach(ops, variables: int, points: int, max_complexity: int, seconds: float, kind: str,
