@@ -119,7 +119,7 @@ def select(trees, losses, tables: dict) -> list[int]:
     if not trees:
         return []
     counts = np.array([gpu_costs.operation_counts(t) for t in trees], dtype=float)
-    variable = np.array([grammar.X in _leaves(t) for t in trees])       # (a constant approximates nothing)
+    variable = np.array([grammar.has_variable(t) for t in trees])
     chosen: set[int] = set()
     for table in tables.values():
         cost = counts @ np.array([table[op] for op in gpu_costs.OPERATIONS])
@@ -131,10 +131,6 @@ def select(trees, losses, tables: dict) -> list[int]:
                 best = losses[i]
         chosen.update(picked[-PER_ARCHITECTURE:])        # (the most accurate end)
     return sorted(chosen)
-
-
-def _leaves(tree) -> set:
-    return {tree} if len(tree) == 1 else set().union(*(_leaves(a) for a in tree[1:]))
 
 
 def polish(tree, c, target, f, weight) -> np.ndarray:

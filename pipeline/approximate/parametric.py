@@ -81,7 +81,7 @@ from .formulas import (  # noqa: F401
     material_forms, measure_box, minimax_on_box, minimax_on_box_parts, polish_formulas, POWERS,
     refitted_anchors, TAGS)
 from .parametric_search import (  # noqa: F401
-    _family_search, _grammar_search, _kept, _leaves, _records, _scaled,
+    _family_search, _grammar_search, _kept, _records, _scaled,
     _searched, _text)
 
 

@@ -14,10 +14,6 @@ from .parametric_targets import (
 from .templates import _loss, constant_symbols, family_templates, grammar_templates, kept_symbols
 
 
-def _leaves(tree) -> list:
-    return [tree] if len(tree) == 1 else [leaf for a in tree[1:] for leaf in _leaves(a)]
-
-
 def _text(m: Form, record: dict, target) -> str:
     """A row's expression: the form; a material form's with its constants' formulas."""
     import sympy as sp
@@ -173,7 +169,7 @@ def _grammar_search(target, f, seconds: float, max_complexity: int, log, formula
                                       log=lambda s: log("pixel search: " + s))
     coverage["pixel_search"] = dict(rungs=[r.row() for r in rungs], points=int(y.size), loss=loss)
     for i, (tree, c, loss_value, *_) in enumerate(sorted(candidates, key=lambda c: grammar.complexity(c[0]))):
-        if not np.isfinite(loss_value) or not any(grammar.is_variable(leaf) for leaf in _leaves(tree)):
+        if not np.isfinite(loss_value) or not grammar.has_variable(tree):
             continue                # (a constant approximates nothing)
         expr = grammar.to_sympy(tree, c, symbols)
         found.append(dict(name=f"search_{i + 1}", family="grammar", expression=expr,

@@ -138,8 +138,9 @@ def operations_of(e) -> set:
     return set() if len(e) == 1 else {e[0]}.union(*(operations_of(a) for a in e[1:]))
 
 
-def _has_x(e) -> bool:
-    return is_variable(e) or (len(e) > 1 and any(_has_x(a) for a in e[1:]))
+def has_variable(e) -> bool:
+    """Whether e reads a variable (a form of constants alone approximates nothing)."""
+    return is_variable(e) or (len(e) > 1 and any(has_variable(a) for a in e[1:]))
 
 
 def linear_constants(e) -> tuple:
@@ -213,7 +214,7 @@ def _power_of_constant(e) -> bool:
 def _canonical(op, a, b, ops=frozenset(OPERATIONS)) -> bool:
     """Whether (op, a, b) is the representative the enumeration keeps (module docstring); `ops`,
     the operations enumerated (a rule applies only where its kept form can be written)."""
-    if not (_has_x(a) or _has_x(b)):
+    if not (has_variable(a) or has_variable(b)):
         return False
     if op == "+":
         if b[0] in ("+", "-") or a[0] == "-" or a == b:
@@ -277,7 +278,7 @@ def _one_of_each_function(factors, ops) -> bool:
 
 def _canonical_unary(name, a, ops=frozenset(OPERATIONS)) -> bool:
     """Whether (name, a) is the representative the enumeration keeps (module docstring)."""
-    if not _has_x(a):
+    if not has_variable(a):
         return False
     if name == "exp":
         if a[0] == "log":
