@@ -1,8 +1,7 @@
 """A template's constants as formulas of the parameter (lines, quadratics, a + b p + c / p and
 cheaper mixes), polished together by minimax over the whole box (`polish_formulas`, the parametric
 engine's step 3), the box's measure (`measure_box`), the formulas the symbolic regression corrects
-(`corrected`), every template's forms (`material_forms`), and the anchors' own forms with their
-numbers refitted (`refitted_anchors`)."""
+(`corrected`) and every template's forms (`material_forms`)."""
 
 from __future__ import annotations
 
@@ -364,31 +363,6 @@ def _polished(expression, target, f, values):
     a, _ = minimax_on_box(model, model.jacobian, [float(v) for v in numbers], target, f, values)
     polished = {v: sp.Float(x, 17) for v, x in zip(numbers, a)}
     return free.xreplace(dict(zip(q, polished.values()))), polished
-
-
-def refitted_anchors(target: ParametricTarget, f, log) -> tuple[list[dict], dict]:
-    """Each anchor's form with its decimal numbers refitted together by minimax on the box
-    (`_polished`, from their own values, at the parameter's grid and halfway values), as a pixel form,
-    where that lowers its error: the engines' own form at its own cost, with the numbers the exact
-    function asks for. An anchor without decimal numbers has none. Returns (the forms as `_searched`'s
-    records, the coverage)."""
-    import sympy as sp
-
-    values = None if target.parameter is None else np.sort(np.concatenate(parameter_values(target.parameter)))
-    key = _error_key(target)
-    out = []
-    for anchor, expr in zip(target.anchors, target.anchor_expressions().values()):
-        if not expr.atoms(sp.Float):
-            continue
-        before = measure_box(expr, target, f)[key]
-        refit, _ = _polished(expr, target, f, values)
-        errors = measure_box(refit, target, f)
-        if np.isfinite(errors[key]) and errors[key] < before * (1 - 1e-6):
-            log(f"{anchor.name} refitted: error {before:.3g} -> {errors[key]:.3g}")
-            out.append(dict(name=f"{anchor.name}_refitted", family="anchor_refit", expression=refit,
-                            source=f"{anchor.name}'s form, its numbers refitted by minimax on the box", per="pixel",
-                            errors=errors))
-    return out, dict(refitted_anchors=[r["name"] for r in out])
 
 
 def _error_key(target) -> str:

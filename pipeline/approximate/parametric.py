@@ -30,8 +30,9 @@ pixel. Its error is the largest over the whole box, variables and parameter
    symbolic regression finds from each constant's values and from their residual from their line
    (`corrected`, as the paper found coef(n)).
 4. Per pixel: the grammar's forms in the variables and the parameter together, by the ladder; and
-   each anchor's own form with its decimal numbers refitted by minimax on the box
-   (`refitted_anchors`: the same operations, so mostly the same cost).
+   each anchor's own form with its decimal numbers refitted by minimax on the box, and again with
+   the factors a back end gets for free held and its sums' integers refitted
+   (`anchor_refits.refitted_box_anchors`: the same operations, so mostly the same cost).
 5. Costs: every form compiled for each architecture, a fragment shader with one input per variable
    and the parameter (`isa.machine_code.form_cycles`, net of the shader writing the variables the
    form reads): `parameter_per = "material"`, the constants push constants that
@@ -79,7 +80,8 @@ from .formulas import (  # noqa: F401
     _cheapest, _constant_error, _error_key, _polished, _start_coefficients, corrected,
     Fitted, formula_expressions, formula_name, FORMULA_OPERATIONS, formula_variants, KINDS,
     material_forms, measure_box, minimax_on_box, minimax_on_box_parts, polish_formulas, POWERS,
-    refitted_anchors, TAGS)
+    TAGS)
+from .anchor_refits import refitted_box_anchors  # noqa: F401
 from .parametric_search import (  # noqa: F401
     _family_search, _grammar_search, _kept, _records, _scaled,
     _searched, _text)

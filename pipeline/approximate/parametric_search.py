@@ -8,7 +8,8 @@ import time
 import numpy as np
 
 from .forms import Form
-from .formulas import formula_expressions, material_forms, measure_box, refitted_anchors
+from .anchor_refits import refitted_box_anchors
+from .formulas import formula_expressions, material_forms, measure_box
 from .parametric_targets import (
     _middle, AXIS_POINTS, is_symmetric, mesh, PARAMETER_VALUES, PIXEL_SHARE, SEARCH_AXIS_POINTS)
 from .templates import _loss, constant_symbols, family_templates, grammar_templates, kept_symbols
@@ -76,7 +77,7 @@ def _searched(target, f, seconds: float, max_complexity: int, log, formula_compl
                                                                        formula_complexity),
                                                log, "grammar's search", target)
     found += grammar_found
-    refits, coverage["anchors"] = _kept([repr(target), "anchors"], lambda: refitted_anchors(target, f, log), log,
+    refits, coverage["anchors"] = _kept([repr(target), "anchors"], lambda: refitted_box_anchors(target, f, log), log,
                                         "anchors' refits", target)
     found += refits
     for part in ("families", "grammar", "anchors"):

@@ -17,7 +17,8 @@ from tests.helpers import cli_env
 def test_pipeline_derive_on_the_smith_ggx_visibility(tmp_path):
     """The whole command once, on RDNA3 with a small budget: the columns range and parameter_per,
     material rows with their constants' formulas, Hammon's V placed and beaten by a pixel form at no
-    more cycles, the twins equal to the members' values, and a rerun that keeps the search."""
+    more cycles, Filament's fast V beaten (by its own form with its 0.5 held, its ones refitted, at
+    no more cycles), the twins equal to the members' values, and a rerun that keeps the search."""
     if "rdna3" not in engine.available_architectures():
         pytest.skip("Mesa's RADV does not run here: pipeline derive was not run")
     out = tmp_path / "v"
@@ -38,6 +39,14 @@ def test_pipeline_derive_on_the_smith_ggx_visibility(tmp_path):
     assert "Dropped before their formulas" in (out / "report.md").read_text()
     hammon = results["verdicts"]["rdna3"]["Hammon"]
     assert hammon["verdict"] == "beaten", hammon
+    # Filament's fast V: its 0.5 is an output modifier on RDNA3, so its own form with its ones refitted
+    # and its 0.5 held costs its cycles and errs less
+    filament = results["verdicts"]["rdna3"]["Filament_fast"]
+    offsets = results["members"]["Filament_fast_refitted_offsets"]
+    assert filament["verdict"] == "beaten" and offsets["max_rel_error"] < filament["error"], filament
+    assert "0.5/" in offsets["expression"]
+    (row,) = [r for r in results["rows"] if r["architecture"] == "rdna3" and r["name"] == "Filament_fast_refitted_offsets"]
+    assert row["cycles"] <= filament["cycles"]
     by = results["members"][hammon["by"]]
     assert by["parameter_per"] == "pixel" and by["max_rel_error"] < hammon["error"]
     if by["family"] != "anchor_refit":          # (a template's: fitted per value first)

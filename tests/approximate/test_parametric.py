@@ -35,20 +35,53 @@ PLANTED = ParametricTarget("planted", "1/((0.5 + 1.5*a)*(x + y) + (2 - a)*x*y)",
 
 
 def test_an_anchors_numbers_refitted_on_the_box_come_back_exactly():
-    """The planted law written as an anchor with its numbers off (0.4, 1.6 and 2.2 for 0.5, 1.5 and 2):
-    refitted together by minimax on the box, it is the law (error below 1e-9), a pixel form of its
-    own; an anchor with no decimal number gives none."""
+    """The planted law written as anchors with numbers off, refitted by minimax on the box:
+    - "off" (0.4, 1.6 and 2.2 for 0.5, 1.5 and 2): its decimal numbers refitted, it is the law (error
+      below 1e-9), a pixel form of its own; it has no factor of 0.5, 2 or 4 and no integer term, so
+      no second refit;
+    - "halved" (the law halved, its 1 written 2): with every decimal number refitted, and with its
+      factors of 0.5 held exactly and the rest refitted (`_refitted_offsets`), the law both ways;
+    - "integers" (no decimal number): no plain refit; its sums' integers refitted, (k0 + a) and
+      (k1 - a), it errs less than as written but cannot be the law, whose a has slope 1.5."""
     import dataclasses
 
     from pipeline.approximate.targets import Anchor
 
     target = parametric.check(dataclasses.replace(PLANTED, anchors=(
         Anchor("off", "1/((0.4 + 1.6*a)*(x + y) + (2.2 - a)*x*y)", "planted"),
+        Anchor("halved", "0.5/((0.25 + 0.75*a)*(x + y) + (2 - 0.5*a)*x*y)", "planted"),
         Anchor("integers", "1/((1 + a)*(x + y) + (2 - a)*x*y)", "planted"))))
-    found, coverage = parametric.refitted_anchors(target, target.numpy(), lambda s: None)
-    assert [r["name"] for r in found] == ["off_refitted"] == coverage["refitted_anchors"]
-    assert found[0]["per"] == "pixel" and found[0]["errors"]["max_rel_error"] < 1e-9
-    assert parametric.measure_box(target.anchor_expressions()["off"], target, target.numpy())["max_rel_error"] > 0.05
+    f = target.numpy()
+    found, coverage = parametric.refitted_box_anchors(target, f, lambda s: None)
+    names = ["off_refitted", "halved_refitted", "halved_refitted_offsets", "integers_refitted_offsets"]
+    assert [r["name"] for r in found] == names == coverage["refitted_anchors"]
+    by_name = {r["name"]: r for r in found}
+    assert all(r["per"] == "pixel" and r["family"] == "anchor_refit" for r in found)
+    for name in names[:3]:
+        assert by_name[name]["errors"]["max_rel_error"] < 1e-9, name
+    held = {float(v) for v in by_name["halved_refitted_offsets"]["expression"].atoms(sp.Float)}
+    assert {0.5, -0.5} <= held and 2.0 not in held
+    written = {name: parametric.measure_box(e, target, f)["max_rel_error"]
+               for name, e in target.anchor_expressions().items()}
+    assert written["off"] > 0.05 and written["halved"] > 0.05
+    integers = by_name["integers_refitted_offsets"]
+    assert 1e-3 < integers["errors"]["max_rel_error"] < written["integers"] * (1 - 1e-6)
+    assert len(integers["expression"].atoms(sp.Float)) == 2
+
+
+def test_offsets_free_holds_amds_free_factors_and_frees_the_sums_integers():
+    """Filament's fast V: its 0.5 (an output modifier on AMD) held exactly, each 1 of (1 - alpha) a
+    decimal number to refit (one number: both are the same 1), exponents and the -1 of -alpha as they
+    are; a factor that is no power of two stays a number to refit."""
+    from pipeline.approximate import anchor_refits
+
+    nov, nol, alpha = sp.symbols("NoV NoL alpha", real=True)
+    filament = sp.Float(0.5) / (nov * (nol * (1 - alpha) + alpha) + nol * (nov * (1 - alpha) + alpha))
+    free = anchor_refits.offsets_free(filament)
+    assert {float(v) for v in free.atoms(sp.Float)} == {1.0} and sp.Rational(1, 2) in free.atoms(sp.Rational)
+    assert sp.simplify(free - filament) == 0
+    other = anchor_refits.offsets_free(sp.Float(0.6) * nov**2 + 3 - alpha)
+    assert {float(v) for v in other.atoms(sp.Float)} == {0.6, 3.0} and other.has(nov**2)
 
 
 def test_a_pairs_anchor_is_refitted_as_one_keeping_its_shared_number_shared():
