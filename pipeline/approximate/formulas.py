@@ -13,7 +13,7 @@ import numpy as np
 from . import minimax
 from .forms import free_numbers
 from .parametric_targets import (
-    _numpy_of, _place, _unit_box, AXIS_POINTS, EXCHANGES, MAX_CONSTANTS, MEASURE_GRID, mesh, parameter_values,
+    _numpy_of, _place, _unit_box, AXIS_POINTS, EXCHANGES, MAX_CONSTANTS, MEASURE_GRID, mesh,
     PARAMETER_VALUES, ParametricTarget, PRUNE, weight_of)
 from .per_value import Dropped, fit_per_value, Model, PerValue
 from .templates import constant_symbols, sympy_functions, Template
@@ -124,8 +124,6 @@ def polish_formulas(template: Template, per_value: PerValue, kinds, target: Para
     the formulas `kinds` (one of KINDS per constant) of the parameter; the coefficients marked in
     `zero` (a boolean array of their shape) held at 0. A template may read the parameter itself
     (the lobe search's forms in w = n (1 - t))."""
-    from ..optics import brdf
-
     coefficients = _start_coefficients(per_value, kinds)
     mask = np.zeros(coefficients.shape, dtype=bool)
     for i, kind in enumerate(kinds):
