@@ -51,6 +51,7 @@ the execution, `derive` and the pair's `derive_pair`.
 from __future__ import annotations
 
 import dataclasses
+import functools
 import itertools
 import time
 
@@ -89,10 +90,12 @@ from .parametric_search import (  # noqa: F401
 
 # ---- costs --------------------------------------------------------------------------------------
 
+@functools.lru_cache(maxsize=4096)
 def glsl_text(expr, precision: str | None = None) -> str:
     """A form as GLSL in its symbols' names (forms' printer: exp2, squarings, inversesqrt), with
     `precision` its numbers the format's (`forms.in_format`); in fp16 each push constant c0, c1, ...
-    (float32, as a renderer sets them) converted to float16_t where it is read."""
+    (float32, as a renderer sets them) converted to float16_t where it is read. Kept per expression:
+    the costs and the execution print each form, and sympy's printing takes milliseconds."""
     import re
 
     from .forms import _GLSL, printed
