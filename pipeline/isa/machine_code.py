@@ -185,19 +185,22 @@ def form_cycles(bodies: dict, names, architectures=ALL, precision: str = "fp32")
         for a, shaders in compiled["rows"].items():
             cycles[a].update({keys[k]: max(round(row["cycles"], 2), 0.0) for k, row in shaders.items() if k in keys})
 
-    chosen = list(keys)
-    try:
-        add(chosen)
-    except CompilerMissing:
-        raise
-    except Exception:               # one form a back end cannot lower: each alone, that one left out
-        for k in chosen:
-            try:
-                add([k])
-            except CompilerMissing:
-                raise
-            except Exception as e:
-                missing[keys[k]] = str(e).splitlines()[0][:200]
+    def attempt(chosen):
+        """`add(chosen)`; where a form a back end cannot lower fails it, each half again, down to
+        that form alone, which is left out with its reason (the others compiled in halves, not one
+        by one: a run of 200 forms with one such form compiles a few dozen batches, not 200)."""
+        try:
+            add(chosen)
+        except CompilerMissing:
+            raise
+        except Exception as e:
+            if len(chosen) == 1:
+                missing[keys[chosen[0]]] = str(e).splitlines()[0][:200]
+                return
+            attempt(chosen[:len(chosen) // 2])
+            attempt(chosen[len(chosen) // 2:])
+
+    attempt(list(keys))
     return cycles, missing, devices
 
 

@@ -148,6 +148,30 @@ def test_every_input_of_a_form_is_interpolated_none_folded():
     assert radv.VERTEX.count("layout(location") >= 3
 
 
+def test_a_form_a_back_end_cannot_lower_is_left_out_and_the_rest_compiled_in_halves(monkeypatch):
+    """A constant form (`return 0.5;`: the NVIDIA and Intel back ends read no operation that writes the
+    output) among 15 others: it alone is left out with its reason, every other form costs what it
+    costs in a batch without it, and the batches are halves of halves (at most 1 + 2 log2(16) = 9
+    compilations), not the 17 of one batch and then each form alone."""
+    from pipeline.approximate import engine
+
+    available = [a for a in ("sm_89", "xe_hpg") if a in engine.available_architectures()]
+    if not available:
+        pytest.skip("neither NVIDIA's nor Intel's compiler runs here")
+    bodies = {f"f{i}": (f"return x * (x + {i + 1}.0);", ["x"]) for i in range(15)}
+    clean, missing, _ = machine_code.form_cycles(bodies, ["x"], available)
+    assert not missing
+    bodies = dict(list(bodies.items())[:6]) | {"constant": ("return 0.5;", ["x"])} | dict(list(bodies.items())[6:])
+    batches = []
+    compile_shaders = machine_code.compile_shaders
+    monkeypatch.setattr(machine_code, "compile_shaders",
+                        lambda sources, *args: batches.append(len(sources)) or compile_shaders(sources, *args))
+    cycles, missing, _ = machine_code.form_cycles(bodies, ["x"], available)
+    assert missing == {"constant": "the shader writes no output"}
+    assert cycles == clean
+    assert len(batches) <= 9, batches
+
+
 def test_an_unknown_architecture_is_named():
     with pytest.raises(ValueError, match="unknown GPU architecture 'gfx1100'; the architectures are rdna3, rdna2"):
         machine_code.compile_shaders({"w": machine_code.WRAPPER_UNIFORM}, {}, ("gfx1100",))
