@@ -24,7 +24,6 @@ from __future__ import annotations
 import json
 import math
 import os
-import re
 import subprocess
 import sys
 import tempfile
@@ -33,7 +32,6 @@ from pathlib import Path
 import numpy as np
 
 from ..engine import toolchains
-from .shaders import LITERAL, half_literals
 
 PRECISIONS = {"fp32": ("float", np.float32), "fp16": ("float16_t", np.float16)}
 LOCAL_SIZE = 64
@@ -76,6 +74,8 @@ def shader_source(body: str, precision: str = "fp32", variable="x") -> str:
     names = [variable] if isinstance(variable, str) else list(variable)
     extensions = ""
     if precision == "fp16":
+        from .shaders import half_literals     # (here: the driver's child process needs no sympy)
+
         extensions = _FP16_EXTENSIONS
         body = half_literals(body)
     buffers = "\n".join(f"layout(std430, binding = {b}) readonly buffer Input{b} {{ {t} in{b}[]; }};"
@@ -217,7 +217,7 @@ def emulate(body: str, inputs, precision: str = "fp32", variable: str = "x") -> 
     those a GPU executes). Literals are the format's nearest, as `shader_source` writes them."""
     from ..optics.spirv import optimized_disassembly
     from . import lowering
-    from .shaders import form_shader
+    from .shaders import form_shader, LITERAL
 
     _, dtype = PRECISIONS[precision]
     if precision == "fp16":      # (the nearest float16 of each literal, exact in the float32 shader)
