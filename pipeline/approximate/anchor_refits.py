@@ -133,8 +133,9 @@ def refitted_box_anchors(target, f, log) -> tuple[list[dict], dict]:
         if expr.atoms(sp.Float):
             variants.append(("_refitted", expr, "its numbers refitted by minimax on the box"))
         if free.atoms(sp.Float) and sorted(map(float, free.atoms(sp.Float))) != sorted(map(float, expr.atoms(sp.Float))):
-            variants.append(("_refitted_offsets", free, "its sums' numbers refitted by minimax on the box, its factors "
-                             f"of {', '.join(f'{v:g}' for v in FREE_FACTORS)} held (free on AMD: output modifiers)"))
+            variants.append(("_refitted_offsets", free, "its numbers and its sums' integers refitted by minimax on the "
+                             f"box, its factors of {', '.join(f'{v:g}' for v in FREE_FACTORS)} held (free on AMD: "
+                             "output modifiers)"))
         for suffix, start, source in variants:
             refit = _held_as_decimal(_polished(start, target, f, values)[0])
             errors = measure_box(refit, target, f)
