@@ -33,7 +33,6 @@ import math
 import os
 import shutil
 import tempfile
-import threading
 import time
 from pathlib import Path
 from typing import Any
@@ -42,6 +41,7 @@ import numpy as np
 
 from . import toolchains
 from .faults import EnvironmentFault
+from .parsing import PARSING
 
 PACKAGE_ROOT = Path(__file__).resolve().parent.parent
 FORMAT = 2
@@ -79,15 +79,6 @@ def _imports(path: Path, module: str) -> set[str]:
     """Names of the `pipeline` modules that the file at `path` (module `module`) imports."""
     package = module if path.name == "__init__.py" else module.rsplit(".", 1)[0]
     return {m for m in _imported_names(path.read_text(), package) if _module_file(m) is not None}
-
-
-# CPython 3.11 can fail with "SystemError: AST constructor recursion depth mismatch" when two
-# threads turn source into an AST at once (its AST builder keeps its depth in per-interpreter
-# state). Stage threads do: numpy reads each array header with `ast.literal_eval`, Dr.Jit parses
-# Mitsuba's integrators when they are imported, and importing JAX runs `inspect` on signatures.
-# Where the pipeline's threads do that, they hold this lock: reading an entry's arrays, parsing a
-# module's imports, importing a stage's module, importing and registering Mitsuba's plugins.
-PARSING = threading.RLock()
 
 
 @functools.cache

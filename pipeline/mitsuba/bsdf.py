@@ -32,7 +32,7 @@ import sys
 import threading
 
 from ..engine import toolchains
-from ..engine.cache import PARSING
+from ..engine.parsing import PARSING
 from ..optics.registry import power_steps
 
 NAME = "cosquad_lobe"
@@ -92,7 +92,7 @@ def register(variant: str | None = None) -> str:
     plugin; returns the variant."""
     variant = variant or choose_variant()
     toolchains.prepare()            # before Dr.Jit loads LLVM
-    with PARSING:           # importing Mitsuba's integrators parses their source (`cache.PARSING`)
+    with PARSING:           # importing Mitsuba's integrators parses their source (`engine.parsing`)
         import mitsuba as mi
 
         mi.set_variant(variant)

@@ -15,7 +15,7 @@ about h), with its pdf: `cosquad_lobe`'s Blinn form, which passes Mitsuba's chi-
 
 from __future__ import annotations
 
-from ..engine.cache import PARSING
+from ..engine.parsing import PARSING
 from . import bsdf
 
 NAME = "cosquad_microfacet"
@@ -25,7 +25,7 @@ _CLASSES: dict = {}
 def register(variant: str | None = None) -> str:
     """Registers `cosquad_lobe` and this plugin for the variant; returns the variant."""
     variant = bsdf.register(variant)
-    with PARSING:           # (`pipeline.engine.cache.PARSING`)
+    with PARSING:           # (`pipeline.engine.parsing`)
         import mitsuba as mi
 
         mi.register_bsdf(NAME, lambda props: plugin_class()(props))
