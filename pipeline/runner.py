@@ -27,7 +27,6 @@ from typing import Any
 from .engine import checks as checks_mod, faults, graph, paths, toolchains, web_page
 from .engine.cache import XLA, Cache, DamagedEntry, Memo, code_hash, digest, direct_imports, stage_key
 from .engine.config import Config
-from .engine.parsing import PARSING
 from .engine.publishing import output_lock, publish
 
 
@@ -83,8 +82,7 @@ _compile_cache_on = False
 
 def _compute(stage: graph.Stage, values, inputs, cache: Cache, log=None) -> dict[str, Any]:
     global _compile_cache_on
-    with PARSING:       # (see `pipeline.engine.parsing`)
-        module = importlib.import_module(stage.module)      # imports JAX only when something is computed
+    module = importlib.import_module(stage.module)      # imports JAX only when something is computed
     with _setup_lock:
         if not _compile_cache_on:
             from .optics.numerics import use_compilation_cache

@@ -41,7 +41,7 @@ import numpy as np
 
 from . import toolchains
 from .faults import EnvironmentFault
-from .parsing import PARSING
+from . import parsing  # noqa: F401  (every ast.parse holds its lock: numpy reads the arrays' headers so)
 
 PACKAGE_ROOT = Path(__file__).resolve().parent.parent
 FORMAT = 2
@@ -87,8 +87,7 @@ def _imported_names(source: str, package: str) -> frozenset[str]:
     so that each file is parsed once per process however many stages import it, and again if it
     changes."""
     found = set()
-    with PARSING:
-        tree = ast.parse(source)
+    tree = ast.parse(source)
     for node in ast.walk(tree):
         if isinstance(node, ast.Import):
             found.update(a.name for a in node.names)
@@ -314,7 +313,7 @@ class Cache:
                 if sha256(folder / name) != manifest["sha256"][name]:
                     raise DamagedEntry(f"{name} does not match its checksum")
             values = json.loads((folder / "values.json").read_text())
-            with PARSING, np.load(folder / "arrays.npz", allow_pickle=False) as data:
+            with np.load(folder / "arrays.npz", allow_pickle=False) as data:
                 arrays = {k: data[k] for k in data.files}
         except DamagedEntry:
             raise

@@ -7,9 +7,12 @@ source is parsed there by much that the pipeline calls: numpy reads each array h
 `ast.literal_eval`, the expression reader parses formulas, `traceback` parses a line to place its
 carets (equinox formats the stack whenever optimistix's root find is traced), `inspect` parses
 builtins' signatures when numpy.ma is imported, and Dr.Jit parses and compiles Mitsuba's
-integrators. So importing this module makes `ast.parse` (through which `ast.literal_eval`,
-`traceback` and `inspect` go) hold `PARSING`; the places that also compile an AST object or import
-a module that does (Dr.Jit's) hold it around that themselves.
+integrators. So importing this module (`engine.cache` does) makes `ast.parse`, through which
+`ast.literal_eval`, `traceback` and `inspect` go, hold `PARSING`.
+
+`ast.parse` takes no other lock while it holds this one, so it cannot deadlock with an import in
+another thread. The places that hold it around more are the registrations of Mitsuba's plugins
+(`mitsuba.bsdf`, `mitsuba.microfacet`), since Dr.Jit also compiles the AST objects it builds there.
 """
 from __future__ import annotations
 

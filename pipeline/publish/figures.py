@@ -24,7 +24,6 @@ from pathlib import Path
 
 from ..engine import toolchains
 from ..engine.cache import code_hash, digest, discard, sha256, temporary_folder
-from ..engine.parsing import PARSING
 from ..engine.faults import check_interrupted
 from ..engine.graph import RANGE
 
@@ -273,8 +272,7 @@ class FigureDrawer:
             files = self._stored(self.keys[f.file], f.file)
             if files is None:       # not drawn by a second process, or removed meanwhile: draw it here
                 with IN_PROCESS:
-                    with PARSING:           # importing matplotlib parses source (`engine.parsing`)
-                        from . import plots  # noqa: F401
+                    from . import plots  # noqa: F401
                     files = draw_into_cache(f, self.folder, self.keys[f.file], FigureConfig(self.config, f.config),
                                             {stage: results[stage] for stage in f.stages})
             os.utime(stored)            # last use, for `pipeline cache --prune`
