@@ -39,9 +39,8 @@ from typing import Any
 
 import numpy as np
 
-from . import toolchains
+from . import parsing, toolchains  # noqa: F401  (parsing: every ast.parse holds its lock)
 from .faults import EnvironmentFault
-from . import parsing  # noqa: F401  (every ast.parse holds its lock: numpy reads the arrays' headers so)
 
 PACKAGE_ROOT = Path(__file__).resolve().parent.parent
 FORMAT = 2

@@ -1,6 +1,6 @@
 """The lock around building syntax trees (`pipeline.engine.parsing`): every `ast.parse` in a
-process that imported the pipeline's cache holds it, whoever calls it (numpy's header reader,
-`traceback`, `inspect`), so that two stage threads never build ASTs at once (CPython 3.11's race)."""
+process that imported the pipeline's cache holds it, whoever calls it (`ast.literal_eval`, numpy's
+header reader, `traceback`'s carets), so that two stage threads never build ASTs at once (CPython 3.11's race)."""
 import ast
 import io
 import threading
