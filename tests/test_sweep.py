@@ -239,7 +239,13 @@ def test_a_cluster_started_the_ordinary_way_runs_the_sweep_through_a_killed_work
     assert again.returncode == 0, again.stdout + again.stderr
     assert again.stdout.count(": ok (0 stages computed") >= len(complete), again.stdout
     rest = 4 - again.stdout.count(": ok (0 stages computed")
-    assert rest >= 1 and f"{rest} points on 2 Dask workers" in again.stdout, again.stdout
+    # the points left are computed on the second cluster's workers; where the first cluster's workers
+    # finished every point they held before they were stopped (a fast machine), none is left and the
+    # sweep says it runs here
+    if rest >= 1:
+        assert f"{rest} points on 2 Dask workers" in again.stdout, again.stdout
+    else:
+        assert "every stage of its 4 points is cached: run here, without Dask" in again.stdout, again.stdout
     assert "4 of 4 points done" in again.stdout
     with open(folder / "compare.csv") as f:
         assert len(list(csv.DictReader(f))) == 4
