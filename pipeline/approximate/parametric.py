@@ -84,8 +84,8 @@ from .formulas import (  # noqa: F401
     TAGS)
 from .anchor_refits import refitted_box_anchors  # noqa: F401
 from .parametric_search import (  # noqa: F401
-    _family_search, _grammar_search, _kept, _records, _scaled,
-    _searched, _text)
+    _family_search, _grammar_search, _records, _scaled,
+    _searched, _text, Search, searched)
 
 
 # ---- costs --------------------------------------------------------------------------------------
@@ -201,28 +201,44 @@ def _executed(everything, per_of, record, target, f, real, cycles, architectures
                 peaks=len(peaks), seconds=round(time.perf_counter() - started, 1))
 
 
-def derive(target: ParametricTarget, gpu=None, seconds: float = 60.0, max_cycles: float | None = None,
-           max_complexity: int = 12, log=print, formula_complexity: int = 0, precision: str = "fp32") -> dict:
-    """The derivation of the module docstring for `target` on the architectures `gpu` (names;
-    default every one whose compiler runs here), with `formula_complexity` > 0 the lines of the best
-    templates also corrected by the symbolic regression (`corrected`). Returns the results
-    (results.json's content) with the rows of front.csv."""
+def _checked(target: ParametricTarget, gpu, seconds: float, max_cycles, max_complexity: int,
+             formula_complexity: int) -> list[str]:
+    """The architectures of `gpu` (`engine.checked_options`), once the target and the options are
+    checked (DeriveError naming what is wrong)."""
     from . import engine
-    from .fronts import front, rounding_floor, verdict
 
     check(target)
     architectures = engine.checked_options(gpu, seconds, max_cycles, max_complexity)
-    started = time.perf_counter()
-    f = target.numpy()
-    error_key = _error_key(target)
-    log(f"{target.name}: {target.expression} for {', '.join(a.text() for a in target.axes)}, error {target.metric}; "
-        f"{len(architectures)} architecture{'s' * (len(architectures) > 1)}")
-
     if not (isinstance(formula_complexity, int) and 0 <= formula_complexity <= MAX_FORMULA_COMPLEXITY):
         raise DeriveError(f"--formula-complexity {formula_complexity}: give an integer in [0, {MAX_FORMULA_COMPLEXITY}]")
     if formula_complexity and target.parameter is None:
         raise DeriveError(f"{target.name} has no parameter: --formula-complexity applies to targets with one")
-    found, coverage = _searched(target, f, seconds, max_complexity, log, formula_complexity)
+    return architectures
+
+
+def _headline(target: ParametricTarget, architectures) -> str:
+    return (f"{target.name}: {target.expression} for {', '.join(a.text() for a in target.axes)}, error {target.metric}; "
+            f"{len(architectures)} architecture{'s' * (len(architectures) > 1)}")
+
+
+def derive(target: ParametricTarget, gpu=None, seconds: float = 60.0, max_cycles: float | None = None,
+           max_complexity: int = 12, log=print, formula_complexity: int = 0, precision: str = "fp32",
+           search: tuple[list[dict], dict] | None = None) -> dict:
+    """The derivation of the module docstring for `target` on the architectures `gpu` (names;
+    default every one whose compiler runs here), with `formula_complexity` > 0 the lines of the best
+    templates also corrected by the symbolic regression (`corrected`); `search`: the search's
+    (records, coverage) where it was computed beforehand (`derive_pair`: both parts' at once).
+    Returns the results (results.json's content) with the rows of front.csv."""
+    from .fronts import front, rounding_floor, verdict
+
+    architectures = _checked(target, gpu, seconds, max_cycles, max_complexity, formula_complexity)
+    started = time.perf_counter()
+    f = target.numpy()
+    error_key = _error_key(target)
+    if search is None:
+        log(_headline(target, architectures))
+        search = _searched(target, f, seconds, max_complexity, log, formula_complexity)
+    found, coverage = search
     forms = [Form(r["name"], "found", r["family"], r["expression"], r["source"]) for r in found]
     per_of = {r["name"]: (r["expression"], r["per"]) for r in found}
     record = {r["name"]: r for r in found}
@@ -353,11 +369,20 @@ def derive_pair(target: PairTarget, gpu=None, seconds: float = 60.0, max_cycles:
 
     check_pair(target)
     started = time.perf_counter()
+    pair_targets = (target.scale, target.bias)
+    for t in pair_targets:
+        architectures = _checked(t, gpu, seconds, max_cycles, max_complexity, formula_complexity)
+    for part, t in zip(PAIR_PARTS, pair_targets):
+        log(f"{part}: {_headline(t, architectures)}")
+    # both parts' searches at once (in worker processes where there are cores), then each part derived
+    logs = [lambda s, part=part: log(f"  {part}: {s}") for part in PAIR_PARTS]
+    searches = searched([Search(t, seconds, max_complexity, formula_complexity) for t in pair_targets],
+                        [t.numpy() for t in pair_targets], logs, log)
     parts = {}
-    for part, t in zip(PAIR_PARTS, (target.scale, target.bias)):
+    for part, t, search in zip(PAIR_PARTS, pair_targets, searches):
         log(f"{part} ({t.name}):")
         parts[part] = derive(t, gpu, seconds, max_cycles, max_complexity, log=lambda s: log("  " + s),
-                             formula_complexity=formula_complexity)
+                             formula_complexity=formula_complexity, search=search)
     scale, bias = parts["scale"], parts["bias"]
     architectures = scale["architectures"]
     F0 = sp.Symbol("F0", real=True)

@@ -3,6 +3,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import time
 
 import numpy as np
@@ -27,19 +28,54 @@ def _text(m: Form, record: dict, target) -> str:
     return sp.sstr(sp.N(m.expression, 9))
 
 
-def _kept(key: list, compute, log, what: str, target):
-    """compute() -> (records, coverage), kept in `paths.DERIVE_CACHE` under `key` and this code; an
-    entry that cannot be read is computed again."""
+PARTS = {"families": "families' fits", "grammar": "grammar's search", "anchors": "anchors' refits"}
+
+
+@dataclasses.dataclass(frozen=True)
+class Search:
+    """What `_searched` computes for one target: its three parts (`PARTS`; the families only for a
+    target with a parameter), each kept in the derive cache under `key(part)`."""
+
+    target: object
+    seconds: float
+    max_complexity: int
+    formula_complexity: int = 0
+
+    def parts(self) -> list[str]:
+        return [p for p in PARTS if p != "families" or self.target.parameter is not None]
+
+    def key(self, part: str) -> list:
+        return {"families": [repr(self.target), "families", self.formula_complexity],
+                "grammar": [repr(self.target), "grammar", self.seconds, self.max_complexity, self.formula_complexity],
+                "anchors": [repr(self.target), "anchors"]}[part]
+
+    def compute(self, part: str, f, log) -> tuple[list[dict], dict]:
+        if part == "families":
+            return _family_search(self.target, f, log, self.formula_complexity)
+        if part == "grammar":
+            return _grammar_search(self.target, f, self.seconds, self.max_complexity, log, self.formula_complexity)
+        return refitted_box_anchors(self.target, f, log)
+
+
+def _kept_file(search: Search, part: str):
     import hashlib
     import json
 
     from ..engine import paths
     from . import grammar_search
+
+    text = json.dumps([grammar_search.code_version(), *search.key(part)])
+    return paths.DERIVE_CACHE / f"{hashlib.sha256(text.encode()).hexdigest()[:32]}.json"
+
+
+def _read_kept(search: Search, part: str, log) -> tuple[list[dict], dict] | None:
+    """The part's (records, coverage) kept by an earlier run under its key and this code; None where
+    there is none, or it cannot be read (said)."""
     from . import kept as keeping
 
-    text = json.dumps([grammar_search.code_version(), *key])
-    symbols = {s.name: s for s in kept_symbols(target)}
-    kept = paths.DERIVE_CACHE / f"{hashlib.sha256(text.encode()).hexdigest()[:32]}.json"
+    what = PARTS[part]
+    symbols = {s.name: s for s in kept_symbols(search.target)}
+    kept = _kept_file(search, part)
     entry = keeping.read(kept, log)
     try:
         if entry is not None:
@@ -50,14 +86,90 @@ def _kept(key: list, compute, log, what: str, target):
         log(f"the kept {what} {kept.name} is not used ({e}): computed again")
     except (ValueError, KeyError, TypeError) as e:
         log(f"the kept {what} {kept.name} is not readable ({type(e).__name__}): computed again")
-    found, coverage = compute()
+    return None
+
+
+def _keep(search: Search, part: str, found: list[dict], coverage: dict, log) -> tuple[list[dict], dict]:
+    """Keeps a computed part in the derive cache; returns it marked not kept."""
+    from . import kept as keeping
+
+    symbols = {s.name: s for s in kept_symbols(search.target)}
     try:
         texts = [keeping.text(r["expression"], symbols) for r in found]
     except keeping.Unusable as e:
-        log(f"the {what} are not kept ({e})")
+        log(f"the {PARTS[part]} are not kept ({e})")
     else:
-        keeping.write(kept, dict(found=[r | dict(expression=t) for r, t in zip(found, texts)], coverage=coverage))
+        keeping.write(_kept_file(search, part), dict(found=[r | dict(expression=t) for r, t in zip(found, texts)],
+                                                     coverage=coverage))
     return found, coverage | dict(kept=False)
+
+
+def _in_worker(search: Search, part: str) -> tuple[list[dict], dict, list[str]]:
+    """A part computed in a worker process: (records, coverage, the lines it logged)."""
+    lines: list[str] = []
+    found, coverage = search.compute(part, search.target.numpy(), lines.append)
+    return found, coverage, lines
+
+
+def worker_count(parts: int) -> int:
+    """Worker processes for `parts` parts to compute: one per core, at most one per part; 0 (all
+    computed in this process) where that is one, or where this process may not start children (a
+    Dask worker)."""
+    from ..engine import workers
+
+    count = min(parts, workers.cores())
+    return count if count > 1 and workers.may_start_processes() else 0
+
+
+def searched(searches: list[Search], functions: list, logs: list, log) -> list[tuple[list[dict], dict]]:
+    """Each search's (records, coverage): every part kept by an earlier run read, the others computed,
+    in `worker_count` spawned processes where that is more than one (a part of each search per core
+    at a time: each is numpy's and HiGHS's work in one thread), each part's lines then logged by its
+    search's `logs[i]` in order; otherwise here, with `functions[i]` (the target's numpy function)."""
+    from concurrent.futures import wait
+    from concurrent.futures.process import BrokenProcessPool
+
+    from ..engine import faults, workers
+
+    parts = {(i, part): _read_kept(s, part, logs[i]) for i, s in enumerate(searches) for part in s.parts()}
+    missing = [key for key, value in parts.items() if value is None]
+    count = worker_count(len(missing))
+    if count:
+        import jax
+
+        log(f"searching: {len(missing)} parts ({', '.join(sorted({PARTS[p] for _, p in missing}))}) "
+            f"in {count} processes")
+        pool = workers.spawned_pool(count, jax.config.jax_compilation_cache_dir or None)
+        try:
+            futures = {key: workers.ignoring_sigint(lambda key=key: pool.submit(_in_worker, searches[key[0]], key[1]))
+                       for key in missing}
+            for (i, part), future in futures.items():
+                while not future.done():
+                    wait([future], timeout=0.5)
+                    faults.check_interrupted()
+                found, coverage, lines = future.result()
+                for line in lines:
+                    logs[i](line)
+                parts[(i, part)] = _keep(searches[i], part, found, coverage, logs[i])
+        except BrokenProcessPool:
+            log("a search process died (killed, or out of memory): the rest is computed in this process")
+        finally:
+            pool.shutdown(wait=False, cancel_futures=True)
+    for (i, part), value in parts.items():
+        if value is None:
+            found, coverage = searches[i].compute(part, functions[i], logs[i])
+            parts[(i, part)] = _keep(searches[i], part, found, coverage, logs[i])
+    out = []
+    for i, s in enumerate(searches):
+        found, coverage = [], dict(max_complexity=int(s.max_complexity))
+        for part in s.parts():
+            records, coverage[part] = parts[(i, part)]
+            found += records
+        for part in PARTS:
+            coverage.update({k: v for k, v in coverage.get(part, {}).items() if k != "kept"})
+        coverage["kept"] = all(coverage.get(part, {}).get("kept", True) for part in PARTS)
+        out.append((found, coverage))
+    return out
 
 
 def _searched(target, f, seconds: float, max_complexity: int, log, formula_complexity: int = 0) -> tuple[list[dict], dict]:
@@ -66,24 +178,8 @@ def _searched(target, f, seconds: float, max_complexity: int, log, formula_compl
     the coverage): steps 1 to 4 of the module docstring. The families' fits are kept by the target
     and this code, the grammar's forms also by the budget, so that a rerun with other --gpu or
     --max-cycles only compiles, and one with another budget only searches again."""
-    found, coverage = [], dict(max_complexity=int(max_complexity))
-    if target.parameter is not None:
-        families, coverage["families"] = _kept([repr(target), "families", formula_complexity],
-                                               lambda: _family_search(target, f, log, formula_complexity),
-                                               log, "families' fits", target)
-        found += families
-    grammar_found, coverage["grammar"] = _kept([repr(target), "grammar", seconds, max_complexity, formula_complexity],
-                                               lambda: _grammar_search(target, f, seconds, max_complexity, log,
-                                                                       formula_complexity),
-                                               log, "grammar's search", target)
-    found += grammar_found
-    refits, coverage["anchors"] = _kept([repr(target), "anchors"], lambda: refitted_box_anchors(target, f, log), log,
-                                        "anchors' refits", target)
-    found += refits
-    for part in ("families", "grammar", "anchors"):
-        coverage.update({k: v for k, v in coverage.get(part, {}).items() if k != "kept"})
-    coverage["kept"] = all(coverage.get(part, {}).get("kept", True) for part in ("families", "grammar", "anchors"))
-    return found, coverage
+    (out,) = searched([Search(target, seconds, max_complexity, formula_complexity)], [f], [log], log)
+    return out
 
 
 def _records(materials, target) -> list[dict]:

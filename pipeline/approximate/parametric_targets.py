@@ -83,6 +83,9 @@ class Table:
     def __hash__(self) -> int:
         return hash(self.text)
 
+    def __getstate__(self) -> dict:         # (sent to a worker process: its spline is built there again)
+        return self.__dict__ | dict(_spline=None)
+
     def __call__(self, *columns):
         from scipy.interpolate import CubicSpline, RectBivariateSpline, RegularGridInterpolator
 

@@ -11,18 +11,14 @@ drawn while later stages compute. This module imports neither matplotlib nor JAX
 
 from __future__ import annotations
 
-import ctypes
 import dataclasses
-import multiprocessing
 import os
 import shutil
-import signal
 import threading
-import time
 from concurrent.futures import ProcessPoolExecutor, wait
 from pathlib import Path
 
-from ..engine import toolchains
+from ..engine.workers import ignoring_sigint, may_start_processes, spawned_pool
 from ..engine.cache import code_hash, digest, discard, sha256, temporary_folder
 from ..engine.faults import check_interrupted
 from ..engine.graph import RANGE
@@ -147,52 +143,6 @@ def draw_into_cache(figure: Figure, folder: Path, key: str, config: FigureConfig
         shutil.rmtree(tmp, ignore_errors=True)
 
 
-PR_SET_PDEATHSIG = 1     # Linux prctl: a signal the kernel sends when the parent dies
-
-
-def _watch_parent(parent: int) -> None:
-    while True:
-        time.sleep(0.5)
-        if os.getppid() != parent:
-            os._exit(1)
-
-
-def worker_start(parent: int) -> None:
-    """The figure worker's first act: it ends with the run, whatever ends the run.
-
-    An interrupt is the parent's to handle (Ctrl-C reaches the whole process group), so the worker
-    ignores SIGINT; the parent's death, SIGKILL included, ends the worker: by the kernel's death
-    signal on Linux, and, everywhere, by a thread that notices the worker has been reparented."""
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
-    toolchains.prepare()        # the worker finds its tools as the run did, whoever started the run
-    try:
-        ctypes.CDLL(None, use_errno=True).prctl(PR_SET_PDEATHSIG, signal.SIGKILL)
-    except (OSError, AttributeError):
-        pass
-    if os.getppid() != parent:
-        os._exit(1)
-    threading.Thread(target=_watch_parent, args=(parent,), daemon=True).start()
-
-
-def _ignoring_sigint(start):
-    """`start()` with SIGINT ignored meanwhile: a worker process started in it is born ignoring
-    SIGINT (an ignored signal stays ignored across exec), so a Ctrl-C during its start-up, before
-    `worker_start` runs, cannot end it with a traceback. Only the main thread may change signals."""
-    try:
-        previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
-    except ValueError:
-        return start()
-    try:
-        return start()
-    finally:
-        signal.signal(signal.SIGINT, previous)
-
-
-def may_start_processes() -> bool:
-    """Whether this process may start a child: a daemonic one (a Dask worker under its nanny) may not."""
-    return not multiprocessing.current_process().daemon
-
-
 # One figure at a time is drawn in this process (the threads of a Dask worker may run several points).
 IN_PROCESS = threading.Lock()
 
@@ -249,9 +199,8 @@ class FigureDrawer:
             if self._stored(key, f.file) is not None or not may_start_processes():
                 continue
             if self.pool is None:
-                self.pool = ProcessPoolExecutor(1, mp_context=multiprocessing.get_context("spawn"),
-                                                initializer=worker_start, initargs=(os.getpid(),))
-            self.pending[f.file] = _ignoring_sigint(lambda: self.pool.submit(
+                self.pool = spawned_pool(1)
+            self.pending[f.file] = ignoring_sigint(lambda: self.pool.submit(
                 draw_into_cache, f, self.folder, key, FigureConfig(self.config, f.config),
                 {stage: results[stage] for stage in f.stages}))
 

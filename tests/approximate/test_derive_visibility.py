@@ -10,7 +10,7 @@ import sys
 import pytest
 import sympy as sp
 
-from pipeline.approximate import engine, parametric
+from pipeline.approximate import engine, parametric, parametric_search
 from tests.helpers import cli_env
 
 
@@ -27,6 +27,10 @@ def test_pipeline_derive_on_the_smith_ggx_visibility(tmp_path):
     env = cli_env(tmp_path, PIPELINE_DERIVE_CACHE=str(tmp_path / "derive"))
     done = subprocess.run(command, capture_output=True, text=True, env=env, timeout=900)
     assert done.returncode == 0, done.stdout + done.stderr
+    # the families' fits, the grammar's search and the anchors' refits computed at once, a process each
+    # (`parametric_search.searched`), where there are cores for it
+    searching = "searching: 3 parts (anchors' refits, families' fits, grammar's search) in 2 processes"
+    assert (searching in done.stdout) == (parametric_search.worker_count(3) == 2), done.stdout
     with open(out / "front.csv") as f:
         rows = list(csv.DictReader(f))
     assert {r["parameter_per"] for r in rows} == {"material", "pixel"}

@@ -272,6 +272,7 @@ def test_pairs_take_the_larger_error_and_share_the_push_constants(monkeypatch):
                   part({"b1": (nov * r, 0.02, "pixel"), "b2": (c0 + nov, 0.04, "material")},
                        nov * nov * r * r * r)])
     monkeypatch.setattr(parametric, "derive", lambda *args, **kwargs: next(parts))
+    monkeypatch.setattr(parametric, "searched", lambda searches, *args: [([], {}) for _ in searches])  # (derive's)
     monkeypatch.setattr(parametric, "refitted_pair_anchors", lambda *args: [])     # (the real anchors' refit)
     targets = parametric.env_brdf_targets()
     pair = parametric.PairTarget("planted", targets["env_brdf_scale"], targets["env_brdf_bias"])
@@ -303,6 +304,7 @@ def test_a_csv_table_runs_through_derive(tmp_path, monkeypatch):
     searched = dict(rungs=[], points=0, loss="max")
     monkeypatch.setattr(parametric_search, "_grammar_search", lambda *args: ([], dict(
         templates=searched | dict(count=0, seconds=0.0, at=1.25), pixel_search=searched)))
+    monkeypatch.setattr(parametric_search, "worker_count", lambda parts: 0)     # (the planted templates: this process's)
     from pipeline.engine import paths
 
     monkeypatch.setattr(paths, "DERIVE_CACHE", tmp_path / "derive")

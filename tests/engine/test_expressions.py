@@ -287,33 +287,35 @@ def test_a_kept_entry_changed_or_holding_code_is_recomputed_with_one_line(tmp_pa
     import hashlib
     import json
 
-    from pipeline.approximate import kept, parametric
+    from pipeline.approximate import kept, parametric, parametric_search
     from pipeline.engine import paths
 
     monkeypatch.setattr(paths, "DERIVE_CACHE", tmp_path / "derive")
+    monkeypatch.setattr(parametric_search, "worker_count", lambda parts: 0)       # (the planted search: here)
     target = parametric.registry()["smith_ggx_visibility"]
     nov, nol, alpha = target.symbols()
     c0 = sp.Symbol("c0", real=True)
     expr = sp.Float(1 / 3, 17) / (nov * nol * sp.Float(0.25) + alpha * c0) + sp.Max(0, nov - nol) ** 2
     calls, lines = [], []
 
-    def compute():
-        calls.append(1)
-        return [dict(name="planted", expression=expr)], dict(seconds=1.0)
+    class Planted(parametric_search.Search):
+        def compute(self, part, f, log):          # (the planted form is the families' part; the others find none)
+            calls.extend([1] * (part == "families"))
+            return [dict(name="planted", expression=expr)] * (part == "families"), dict(seconds=1.0)
 
     def run():
-        found, _ = parametric._kept(["planted key"], compute, lines.append, "planted fits", target)
+        ((found, _),) = parametric_search.searched([Planted(target, 1.0, 2)], [None], [lines.append], lines.append)
         return found[0]["expression"]
 
     assert run() == expr and len(calls) == 1
-    assert sp.srepr(run()) == sp.srepr(expr) and len(calls) == 1 and "of an earlier run" in lines[-1]
-    (path,) = (tmp_path / "derive").glob("*.json")
+    assert sp.srepr(run()) == sp.srepr(expr) and len(calls) == 1 and "families' fits of an earlier run" in lines[-3]
+    (path,) = [p for p in (tmp_path / "derive").glob("*.json") if "planted" in p.read_text()]
     entry = json.loads(path.read_text())
     path.write_text(json.dumps(dict(entry, body=entry["body"].replace("0.25", "0.5"))))
     lines.clear()
     assert run() == expr and len(calls) == 2
-    assert [line for line in lines if "kept" in line] == [f"the kept entry {path.name} was changed after it was "
-                                                          "written (its hash): computed again"]
+    assert [line for line in lines if "kept entry" in line] == [f"the kept entry {path.name} was changed after it "
+                                                                "was written (its hash): computed again"]
     marker = tmp_path / "marker.txt"
     body = json.loads(json.loads(path.read_text())["body"])
     body["found"][0]["expression"] = f"NoV + 0*len({marker_text(marker)})"
@@ -321,6 +323,6 @@ def test_a_kept_entry_changed_or_holding_code_is_recomputed_with_one_line(tmp_pa
     path.write_text(json.dumps(dict(sha256=hashlib.sha256(text.encode()).hexdigest(), body=text)))
     lines.clear()
     assert run() == expr and len(calls) == 3 and not marker.exists()
-    (line,) = [line for line in lines if "kept" in line]
+    (line,) = [line for line in lines if "families' fits" in line]
     assert "is not used" in line and "unknown function 'len'" in line and "computed again" in line
     assert kept.read(tmp_path / "none.json", lines.append) is None

@@ -1,0 +1,77 @@
+"""The worker processes a run starts (the figure drawer's, the derive search's): started with
+"spawn", born ignoring SIGINT, ending with their parent whatever ends it."""
+
+from __future__ import annotations
+
+import ctypes
+import multiprocessing
+import os
+import signal
+import threading
+import time
+from concurrent.futures import ProcessPoolExecutor
+
+from . import toolchains
+
+PR_SET_PDEATHSIG = 1     # Linux prctl: a signal the kernel sends when the parent dies
+
+
+def _watch_parent(parent: int) -> None:
+    while True:
+        time.sleep(0.5)
+        if os.getppid() != parent:
+            os._exit(1)
+
+
+def worker_start(parent: int, xla_cache: str | None = None) -> None:
+    """A worker's first act: it ends with the run, whatever ends the run.
+
+    An interrupt is the parent's to handle (Ctrl-C reaches the whole process group), so the worker
+    ignores SIGINT; the parent's death, SIGKILL included, ends the worker: by the kernel's death
+    signal on Linux, and, everywhere, by a thread that notices the worker has been reparented.
+    With `xla_cache`, the worker keeps its compiled XLA programs in the parent's folder."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    toolchains.prepare()        # the worker finds its tools as the run did, whoever started the run
+    try:
+        ctypes.CDLL(None, use_errno=True).prctl(PR_SET_PDEATHSIG, signal.SIGKILL)
+    except (OSError, AttributeError):
+        pass
+    if os.getppid() != parent:
+        os._exit(1)
+    threading.Thread(target=_watch_parent, args=(parent,), daemon=True).start()
+    if xla_cache:
+        from ..optics.numerics import use_compilation_cache
+        use_compilation_cache(xla_cache)
+
+
+def ignoring_sigint(start):
+    """`start()` with SIGINT ignored meanwhile: a worker process started in it is born ignoring
+    SIGINT (an ignored signal stays ignored across exec), so a Ctrl-C during its start-up, before
+    `worker_start` runs, cannot end it with a traceback. Only the main thread may change signals."""
+    try:
+        previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    except ValueError:
+        return start()
+    try:
+        return start()
+    finally:
+        signal.signal(signal.SIGINT, previous)
+
+
+def may_start_processes() -> bool:
+    """Whether this process may start a child: a daemonic one (a Dask worker under its nanny) may not."""
+    return not multiprocessing.current_process().daemon
+
+
+def cores() -> int:
+    """The processor cores this process may run on."""
+    try:
+        return len(os.sched_getaffinity(0))
+    except AttributeError:
+        return os.cpu_count() or 1
+
+
+def spawned_pool(workers: int, xla_cache: str | None = None) -> ProcessPoolExecutor:
+    """A pool of `workers` spawned processes, each started by `worker_start`."""
+    return ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("spawn"),
+                               initializer=worker_start, initargs=(os.getpid(), xla_cache))
