@@ -111,6 +111,18 @@ def _held_as_decimal(expr):
     return expr.func(*args)
 
 
+def _as_kept(expr, target):
+    """`expr` as the derive cache keeps and reads it back (`engine.expressions.text`, then `parse`): the
+    same numbers in the tree sympy builds from their text, where a number times a sum is distributed
+    (c*(1 - r)*m, built by substitution, reads back as (c - c*r)*m), so that a rerun that reads the
+    kept refit computes what this run did."""
+    from ..engine import expressions
+    from .templates import kept_symbols
+
+    symbols = {s.name: s for s in kept_symbols(target)}
+    return expressions.parse(expressions.text(expr), symbols, what="a refitted anchor", float64=True)
+
+
 def refitted_box_anchors(target, f, log) -> tuple[list[dict], dict]:
     """Each anchor of a parametric target refitted by minimax on the box (`formulas._polished`, from
     its own numbers, at the parameter's grid and halfway values), as pixel forms, each kept where it
@@ -137,7 +149,7 @@ def refitted_box_anchors(target, f, log) -> tuple[list[dict], dict]:
                              f"box, its factors of {', '.join(f'{v:g}' for v in FREE_FACTORS)} held (free on AMD: "
                              "output modifiers)"))
         for suffix, start, source in variants:
-            refit = _held_as_decimal(_polished(start, target, f, values)[0])
+            refit = _as_kept(_held_as_decimal(_polished(start, target, f, values)[0]), target)
             errors = measure_box(refit, target, f)
             if np.isfinite(errors[key]) and errors[key] < before * (1 - 1e-6):
                 log(f"{anchor.name}{suffix}: error {before:.3g} -> {errors[key]:.3g}")

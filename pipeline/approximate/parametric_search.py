@@ -104,8 +104,12 @@ def _keep(search: Search, part: str, found: list[dict], coverage: dict, log) -> 
     return found, coverage | dict(kept=False)
 
 
-def _in_worker(search: Search, part: str) -> tuple[list[dict], dict, list[str]]:
-    """A part computed in a worker process: (records, coverage, the lines it logged)."""
+def _in_worker(search: Search, part: str, xla_cache: str | None) -> tuple[list[dict], dict, list[str]]:
+    """A part computed in a worker process (its compiled XLA programs kept in the run's folder
+    `xla_cache`, if any): (records, coverage, the lines it logged)."""
+    if xla_cache:
+        from ..optics.numerics import use_compilation_cache
+        use_compilation_cache(xla_cache)
     lines: list[str] = []
     found, coverage = search.compute(part, search.target.numpy(), lines.append)
     return found, coverage, lines
@@ -139,9 +143,11 @@ def searched(searches: list[Search], functions: list, logs: list, log) -> list[t
 
         log(f"searching: {len(missing)} parts ({', '.join(sorted({PARTS[p] for _, p in missing}))}) "
             f"in {count} processes")
-        pool = workers.spawned_pool(count, jax.config.jax_compilation_cache_dir or None)
+        pool = workers.spawned_pool(count)
+        xla_cache = jax.config.jax_compilation_cache_dir or None
         try:
-            futures = {key: workers.ignoring_sigint(lambda key=key: pool.submit(_in_worker, searches[key[0]], key[1]))
+            futures = {key: workers.ignoring_sigint(lambda key=key: pool.submit(_in_worker, searches[key[0]], key[1],
+                                                                                xla_cache))
                        for key in missing}
             for (i, part), future in futures.items():
                 while not future.done():

@@ -23,13 +23,12 @@ def _watch_parent(parent: int) -> None:
             os._exit(1)
 
 
-def worker_start(parent: int, xla_cache: str | None = None) -> None:
+def worker_start(parent: int) -> None:
     """A worker's first act: it ends with the run, whatever ends the run.
 
     An interrupt is the parent's to handle (Ctrl-C reaches the whole process group), so the worker
     ignores SIGINT; the parent's death, SIGKILL included, ends the worker: by the kernel's death
-    signal on Linux, and, everywhere, by a thread that notices the worker has been reparented.
-    With `xla_cache`, the worker keeps its compiled XLA programs in the parent's folder."""
+    signal on Linux, and, everywhere, by a thread that notices the worker has been reparented."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     toolchains.prepare()        # the worker finds its tools as the run did, whoever started the run
     try:
@@ -39,9 +38,6 @@ def worker_start(parent: int, xla_cache: str | None = None) -> None:
     if os.getppid() != parent:
         os._exit(1)
     threading.Thread(target=_watch_parent, args=(parent,), daemon=True).start()
-    if xla_cache:
-        from ..optics.numerics import use_compilation_cache
-        use_compilation_cache(xla_cache)
 
 
 def ignoring_sigint(start):
@@ -71,7 +67,7 @@ def cores() -> int:
         return os.cpu_count() or 1
 
 
-def spawned_pool(workers: int, xla_cache: str | None = None) -> ProcessPoolExecutor:
+def spawned_pool(workers: int) -> ProcessPoolExecutor:
     """A pool of `workers` spawned processes, each started by `worker_start`."""
     return ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("spawn"),
-                               initializer=worker_start, initargs=(os.getpid(), xla_cache))
+                               initializer=worker_start, initargs=(os.getpid(),))

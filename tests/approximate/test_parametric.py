@@ -525,3 +525,26 @@ def test_a_pixel_form_costs_at_least_the_same_form_per_material():
         netted_of_both, _, _ = machine_code.form_cycles({"pixel": ("return pow(t, n);", ["t", "n"])}, ["t", "n"],
                                                         ["rdna3"])
         assert netted_of_both["rdna3"]["pixel"] < cycles["rdna3"]["material"]
+
+
+def test_a_refitted_anchor_is_the_tree_its_kept_text_reads_back():
+    """Karis's A refitted: its numbers substituted leave c*(1 - r)*min(...) a product sympy never builds
+    from text (it distributes a number over a sum), so the refit is taken as its kept text reads it
+    (`anchor_refits._as_kept`): the same values, and a tree the derive cache keeps; a tree that reads
+    back already is left as it is."""
+    from pipeline.approximate import anchor_refits, kept
+    from pipeline.approximate.forms import free_numbers
+
+    target = parametric.registry()["env_brdf_scale"]
+    symbols = {s.name: s for s in templates.kept_symbols(target)}
+    (free,), q, numbers = free_numbers(target.anchor_expressions()["Karis"])
+    refit = free.xreplace({qi: sp.Float(float(v) * 1.01, 17) for qi, v in zip(q, numbers)})
+    with pytest.raises(kept.Unusable, match="does not read back to the same tree"):
+        kept.text(refit, symbols)
+    as_kept = anchor_refits._as_kept(refit, target)
+    assert kept.expression(kept.text(as_kept, symbols), symbols) == as_kept
+    nov, roughness = symbols["NoV"], symbols["roughness"]
+    for point in ({nov: 0.3, roughness: 0.4}, {nov: 0.9, roughness: 0.05}):
+        assert float(as_kept.subs(point)) == pytest.approx(float(refit.subs(point)), rel=1e-15)
+    lazarov = target.anchor_expressions()["Lazarov"]
+    assert sp.srepr(anchor_refits._as_kept(lazarov, target)) == sp.srepr(lazarov)
