@@ -146,9 +146,7 @@ def searched(searches: list[Search], functions: list, logs: list, log) -> list[t
         pool = workers.spawned_pool(count)
         xla_cache = jax.config.jax_compilation_cache_dir or None
         try:
-            futures = {key: workers.ignoring_sigint(lambda key=key: pool.submit(_in_worker, searches[key[0]], key[1],
-                                                                                xla_cache))
-                       for key in missing}
+            futures = {key: workers.submitted(pool, _in_worker, searches[key[0]], key[1], xla_cache) for key in missing}
             for (i, part), future in futures.items():
                 while not future.done():
                     wait([future], timeout=0.5)

@@ -3,10 +3,12 @@
 
 from __future__ import annotations
 
+import contextlib
 import ctypes
 import multiprocessing
 import os
 import signal
+import sys
 import threading
 import time
 from concurrent.futures import ProcessPoolExecutor
@@ -52,6 +54,32 @@ def ignoring_sigint(start):
         return start()
     finally:
         signal.signal(signal.SIGINT, previous)
+
+
+@contextlib.contextmanager
+def _main_script_hidden():
+    """Meanwhile a spawned worker does not run the parent's main script again: multiprocessing runs a
+    script started by path (`python job.py`) in each spawned child as `__mp_main__`, and with it
+    whatever the script calls outside an `if __name__ == "__main__":` guard (`pipeline.derive(...)`).
+    The workers run the package's functions only, which they import. (A main module started by name,
+    `python -m pipeline`, is imported by name, its guard there.)"""
+    main = sys.modules.get("__main__")
+    if main is None or getattr(main, "__spec__", None) is not None or "__file__" not in vars(main):
+        yield
+        return
+    path = main.__file__
+    del main.__file__
+    try:
+        yield
+    finally:
+        main.__file__ = path
+
+
+def submitted(pool: ProcessPoolExecutor, function, *args):
+    """`pool.submit(function, *args)`, a worker it starts born ignoring SIGINT (`ignoring_sigint`) and
+    without the parent's main script (`_main_script_hidden`)."""
+    with _main_script_hidden():
+        return ignoring_sigint(lambda: pool.submit(function, *args))
 
 
 def may_start_processes() -> bool:

@@ -18,7 +18,7 @@ import threading
 from concurrent.futures import ProcessPoolExecutor, wait
 from pathlib import Path
 
-from ..engine.workers import ignoring_sigint, may_start_processes, spawned_pool
+from ..engine.workers import may_start_processes, spawned_pool, submitted
 from ..engine.cache import code_hash, digest, discard, sha256, temporary_folder
 from ..engine.faults import check_interrupted
 from ..engine.graph import RANGE
@@ -200,9 +200,9 @@ class FigureDrawer:
                 continue
             if self.pool is None:
                 self.pool = spawned_pool(1)
-            self.pending[f.file] = ignoring_sigint(lambda: self.pool.submit(
-                draw_into_cache, f, self.folder, key, FigureConfig(self.config, f.config),
-                {stage: results[stage] for stage in f.stages}))
+            self.pending[f.file] = submitted(self.pool, draw_into_cache, f, self.folder, key,
+                                             FigureConfig(self.config, f.config),
+                                             {stage: results[stage] for stage in f.stages})
 
     def collect(self, out: Path, results, stage_keys) -> dict[str, list[tuple[str, str]]]:
         """Copies every figure into `out` (drawing what is missing); returns, per report section,
