@@ -157,6 +157,9 @@ def searched(searches: list[Search], functions: list, logs: list, log) -> list[t
                 parts[(i, part)] = _keep(searches[i], part, found, coverage, logs[i])
         except BrokenProcessPool:
             log("a search process died (killed, or out of memory): the rest is computed in this process")
+        except BaseException:           # (an interrupt, or a part's error: the other parts are not wanted)
+            workers.stop(pool)
+            raise
         finally:
             pool.shutdown(wait=False, cancel_futures=True)
     for (i, part), value in parts.items():

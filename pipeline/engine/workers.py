@@ -99,3 +99,16 @@ def spawned_pool(workers: int) -> ProcessPoolExecutor:
     """A pool of `workers` spawned processes, each started by `worker_start`."""
     return ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("spawn"),
                                initializer=worker_start, initargs=(os.getpid(),))
+
+
+def stop(pool: ProcessPoolExecutor) -> None:
+    """Ends a pool's workers at once (SIGKILL), where the run stops on an interrupt or an error: what
+    they compute is no longer wanted, and an orderly shutdown would wait for it (or, interrupted
+    while a worker held the pool's queue, forever). Python 3.11's pool has no public way to do it:
+    its processes are read from `_processes`."""
+    processes = list((getattr(pool, "_processes", None) or {}).values())
+    for process in processes:
+        process.kill()
+    for process in processes:
+        process.join(timeout=10)
+    pool.shutdown(wait=False, cancel_futures=True)

@@ -3,6 +3,8 @@ same records as in this process, each part's lines logged by its search in order
 a worker that dies leaves the rest to this process, with one line."""
 
 import os
+import time
+from pathlib import Path
 
 import pytest
 import sympy as sp
@@ -18,10 +20,19 @@ class PlantedSearch(Search):
     process that computed it in its coverage; the part named `dies` ends its process."""
 
     dies: str = ""
+    fails: str = ""
+    sleeps: str = ""
 
     def compute(self, part, f, log):
         if part == self.dies and os.environ.get("PLANTED_PARENT") != str(os.getpid()):
             os._exit(3)
+        if part == self.sleeps:
+            Path(os.environ["PLANTED_SLEEPER"]).write_text(str(os.getpid()))
+            time.sleep(120)
+        if part == self.fails:
+            while not Path(os.environ["PLANTED_SLEEPER"]).exists():
+                time.sleep(0.05)
+            raise RuntimeError("planted failure")
         nov, nol, alpha = TARGET.symbols()
         number = list(parametric_search.PARTS).index(part) + 1
         log(f"{part}: computed")
@@ -77,6 +88,23 @@ def test_a_worker_that_dies_leaves_its_parts_to_this_process(monkeypatch, tmp_pa
     assert top[-1] == "a search process died (killed, or out of memory): the rest is computed in this process"
     assert [r["name"] for r in found] == ["families_1", "grammar_1", "anchors_1"]
     assert coverage["grammar"]["process"] == os.getpid()
+
+
+def test_a_part_s_error_ends_the_other_workers_at_once(monkeypatch, tmp_path):
+    """A part's error in its worker reaches the run as it is, and the worker computing another part
+    (planted: for two minutes) is ended with it, not waited for."""
+    monkeypatch.setenv("PLANTED_PARENT", str(os.getpid()))
+    monkeypatch.setenv("PLANTED_SLEEPER", str(tmp_path / "sleeper.pid"))
+    search = PlantedSearch(TARGET, 10.0, 4)
+    object.__setattr__(search, "fails", "families")
+    object.__setattr__(search, "sleeps", "grammar")
+    started = time.monotonic()
+    with pytest.raises(RuntimeError, match="planted failure"):
+        _run([search], monkeypatch, tmp_path, 2)
+    assert time.monotonic() - started < 60
+    sleeper = int((tmp_path / "sleeper.pid").read_text())
+    with pytest.raises(ProcessLookupError):
+        os.kill(sleeper, 0)
 
 
 @pytest.mark.parametrize("cores, daemon, expected", [(2, False, 2), (8, False, 3), (1, False, 0), (2, True, 0)])
