@@ -1,5 +1,7 @@
 """The parametric engine's search, kept between runs: the family templates' and the grammar's fits
-(`_searched`) as records of forms, each kept in the derive cache by target, budget and code."""
+and the anchors' refits (`_searched`) as records of forms, each part kept in the derive cache by
+target, budget and code; the parts not kept (a pair's two targets' together: `searched`) computed
+at once in worker processes, one per core."""
 
 from __future__ import annotations
 
