@@ -29,6 +29,7 @@ from .architectures import CompilerMissing
 
 TRANSCENDENTAL = re.compile(r"^v_(exp|log|rcp|rsq|sqrt|sin|cos)_(f16|f32|legacy_f32)")
 TIMEOUT_S = 120
+PROGRAM = Path(__file__).with_name("vulkan_pipeline.py")    # the Vulkan program the driver compiles in
 COST_MODEL = "aco-perfinfo"
 
 VERTEX = """#version 450
@@ -76,7 +77,8 @@ def compile_family(family: str, folder: Path, icd: str) -> str:
     env = dict(os.environ, VK_ICD_FILENAMES=icd, RADV_FORCE_FAMILY=family, RADV_DEBUG="shaders,nocache",
                ACO_DEBUG="perfinfo", MESA_SHADER_CACHE_DISABLE="true",
                XDG_RUNTIME_DIR=os.environ.get("XDG_RUNTIME_DIR") or tempfile.gettempdir())
-    done = subprocess.run([sys.executable, "-m", "pipeline.isa.vulkan_pipeline", str(folder)], env=env,
+    # run as a script (-P: its folder not on sys.path), without importing the pipeline package
+    done = subprocess.run([sys.executable, "-P", str(PROGRAM), str(folder)], env=env,
                           capture_output=True, text=True, timeout=TIMEOUT_S)
     if done.returncode != 0 or "@@@ END" not in done.stderr:
         tail = "\n".join(done.stderr.strip().splitlines()[-5:])

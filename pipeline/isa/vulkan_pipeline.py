@@ -1,5 +1,5 @@
 """A minimal Vulkan program that has the driver compile graphics pipelines and nothing else: run
-as `python -m pipeline.isa.vulkan_pipeline FOLDER`, it creates one pipeline per fragment shader
+as `python -P vulkan_pipeline.py FOLDER`, it creates one pipeline per fragment shader
 `FOLDER/*.frag.spv` (with the vertex shader `FOLDER/vert.spv`) on the first physical device, and
 writes `@@@ SHADER <name>` to stderr before each and `@@@ END` after the last. Under Mesa's RADV
 with `RADV_DEBUG=shaders` and `ACO_DEBUG=perfinfo` the driver prints each shader's machine code

@@ -99,12 +99,14 @@ def test_minimax_line_is_the_smallest_worst_case(cache, paper_run):
 
 @pytest.mark.slow
 def test_refit_writes_its_own_outputs_with_a_comparison(cache, tmp_path, paper_config):
-    # Small renders, few albedo angles, one power in the front: what this test checks is the refit's
-    # derivation and its report, not the images or the family.
-    config = pipeline.load_config(paths.CONFIGS / "q_0_5.toml", ("render.resolution=48", "mitsuba.width=64",
-                                                                 "mitsuba.height=32", "mitsuba.spp=16",
-                                                                 "albedo.angles=7", "comparison.albedo_angles=4",
-                                                                 "front.powers=[2]"))
+    # Small renders at two exponents, few albedo angles, one power in the front, two forms of the lobe
+    # search: what this test checks is the refit's derivation, its symbolic regression and its
+    # report, not the images, the family or the lobe search.
+    config = pipeline.load_config(paths.CONFIGS / "q_0_5.toml", (
+        "render.resolution=48", "render.exponents=[10, 100]", "mitsuba.width=64", "mitsuba.height=32",
+        "mitsuba.spp=16", "albedo.angles=7", "comparison.albedo_angles=4", "front.powers=[2]",
+        'lobe_search.families=["square", "exp2_linear"]',
+        "lobe_search.grammar_complexity=0"))
     base = run_derivation(paper_config, cache_dir=cache.root, outputs=tmp_path, log=lambda s: None,
                           write_outputs=False)
     out = run_derivation(config, cache_dir=cache.root, outputs=tmp_path, log=lambda s: None, baseline=base)
