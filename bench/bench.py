@@ -34,9 +34,9 @@ less than a time. Measured, each in a fresh cache and outputs folder:
   `lobe_renders` inside the cold reproduce (target 15 s);
 - `make test` (`python -m pytest -q -n 2 --dist loadfile`) twice, unless BENCH_TESTS=0 (BENCH_ONLY=tests:
   the floor and `make test` alone; BENCH_ONLY=reproduce: the floor, a cold and a warm `pipeline
-  reproduce` alone): first with an empty folder of compiled XLA programs (a fresh
-  clone, as CI runs it), then again with the programs the first run compiled (as `make test` keeps
-  them between runs);
+  reproduce` alone): first with empty folders of compiled XLA programs and of shaders' machine
+  code (a fresh clone, as CI runs it), then again with what the first run compiled (as `make test`
+  keeps them between runs);
 - the throughput of each cheap lobe compiled by XLA (evaluations per second over 2^24 values of t in
   float32, as a shader would use; median of 9 repeats and the range), on the CPU and, where JAX sees
   one, on a GPU.
@@ -418,8 +418,9 @@ def main() -> int:
                                                                   "reproduce"):
         # Twice, on one folder of compiled XLA programs: empty at first (a fresh clone, as CI runs
         # it), then holding the first session's programs (`make test` keeps them between runs).
-        with tempfile.TemporaryDirectory() as xla:
-            env = dict(os.environ, PIPELINE_XLA_CACHE_DIR=xla)
+        # The shaders' machine code (`isa.machine_code`'s kept results) likewise: a fresh clone has none.
+        with tempfile.TemporaryDirectory() as xla, tempfile.TemporaryDirectory() as machine_code:
+            env = dict(os.environ, PIPELINE_XLA_CACHE_DIR=xla, PIPELINE_MACHINE_CODE_CACHE=machine_code)
             for label in ("make test, XLA cache empty", "make test, XLA cache kept"):
                 seconds, out = timed([py, "-m", "pytest", "-q", "-n", "2", "--dist", "loadfile", "-p",
                                       "no:cacheprovider"], env)
