@@ -416,9 +416,9 @@ def main() -> int:
         rows += regress_rows(py, dict(os.environ, JAX_ENABLE_X64="1", JAX_PLATFORMS="cpu"))
     if os.environ.get("BENCH_TESTS", "1") != "0" and only not in ("derive", "derive_one", "derive_parametric", "regress",
                                                                   "reproduce"):
-        # Twice, on one folder of compiled XLA programs: empty at first (a fresh clone, as CI runs
-        # it), then holding the first session's programs (`make test` keeps them between runs).
-        # The shaders' machine code (`isa.machine_code`'s kept results) likewise: a fresh clone has none.
+        # Twice, on one folder of compiled XLA programs and one of shaders' machine code
+        # (`isa.machine_code`'s kept results): empty at first (a fresh clone, as CI runs it), then
+        # holding what the first session compiled (`make test` keeps both between runs).
         with tempfile.TemporaryDirectory() as xla, tempfile.TemporaryDirectory() as machine_code:
             env = dict(os.environ, PIPELINE_XLA_CACHE_DIR=xla, PIPELINE_MACHINE_CODE_CACHE=machine_code)
             for label in ("make test, XLA cache empty", "make test, XLA cache kept"):
