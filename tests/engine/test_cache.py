@@ -1,6 +1,7 @@
 """The cache: keyed on values (early cutoff), memoized per-lobe work, verified reads, atomic and
 concurrent-safe writes, housekeeping."""
 
+import json
 import os
 import shutil
 import subprocess
@@ -147,7 +148,7 @@ def test_an_interrupted_write_leaves_no_entry(tmp_path, monkeypatch):
     def boom(*args, **kwargs):
         raise KeyboardInterrupt
 
-    monkeypatch.setattr(np, "savez_compressed", boom)
+    monkeypatch.setattr(np.lib.format, "write_array", boom)
     with pytest.raises(KeyboardInterrupt):
         cache.store("stage", "abc", dict(x=np.arange(3.0), y=1.0))
     assert cache.load("stage", "abc") is None
@@ -186,6 +187,32 @@ def test_code_key_covers_the_helpers_a_stage_imports():
     assert "pipeline.stages.common" in code_modules("pipeline.stages.sparse_regression")
     # The lobe comparison's key covers the registry it iterates.
     assert "pipeline.optics.registry" in code_modules("pipeline.stages.lobe_comparison")
+
+
+def test_the_import_graph_is_kept_by_the_sources_and_read_back_without_parsing(tmp_path, monkeypatch):
+    """The imports of every module, parsed once and kept under the sources' digest: a later process
+    (the function's memo cleared) reads them without parsing and finds the same code modules; a
+    damaged entry is parsed again; an entry of other sources is removed when one is written."""
+    from pipeline.engine import cache
+
+    monkeypatch.setattr(cache.paths, "IMPORTS", tmp_path)
+    (tmp_path / "0123.json").write_text("{}")             # other sources' entry
+    cache._package_imports.cache_clear()
+    try:
+        parsed = {m: set(code_modules(m)) for m in ("pipeline.stages.q_scan", "pipeline.approximate.engine")}
+        (kept,) = tmp_path.glob("*.json")
+        assert kept.name != "0123.json" and len(json.loads(kept.read_text())) > 100
+        cache._package_imports.cache_clear()
+        monkeypatch.setattr(cache, "_imported_names", lambda *a: pytest.fail("parsed again"))
+        assert {m: set(code_modules(m)) for m in parsed} == parsed
+        monkeypatch.undo()
+        monkeypatch.setattr(cache.paths, "IMPORTS", tmp_path)
+        kept.write_text("{damaged")
+        cache._package_imports.cache_clear()
+        assert {m: set(code_modules(m)) for m in parsed} == parsed
+        assert json.loads(kept.read_text())["stages/q_scan.py"]
+    finally:
+        cache._package_imports.cache_clear()
 
 
 def test_prune_removes_what_no_run_used_recently(tmp_path):
