@@ -13,7 +13,12 @@ default 1e-7 is absolute: the optimum's level would differ between row sets in t
 Each program goes to scipy's own build of HiGHS (`scipy.optimize._highspy._core`, scipy pinned) with
 the options `linprog(method="highs")` passes it (`solve`): linprog's checks of its options took three
 quarters of the time of these small programs (measured: 10,266 programs of a visibility run, 22 s in
-linprog, 6.5 s in HiGHS); the tests hold `solve` to linprog's solutions bit for bit.
+linprog, 6.5 s in HiGHS); the tests hold `solve` to linprog's solutions bit for bit. The first
+round is `solve`'s program; each later round adds the new points' rows to the program HiGHS holds
+and solves again from the last optimum's basis (the dual simplex's warm start, the cutting-plane
+method's usual step): measured on 1,455 steps of a visibility run, 1.4 s where solving each round
+afresh took 3.0 s, the same level to 1e-14 relative in 99 % of them (at most 4e-5 on a degenerate
+one: HiGHS's tolerances).
 """
 
 from __future__ import annotations
@@ -45,6 +50,11 @@ def solve(c, A, b, lower, upper) -> np.ndarray | None:
     """x minimizing c x subject to A x <= b (A dense) and lower <= x <= upper (inf: none), as
     `linprog(c, A_ub=A, b_ub=b, bounds=..., method="highs", options=HIGHS)` finds it; None where HiGHS
     finds no optimum."""
+    return _optimum(_program(c, A, b, lower, upper))
+
+
+def _program(c, A, b, lower, upper):
+    """HiGHS holding the program `solve` solves, with linprog's options, not yet run."""
     infinite = highs_core.kHighsInf
     rows, columns = A.shape
     lp = highs_core.HighsLp()
@@ -64,11 +74,35 @@ def solve(c, A, b, lower, upper) -> np.ndarray | None:
     lp.row_upper_ = np.clip(np.asarray(b, dtype=np.float64), -infinite, infinite)
     highs = highs_core._Highs()
     if (highs.passOptions(OPTIONS) == highs_core.HighsStatus.kError
-            or highs.passModel(lp) == highs_core.HighsStatus.kError
-            or highs.run() == highs_core.HighsStatus.kError
+            or highs.passModel(lp) == highs_core.HighsStatus.kError):
+        return None
+    return highs
+
+
+def _optimum(highs) -> np.ndarray | None:
+    """The optimum of the program `highs` holds (run from its current basis, if any), or None."""
+    if (highs is None or highs.run() == highs_core.HighsStatus.kError
             or highs.getModelStatus() != highs_core.HighsModelStatus.kOptimal):
         return None
     return np.array(highs.getSolution().col_value)
+
+
+def _rows(J, r, points):
+    """The two rows |r + J d| <= t of each of `points`: (A, b) of A (d, t) <= b."""
+    ones = np.ones((points.size, 1))
+    return np.block([[J[points], -ones], [-J[points], -ones]]), np.concatenate([-r[points], r[points]])
+
+
+def _add_rows(highs, A, b) -> bool:
+    """Rows A x <= b added to the program `highs` holds (its basis kept); False where HiGHS refuses."""
+    nonzero = A != 0
+    starts = np.r_[0, np.cumsum(nonzero.sum(axis=1))[:-1]].astype(np.int32)
+    status = highs.addRows(A.shape[0], np.full(A.shape[0], -highs_core.kHighsInf),
+                           np.clip(b, -highs_core.kHighsInf, highs_core.kHighsInf), int(nonzero.sum()), starts,
+                           np.nonzero(nonzero)[1].astype(np.int32), A[nonzero])
+    return status != highs_core.HighsStatus.kError
+
+
 WORKING = 4         # points per unknown (the constants and t) in the first working set
 
 
@@ -84,11 +118,9 @@ def linear_minimax(J, r, radius) -> tuple[float, np.ndarray] | None:
     objective = np.r_[np.zeros(k), 1.0]
     lower = np.r_[-np.asarray(radius, dtype=np.float64)[:k], 0.0]
     upper = np.r_[np.asarray(radius, dtype=np.float64)[:k], np.inf]
+    highs = _program(objective, *_rows(J, r, work), lower, upper)
     while True:
-        size = work.size
-        A = np.block([[J[work], -np.ones((size, 1))], [-J[work], -np.ones((size, 1))]])
-        b = np.concatenate([-r[work], r[work]])
-        x = solve(objective, A, b, lower, upper)
+        x = _optimum(highs)
         if x is None:
             return None
         d, t = x[:k], x[k]
@@ -97,4 +129,7 @@ def linear_minimax(J, r, radius) -> tuple[float, np.ndarray] | None:
         violated = np.flatnonzero(excess > 0.0)
         if violated.size == 0:
             return float(t), d
-        work = np.r_[work, violated[np.argsort(-excess[violated], kind="stable")[:first]]]
+        new = violated[np.argsort(-excess[violated], kind="stable")[:first]]
+        if not _add_rows(highs, *_rows(J, r, new)):
+            return None
+        work = np.r_[work, new]

@@ -20,15 +20,16 @@ def whole_program(J, r, radius):
 
 @pytest.fixture
 def rows_solved(monkeypatch):
-    """The number of points of every program HiGHS is given (each point two rows)."""
+    """The number of points of every program HiGHS solves (each point two rows): the first round's,
+    then the program with each round's points added."""
     sizes = []
-    solve = minimax_lp.solve
+    optimum = minimax_lp._optimum
 
-    def counted(c, A, b, lower, upper):
-        sizes.append(A.shape[0] // 2)
-        return solve(c, A, b, lower, upper)
+    def counted(highs):
+        sizes.append(highs.getNumRow() // 2)
+        return optimum(highs)
 
-    monkeypatch.setattr(minimax_lp, "solve", counted)
+    monkeypatch.setattr(minimax_lp, "_optimum", counted)
     return sizes
 
 
