@@ -16,9 +16,9 @@ quarters of the time of these small programs (measured: 10,266 programs of a vis
 linprog, 6.5 s in HiGHS); the tests hold `solve` to linprog's solutions bit for bit. The first
 round is `solve`'s program; each later round adds the new points' rows to the program HiGHS holds
 and solves again from the last optimum's basis (the dual simplex's warm start, the cutting-plane
-method's usual step): measured on 1,455 steps of a visibility run, 1.4 s where solving each round
-afresh took 3.0 s, the same level to 1e-14 relative in 99 % of them (at most 4e-5 on a degenerate
-one: HiGHS's tolerances).
+method's usual step): measured on 1,455 steps of a visibility run, 1.2 s where solving each round
+afresh took 2.7 to 3.0 s, the same level to 1e-14 relative in 99 % of them (at most 4e-5 on a
+degenerate one: HiGHS's tolerances).
 """
 
 from __future__ import annotations
