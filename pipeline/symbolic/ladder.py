@@ -215,11 +215,14 @@ def run(x, y, max_complexity: int, ops, seconds: float, loss: str = "rms", cost=
     # pyoperon's time: what is left, less its models' polish (about MODELS_PER_SEED per seed) and the rest
     from . import operon as pyoperon
 
-    seeds = pyoperon.seeds_in(seconds - (time.perf_counter() - started))
+    left = seconds - (time.perf_counter() - started)
+    seeds = pyoperon.seeds_in(left)
     polish = polish_estimate(seeds * MODELS_PER_SEED, points, kind)
-    budget = seconds - (time.perf_counter() - started) - polish - OPERON_SLACK_S
+    budget = left - polish - OPERON_SLACK_S
     if operon == "auto" and not whole and budget < OPERON_MIN_SECONDS:
-        log(f"pyoperon: not run, {max(budget, 0):.0f} s of the budget left (less than {OPERON_MIN_SECONDS:.0f} s)")
+        log(f"pyoperon: not run: of the {max(left, 0):.0f} s left, its models' polish and start would take "
+            f"{polish + OPERON_SLACK_S:.0f} s, leaving {max(budget, 0):.0f} s for its search (less than "
+            f"{OPERON_MIN_SECONDS:.0f} s)")
     elif operon == "always" or operon == "auto" and not whole:
         budget = max(budget, OPERON_MIN_SECONDS)
         log(f"pyoperon: {' '.join(ops)} to complexity {max_complexity} for {budget:.0f} s")
