@@ -1,7 +1,8 @@
 """Runs under an arm64 Python beside Mesa's GL ES driver on a drm-shim null device (qemu-user):
-compiles each fragment shader of a JSON file ({name: GLSL ES source}) as a separable program and
-writes a marker line before and after each to standard error, where Mesa prints its listings.
-Standard library only: it imports nothing of the pipeline."""
+reads batches of fragment shaders from standard input, one JSON object ({name: GLSL ES source})
+per line, compiles each shader as a separable program and writes a marker line before and after
+each to standard error, where Mesa prints its listings, and one after the batch; it ends at the
+end of its input. Standard library only: it imports nothing of the pipeline."""
 import ctypes
 import json
 import os
@@ -24,8 +25,7 @@ def say(text):
     os.write(2, (text + "\n").encode())
 
 
-def main(path):
-    sources = json.load(open(path))
+def main():
     egl = ctypes.CDLL("libEGL.so.1")
     gl = ctypes.CDLL("libGLESv2.so.2")
     vp = ctypes.c_void_p
@@ -48,6 +48,12 @@ def main(path):
     say(f"{MARK} renderer {gl.glGetString(0x1F01).decode()} | {gl.glGetString(0x1F02).decode()}")
     gl.glCreateShaderProgramv.restype = ctypes.c_uint
     gl.glCreateShaderProgramv.argtypes = [ctypes.c_uint, ctypes.c_int, ctypes.POINTER(ctypes.c_char_p)]
+    for line in sys.stdin:
+        compile_batch(gl, json.loads(line))
+        say(f"{MARK} batch-end")
+
+
+def compile_batch(gl, sources):
     for name, source in sources.items():
         say(f"{MARK} begin {name}")
         text = (ctypes.c_char_p * 1)(source.encode())
@@ -60,7 +66,8 @@ def main(path):
             say(f"{MARK} failed {name} {log.value.decode(errors='replace')!r}")
         gl.glFinish()
         say(f"{MARK} end {name} {program}")
+        gl.glDeleteProgram(program)
 
 
 if __name__ == "__main__":
-    main(sys.argv[1])
+    main()
