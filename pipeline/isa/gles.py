@@ -13,25 +13,22 @@ Mesa's compilers (freedreno's ir3, panfrost's Bifrost and Valhall back ends), no
 Arm's drivers.
 
 `compile_all(sources, environment)` sends the shaders to `gles_driver.py`, run under the arm64
-Python and kept running for the process's later batches with the same chip and variables (`Driver`:
-its start, about 1 CPU-s under qemu where a batch of 30 shaders takes 0.1 s more, paid once); each
-shader lies between two marker lines on standard error where Mesa prints its listing; compiles are
-serial (freedreno's `serialc`), so each listing lies between its shader's markers.
+Python and kept running for the process's later batches with the same chip and variables
+(`compiler_process`: its start, about 1 CPU-s under qemu where a batch of 30 shaders takes 0.1 s
+more, paid once); each shader lies between two marker lines on standard error where Mesa prints
+its listing; compiles are serial (freedreno's `serialc`), so each listing lies between its
+shader's markers.
 """
 
 from __future__ import annotations
 
-import atexit
 import json
 import math
 import os
-import select
-import subprocess
-import tempfile
-import threading
 from pathlib import Path
 
 from ..engine import toolchains
+from . import compiler_process
 from .architectures import CompilerMissing
 from .lowering import LoweringError, Op, c_statements
 
@@ -109,105 +106,6 @@ def split(output: str) -> dict[str, list[str]]:
     return out
 
 
-class Driver:
-    """One `gles_driver.py` under qemu, for one command and its variables: a batch of shaders written
-    to its standard input as a line of JSON, its output read up to the batch's end marker. Any
-    failure or interruption inside a batch ends the process (its output would be out of step); the
-    process also ends at the end of its input, when this process ends whatever ends it."""
-
-    def __init__(self, command: list[str], env: dict[str, str]):
-        self.folder = tempfile.TemporaryDirectory()
-        self.process = subprocess.Popen(command, stdin=subprocess.PIPE, stdout=subprocess.PIPE,
-                                        stderr=subprocess.STDOUT, env=env, cwd=self.folder.name)
-        self.lock = threading.Lock()
-        self.pending = b""
-
-    def alive(self) -> bool:
-        return self.process.poll() is None
-
-    def batch(self, sources: dict[str, str], timeout: float) -> str:
-        """What the driver printed compiling `sources`; RuntimeError where it ended or took longer
-        than `timeout` seconds (the process then stopped), with what it printed."""
-        printed = []
-        try:
-            self.process.stdin.write(json.dumps(sources).encode() + b"\n")
-            self.process.stdin.flush()
-            for line in self._lines(timeout):
-                if line == f"{MARK} batch-end":
-                    return "\n".join(printed)
-                printed.append(line)
-        except BrokenPipeError:
-            pass
-        except BaseException:
-            self.close()
-            raise
-        self.close()
-        text = "\n".join(printed).strip()[-2000:]
-        raise RuntimeError(text or f"exit {self.process.returncode}")
-
-    def _lines(self, timeout: float):
-        """The driver's output lines until it ends; TimeoutError after `timeout` seconds."""
-        import time
-
-        deadline = time.monotonic() + timeout
-        stream = self.process.stdout.fileno()
-        while True:
-            while b"\n" in self.pending:
-                line, self.pending = self.pending.split(b"\n", 1)
-                yield line.decode(errors="replace")
-            left = deadline - time.monotonic()
-            if left <= 0 or not select.select([stream], [], [], left)[0]:
-                raise TimeoutError
-            chunk = os.read(stream, 1 << 16)
-            if not chunk:
-                if self.pending:
-                    yield self.pending.decode(errors="replace")
-                    self.pending = b""
-                return
-            self.pending += chunk
-
-    def close(self) -> None:
-        """Ends the process: its input closed, killed if it has not ended within 5 s."""
-        for stream in (self.process.stdin, self.process.stdout):
-            try:
-                stream.close()
-            except OSError:
-                pass
-        try:
-            self.process.wait(5)
-        except subprocess.TimeoutExpired:
-            self.process.kill()
-            self.process.wait()
-        self.folder.cleanup()
-
-
-_DRIVERS: dict[tuple, Driver] = {}
-_DRIVERS_LOCK = threading.Lock()
-
-
-def driver(command: list[str], environment: dict[str, str], env) -> Driver:
-    """This process's running driver for `command` and the chip's variables `environment`, started
-    (with the variables `env()` gives: this process's, the chip's and Mesa's) where there is none."""
-    key = (os.getpid(), tuple(command), tuple(sorted(environment.items())))
-    with _DRIVERS_LOCK:
-        found = _DRIVERS.get(key)
-        if found is not None and not found.alive():
-            found.close()
-            found = None
-        if found is None:
-            found = _DRIVERS[key] = Driver(command, env())
-        return found
-
-
-@atexit.register
-def close_drivers() -> None:
-    """Ends this process's drivers (a process started by fork leaves its parent's alone)."""
-    with _DRIVERS_LOCK:
-        mine = [key for key in _DRIVERS if key[0] == os.getpid()]
-        for key in mine:
-            _DRIVERS.pop(key).close()
-
-
 def compile_all(sources: dict[str, str], chip: str, environment: dict[str, str], shim: str) -> tuple[dict[str, list[str]], str]:
     """({name: the lines Mesa printed compiling its GL ES source}, what compiled them) for one chip:
     `environment` the driver's variables (FD_GPU_ID, PAN_GPU_ID, the debug flags), `shim` the
@@ -223,11 +121,11 @@ def compile_all(sources: dict[str, str], chip: str, environment: dict[str, str],
 
     command = [toolchains.qemu(), "-L", str(root), "-E", f"LD_PRELOAD={root / LIBRARIES / shim}",
                str(root / "usr/bin/python3.11"), str(DRIVER)]
-    running = driver(command, environment, env)
+    running = compiler_process.running(command, tuple(sorted(environment.items())), env)
     with running.lock:
         try:
-            batch = {f"s{i}": text for i, text in enumerate(sources.values())}
-            printed = split(running.batch(batch, TIMEOUT_S))
+            batch = json.dumps({f"s{i}": text for i, text in enumerate(sources.values())})
+            printed = split(running.batch(batch, f"{MARK} batch-end", TIMEOUT_S))
         except TimeoutError:
             raise RuntimeError(f"Mesa's compiler ({chip}) under qemu did not finish {len(sources)} shaders in "
                                f"{TIMEOUT_S} s") from None

@@ -66,7 +66,7 @@ def models_text(architectures) -> str:
 # The modules that write, compile and read a shader (execution on lavapipe and the special functions'
 # documented accuracies are not among them: a change there compiles nothing again).
 COMPILING = ("machine_code", "architectures", "shaders", "lowering", "radv", "vulkan_pipeline", "nvidia", "intel",
-             "gles", "gles_driver", "adreno", "mali")
+             "gles", "gles_driver", "adreno", "mali", "compiler_process")
 
 
 @functools.cache

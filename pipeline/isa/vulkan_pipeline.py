@@ -1,7 +1,9 @@
 """A minimal Vulkan program that has the driver compile graphics pipelines and nothing else: run
-as `python -P vulkan_pipeline.py FOLDER`, it creates one pipeline per fragment shader
-`FOLDER/*.frag.spv` (with the vertex shader `FOLDER/vert.spv`) on the first physical device, and
-writes `@@@ SHADER <name>` to stderr before each and `@@@ END` after the last. Under Mesa's RADV
+as `python -P vulkan_pipeline.py`, it reads folders from standard input, a line each, and for each
+creates one pipeline per fragment shader `FOLDER/*.frag.spv` (with the vertex shader
+`FOLDER/vert.spv`) on the first physical device (created once, for every folder), writing
+`@@@ SHADER <name>` to stderr before each and `@@@ END` after the folder's last; it ends at the end
+of its input. Under Mesa's RADV
 with `RADV_DEBUG=shaders` and `ACO_DEBUG=perfinfo` the driver prints each shader's machine code
 and its cycle estimate to the same stderr (`pipeline.isa.radv` reads them).
 
@@ -24,7 +26,7 @@ def _marker(text: str) -> None:
     os.write(2, f"\n@@@ {text}\n".encode())
 
 
-def compile_folder(folder: Path) -> None:
+def main() -> None:
     import vulkan as vk
 
     app = vk.VkApplicationInfo(pApplicationName="cosquad machine code", apiVersion=vk.VK_MAKE_VERSION(1, 1, 0))
@@ -33,7 +35,6 @@ def compile_folder(folder: Path) -> None:
     if not devices:
         raise SystemExit("no Vulkan device (RADV_FORCE_FAMILY and VK_ICD_FILENAMES select RADV's null device)")
     name = vk.vkGetPhysicalDeviceProperties(devices[0]).deviceName
-    _marker(f"DEVICE {name}")
     queue = vk.VkDeviceQueueCreateInfo(queueFamilyIndex=0, queueCount=1, pQueuePriorities=[1.0])
     device = vk.vkCreateDevice(devices[0], vk.VkDeviceCreateInfo(pQueueCreateInfos=[queue]), None)
 
@@ -65,6 +66,12 @@ def compile_folder(folder: Path) -> None:
         pColorBlendState=vk.VkPipelineColorBlendStateCreateInfo(
             pAttachments=[vk.VkPipelineColorBlendAttachmentState(colorWriteMask=0xF)]),
         layout=layout, renderPass=render_pass, subpass=0)
+    for line in sys.stdin:
+        _marker(f"DEVICE {name}")
+        compile_folder(vk, device, module, fixed, Path(line.rstrip("\n")))
+
+
+def compile_folder(vk, device, module, fixed: dict, folder: Path) -> None:
     vertex = module(folder / "vert.spv")
     for path in sorted(folder.glob("*.frag.spv")):
         fragment = module(path)
@@ -76,8 +83,9 @@ def compile_folder(folder: Path) -> None:
             pStages=stages, **fixed)], None)
         vk.vkDestroyPipeline(device, pipeline[0], None)
         vk.vkDestroyShaderModule(device, fragment, None)
+    vk.vkDestroyShaderModule(device, vertex, None)
     _marker("END")
 
 
 if __name__ == "__main__":
-    compile_folder(Path(sys.argv[1]))
+    main()

@@ -8,7 +8,7 @@ import re
 import numpy as np
 import pytest
 
-from pipeline.isa import gles, lowering, machine_code
+from pipeline.isa import compiler_process, gles, lowering, machine_code
 from pipeline.optics import spirv
 
 from .test_nvidia import BODIES, K, N, RATE, T, UNIFORMS  # noqa: F401
@@ -96,9 +96,9 @@ def adreno_driver(monkeypatch):
     except gles.CompilerMissing as e:
         pytest.skip(f"Mesa's mobile drivers do not run here: {e}")
     environment = dict(adreno.ENVIRONMENT, FD_GPU_ID="740")
-    monkeypatch.setattr(gles, "_DRIVERS", {})
+    monkeypatch.setattr(compiler_process, "_RUNNING", {})
     yield (lambda sources: gles.compile_all(sources, "a740", environment, adreno.SHIM)[0]), environment
-    gles.close_drivers()
+    compiler_process.close_all()
 
 
 def _counts(listings):
@@ -114,12 +114,12 @@ def test_a_running_driver_compiles_a_later_batch_as_a_fresh_one_does(adreno_driv
     compile_batch, _ = adreno_driver
     batch = {f"a{k}": _shader(k) for k in range(6)}
     first = compile_batch(batch)
-    (running,) = gles._DRIVERS.values()
+    (running,) = compiler_process._RUNNING.values()
     compile_batch({f"b{k}": _shader(k + 50) for k in range(4)})
     again = compile_batch(batch)
-    assert list(gles._DRIVERS.values()) == [running] and running.alive()
-    gles.close_drivers()
-    assert not running.alive() and not gles._DRIVERS
+    assert list(compiler_process._RUNNING.values()) == [running] and running.alive()
+    compiler_process.close_all()
+    assert not running.alive() and not compiler_process._RUNNING
     fresh = compile_batch(batch)
     assert _counts(first) == _counts(again) == _counts(fresh)
     assert _counts(fresh)["a0"]["alu"] > 0
@@ -130,14 +130,14 @@ def test_a_driver_that_ended_is_started_again_and_one_that_fails_is_named(adreno
 
     compile_batch, _ = adreno_driver
     compile_batch({"a": _shader(1)})
-    (running,) = gles._DRIVERS.values()
+    (running,) = compiler_process._RUNNING.values()
     running.process.kill()
     running.process.wait()
     assert _counts(compile_batch({"a": _shader(1)}))["a"]["alu"] > 0
-    (again,) = gles._DRIVERS.values()
+    (again,) = compiler_process._RUNNING.values()
     assert again is not running and again.alive()
     # a chip Mesa does not know: the driver ends before its first batch's end, with Mesa's words
-    unknown = r"Mesa's compiler \(a999\) under qemu failed: FD_GPU_ID unrecognized"
+    unknown = r"Mesa's compiler \(a999\) under qemu failed: exit -?\d+: FD_GPU_ID unrecognized"
     with pytest.raises(RuntimeError, match=unknown):
         gles.compile_all({"a": _shader(1)}, "a999", dict(adreno.ENVIRONMENT, FD_GPU_ID="999"), adreno.SHIM)
     assert again.alive() and _counts(compile_batch({"a": _shader(2)}))["a"]["alu"] > 0
@@ -147,9 +147,9 @@ def test_a_refused_shader_leaves_the_driver_running(adreno_driver):
     compile_batch, _ = adreno_driver
     with pytest.raises(ValueError, match="Mesa refused the shader s1"):
         compile_batch({"good": _shader(1), "bad": "#version 310 es\nvoid main() { undefined_name; }\n"})
-    (running,) = gles._DRIVERS.values()
+    (running,) = compiler_process._RUNNING.values()
     assert running.alive() and _counts(compile_batch({"a": _shader(2)}))["a"]["alu"] > 0
-    assert list(gles._DRIVERS.values()) == [running]
+    assert list(compiler_process._RUNNING.values()) == [running]
 
 
 def test_a_driver_ends_with_the_process_that_started_it(tmp_path):
@@ -165,10 +165,10 @@ def test_a_driver_ends_with_the_process_that_started_it(tmp_path):
         gles.tools()
     except gles.CompilerMissing as e:
         pytest.skip(f"Mesa's mobile drivers do not run here: {e}")
-    script = ("import os, sys\nfrom pipeline.isa import adreno, gles\n"
+    script = ("import os, sys\nfrom pipeline.isa import adreno, compiler_process, gles\n"
               "gles.compile_all({'a': sys.argv[1]}, 'a740', dict(adreno.ENVIRONMENT, FD_GPU_ID='740'),\n"
               "                 adreno.SHIM)\n"
-              "(d,) = gles._DRIVERS.values()\nprint(d.process.pid, flush=True)\nos.kill(os.getpid(), 9)\n")
+              "(d,) = compiler_process._RUNNING.values()\nprint(d.process.pid, flush=True)\nos.kill(os.getpid(), 9)\n")
     done = subprocess.run([sys.executable, "-c", script, _shader(1)], capture_output=True, text=True,
                           timeout=120)
     assert done.returncode == -signal.SIGKILL, done.stderr

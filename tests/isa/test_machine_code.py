@@ -98,6 +98,43 @@ def test_the_check_can_fail_pow_of_16_keeps_its_transcendentals(tmp_path):
     assert parsed["transcendental"] == 2
 
 
+def test_radv_s_running_process_compiles_a_later_folder_as_a_fresh_one_does(tmp_path, monkeypatch):
+    """Each family's `vulkan_pipeline.py` is kept running (`compiler_process`): a second folder goes
+    to the same process, its listings parse as a fresh process's, and each batch names the device;
+    a folder that does not exist ends the process with the driver's words, and the next batch
+    starts another."""
+    from pipeline.isa import compiler_process
+
+    try:
+        icd = radv.check_available()
+    except (machine_code.CompilerMissing, ToolMissing) as e:
+        pytest.skip(f"machine-code cost not measured here: {e}")
+    monkeypatch.setattr(compiler_process, "_RUNNING", {})
+    folders = [tmp_path / "a", tmp_path / "b"]
+    bodies = ["return k * t;", "float b = max(k * t + (1.0 - k), 0.0);\n    return pow(b, 16.0);"]
+    for folder, body in zip(folders, bodies):
+        folder.mkdir()
+        radv.spirv_binary(radv.VERTEX, folder, "vert.spv", "vert")
+        radv.spirv_binary(machine_code.UNIFORM.format(body=body), folder, "one.frag.spv")
+    try:
+        first = radv.compile_family("vega10", folders[0], icd)
+        (running,) = compiler_process._RUNNING.values()
+        second = radv.compile_family("vega10", folders[1], icd)
+        again = radv.compile_family("vega10", folders[0], icd)
+        assert list(compiler_process._RUNNING.values()) == [running] and running.alive()
+        assert all("@@@ DEVICE " in text for text in (first, second, again))
+        compiler_process.close_all()
+        fresh = radv.compile_family("vega10", folders[0], icd)
+        parsed = [radv.parse_fragment(radv.split_shaders(text)["one"]) for text in (first, again, fresh)]
+        assert parsed[0] == parsed[1] == parsed[2]
+        assert radv.parse_fragment(radv.split_shaders(second)["one"])["transcendental"] == 2
+        with pytest.raises(machine_code.CompilerMissing, match=r"RADV could not compile for vega10 \(exit 1\): (.|\n)*No such file"):
+            radv.compile_family("vega10", tmp_path / "missing", icd)
+        assert radv.split_shaders(radv.compile_family("vega10", folders[1], icd)).keys() == {"one"}
+    finally:
+        compiler_process.close_all()
+
+
 def test_the_stage_s_parts_compiled_apart_give_the_rows_of_one_compilation(compiled, tmp_path):
     """`gpu_isa` memoizes the registry's shaders and the family at each power apart: a first run
     compiles the registry and f_Q3 at once and stores them apart, a second run with f_Q16 added
