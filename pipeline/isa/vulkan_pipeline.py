@@ -3,9 +3,9 @@ as `python -P vulkan_pipeline.py`, it reads folders from standard input, a line 
 creates one pipeline per fragment shader `FOLDER/*.frag.spv` (with the vertex shader
 `FOLDER/vert.spv`) on the first physical device (created once, for every folder), writing
 `@@@ SHADER <name>` to stderr before each and `@@@ END` after the folder's last; it ends at the end
-of its input. Under Mesa's RADV
-with `RADV_DEBUG=shaders` and `ACO_DEBUG=perfinfo` the driver prints each shader's machine code
-and its cycle estimate to the same stderr (`pipeline.isa.radv` reads them).
+of its input. Under Mesa's RADV with `RADV_DEBUG=shaders` and `ACO_DEBUG=perfinfo` the driver
+prints each shader's machine code and its cycle estimate to the same stderr (`pipeline.isa.radv`
+reads them).
 
 Nothing is drawn and no memory is allocated: pipelines compile on RADV's null device (no GPU), set
 up by `RADV_FORCE_FAMILY`. The `vulkan` package (cffi bindings to libvulkan.so.1) needs no C
