@@ -17,7 +17,7 @@ MACHINE_CODE_CACHE = Path(os.environ.get("PIPELINE_MACHINE_CODE_CACHE", ROOT / "
 DERIVE_CACHE = Path(os.environ.get("PIPELINE_DERIVE_CACHE", ROOT / ".cache" / "derive"))
 # The `pipeline` modules each source file of the package imports, kept by the sources' digest
 # (`engine.cache`: the code keys of stages, memos and figures).
-IMPORTS = ROOT / ".cache" / "imports"
+IMPORTS = Path(os.environ.get("PIPELINE_IMPORTS_CACHE", ROOT / ".cache" / "imports"))
 # The page library (Vega) `engine.web_page` inlines, kept by its version.
 WEB_CACHE = Path(os.environ.get("PIPELINE_WEB_CACHE", ROOT / ".cache" / "web"))
 # Compiled XLA programs: in the cache (`<cache>/_xla`) unless set apart (the tests share one).

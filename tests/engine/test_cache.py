@@ -215,6 +215,16 @@ def test_the_import_graph_is_kept_by_the_sources_and_read_back_without_parsing(t
         cache._package_imports.cache_clear()
 
 
+def test_the_import_graph_is_kept_where_the_environment_says(tmp_path):
+    """PIPELINE_IMPORTS_CACHE sets the folder of the kept import graph, as its neighbours' variables
+    set theirs (a checkout that cannot be written keeps it elsewhere)."""
+    env = dict(os.environ, PIPELINE_IMPORTS_CACHE=str(tmp_path / "imports"))
+    subprocess.run([sys.executable, "-c", "from pipeline.engine import cache; cache._package_imports()"], env=env,
+                   check=True, timeout=60)
+    (kept,) = (tmp_path / "imports").glob("*.json")
+    assert len(json.loads(kept.read_text())) > 100
+
+
 def test_prune_removes_what_no_run_used_recently(tmp_path):
     cache = Cache(tmp_path)
     cache.store("s", "old", dict(a=np.arange(3.0)))
