@@ -15,6 +15,15 @@ import threading
 import time
 
 
+class Ended(RuntimeError):
+    """The process ended inside a batch: its exit status and the end of what it printed."""
+
+    def __init__(self, returncode: int | None, printed: str):
+        super().__init__(f"exit {returncode}: {printed}")
+        self.returncode = returncode
+        self.printed = printed
+
+
 class CompilerProcess:
     """One compiler process. Any failure or interruption inside a batch ends it (its output would be
     out of step); `running` then starts another for the next batch."""
@@ -30,24 +39,25 @@ class CompilerProcess:
         return self.process.poll() is None
 
     def batch(self, line: str, end: str, timeout: float) -> str:
-        """What the process printed after reading `line`, up to the line `end`; TimeoutError after
-        `timeout` seconds, RuntimeError (with the end of what it printed) where it ended first."""
+        """What the process printed after reading `line`, up to the line `end` (one batch at a time:
+        callers in other threads wait); TimeoutError after `timeout` seconds, `Ended` where it ended
+        first."""
         printed = []
-        try:
-            self.process.stdin.write(line.encode() + b"\n")
-            self.process.stdin.flush()
-            for out in self._lines(timeout):
-                if out == end:
-                    return "\n".join(printed)
-                printed.append(out)
-        except BrokenPipeError:
-            pass
-        except BaseException:
+        with self.lock:
+            try:
+                self.process.stdin.write(line.encode() + b"\n")
+                self.process.stdin.flush()
+                for out in self._lines(timeout):
+                    if out == end:
+                        return "\n".join(printed)
+                    printed.append(out)
+            except BrokenPipeError:
+                pass
+            except BaseException:
+                self.close()
+                raise
             self.close()
-            raise
-        self.close()
-        text = "\n".join(printed).strip()[-2000:]
-        raise RuntimeError(f"exit {self.process.returncode}: {text}")
+        raise Ended(self.process.returncode, "\n".join(printed).strip()[-2000:])
 
     def _lines(self, timeout: float):
         """The process's output lines until it ends; TimeoutError after `timeout` seconds."""

@@ -122,15 +122,15 @@ def compile_all(sources: dict[str, str], chip: str, environment: dict[str, str],
     command = [toolchains.qemu(), "-L", str(root), "-E", f"LD_PRELOAD={root / LIBRARIES / shim}",
                str(root / "usr/bin/python3.11"), str(DRIVER)]
     running = compiler_process.running(command, tuple(sorted(environment.items())), env)
-    with running.lock:
-        try:
-            batch = json.dumps({f"s{i}": text for i, text in enumerate(sources.values())})
-            printed = split(running.batch(batch, f"{MARK} batch-end", TIMEOUT_S))
-        except TimeoutError:
-            raise RuntimeError(f"Mesa's compiler ({chip}) under qemu did not finish {len(sources)} shaders in "
-                               f"{TIMEOUT_S} s") from None
-        except RuntimeError as e:
-            raise RuntimeError(f"Mesa's compiler ({chip}) under qemu failed: {e}") from None
+    batch = json.dumps({f"s{i}": text for i, text in enumerate(sources.values())})
+    try:
+        printed = split(running.batch(batch, f"{MARK} batch-end", TIMEOUT_S))
+    except TimeoutError:
+        raise RuntimeError(f"Mesa's compiler ({chip}) under qemu did not finish {len(sources)} shaders in "
+                           f"{TIMEOUT_S} s") from None
+    except compiler_process.Ended as e:
+        raise RuntimeError(f"Mesa's compiler ({chip}) under qemu failed (exit {e.returncode}): "
+                           f"{e.printed}") from None
     if len(printed) != len(sources):
         raise RuntimeError(f"Mesa's compiler ({chip}) under qemu printed {len(printed)} of {len(sources)} "
                            "shaders")

@@ -83,15 +83,13 @@ def compile_family(family: str, folder: Path, icd: str) -> str:
 
     # run as a script (-P: its folder not on sys.path), without importing the pipeline package
     running = compiler_process.running([sys.executable, "-P", str(PROGRAM)], (icd, family), env)
-    with running.lock:
-        try:
-            printed = running.batch(str(folder), "@@@ END", TIMEOUT_S)
-        except TimeoutError:
-            raise CompilerMissing(f"RADV could not compile for {family} in {TIMEOUT_S} s") from None
-        except RuntimeError as e:
-            code, _, printed = str(e).partition(": ")
-            tail = "\n".join(printed.strip().splitlines()[-5:])
-            raise CompilerMissing(f"RADV could not compile for {family} ({code}): {tail}") from None
+    try:
+        printed = running.batch(str(folder), "@@@ END", TIMEOUT_S)
+    except TimeoutError:
+        raise CompilerMissing(f"RADV could not compile for {family} in {TIMEOUT_S} s") from None
+    except compiler_process.Ended as e:
+        tail = "\n".join(e.printed.splitlines()[-5:])
+        raise CompilerMissing(f"RADV could not compile for {family} (exit {e.returncode}): {tail}") from None
     return printed + "\n@@@ END\n"
 
 

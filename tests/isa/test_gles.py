@@ -137,7 +137,7 @@ def test_a_driver_that_ended_is_started_again_and_one_that_fails_is_named(adreno
     (again,) = compiler_process._RUNNING.values()
     assert again is not running and again.alive()
     # a chip Mesa does not know: the driver ends before its first batch's end, with Mesa's words
-    unknown = r"Mesa's compiler \(a999\) under qemu failed: exit -?\d+: FD_GPU_ID unrecognized"
+    unknown = r"Mesa's compiler \(a999\) under qemu failed \(exit -?\d+\): FD_GPU_ID unrecognized"
     with pytest.raises(RuntimeError, match=unknown):
         gles.compile_all({"a": _shader(1)}, "a999", dict(adreno.ENVIRONMENT, FD_GPU_ID="999"), adreno.SHIM)
     assert again.alive() and _counts(compile_batch({"a": _shader(2)}))["a"]["alu"] > 0
