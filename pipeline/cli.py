@@ -152,7 +152,7 @@ def _regress(args) -> int:
 
 
 def _derive(args) -> int:
-    from .approximate import api
+    from .approximate import api, publish
     from .engine import escape
     from .engine.cache import XLA
     from .isa.machine_code import CompilerMissing
@@ -183,6 +183,8 @@ def _derive(args) -> int:
         for name, v in results["verdicts"][a].items():
             print(f"  {name} ({v['cycles']:g} cycles, {v['error']:.3g}): {v['verdict']}"
                   + (f" by {v['by']} ({v['ratio']:.3g} of its error)" if v["by"] else ""))
+    if results["missing"]:
+        print(publish.not_compiled_text(results))
     print(f"wrote {', '.join(str(p) for p in written)}; {time.perf_counter() - start:.1f} s")
     return 0
 

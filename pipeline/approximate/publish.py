@@ -166,6 +166,14 @@ def _executed_text(results) -> str:
             f"{run['inputs']} inputs of the domain)")
 
 
+def not_compiled_text(results) -> str:
+    """What was not compiled, and why, as the report and the command's output say it ("" where
+    everything was)."""
+    if not results["missing"]:
+        return ""
+    return "Not compiled: " + "; ".join(f"{k}: {v}" for k, v in results["missing"].items()) + "."
+
+
 def no_verdict_text(results) -> str:
     """Why a run has no verdict at all: no anchor, and its exact form not compiled (where, and why) or
     not judged (several variables)."""
@@ -211,7 +219,7 @@ def report(results) -> str:
               + (f", {results['estimated_seconds']} s estimated before the start." if results["estimated_seconds"]
                  else "."), ""]
     if results["missing"]:
-        lines += ["Not compiled: " + "; ".join(f"{k}: {v}" for k, v in results["missing"].items()) + ".", ""]
+        lines += [not_compiled_text(results), ""]
     lines += ["## The anchors", ""]
     if not any(results["verdicts"].values()):
         # (no table with a header and no rows: what is missing, and why)

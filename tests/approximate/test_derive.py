@@ -421,3 +421,13 @@ def test_a_run_without_anchors_says_why_it_has_no_verdict():
     text = publish.no_verdict_text(dict(missing={"nvidia": "ptxas is not installed"}))
     assert text.startswith("No verdict: the target has no hand fit") and "(nvidia: ptxas is not installed)." in text
     assert publish.no_verdict_text(dict(missing={})).endswith("is not judged for a target of several variables.")
+
+
+def test_what_was_not_compiled_is_said_with_its_reason():
+    """The report's and the command's line for an architecture whose compiler did not run: each
+    missing part with its reason; nothing where every architecture compiled."""
+    missing = {"arm": "its compiler did not run", "exact on arm": "Arm: the arm64 Mesa in /x lacks usr/bin/python3.11"}
+    text = publish.not_compiled_text(dict(missing=missing))
+    assert text == ("Not compiled: arm: its compiler did not run; exact on arm: Arm: the arm64 Mesa in /x lacks "
+                    "usr/bin/python3.11.")
+    assert publish.not_compiled_text(dict(missing={})) == ""
