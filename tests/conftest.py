@@ -77,6 +77,12 @@ def pytest_sessionstart(session):
     # float64 must be on for every test; an array made before the switch would silently be float32.
     from pipeline.optics.numerics import jax
     assert jax.config.jax_enable_x64 and jax.numpy.zeros(1).dtype == jax.numpy.float64
+    if os.environ.get("PYTEST_XDIST_WORKER"):
+        # one thread per worker for numpy's and scipy's BLAS too (OMP_NUM_THREADS, read as each loads)
+        import scipy.linalg  # noqa: F401
+        import threadpoolctl
+        pools = {p["filepath"]: p["num_threads"] for p in threadpoolctl.threadpool_info()}
+        assert pools and set(pools.values()) == {1}, pools
 
 
 def pytest_sessionfinish(session):
