@@ -47,7 +47,8 @@ fields of it (`make docs`), never typed by hand.
 
 Targets (the issue "The research loop"): cold <= 12x floor, Q refit <= 8x, a Q refit `--only
 accuracy,hemispherical` <= 3x; (the issue "Refits in seconds") curve_points refit <= 3x, warm
-<= 1.2x, keys and bad config < 1 s; (the issue "Tests that pass on every machine") make test <= 75x.
+<= 1.2x, keys and bad config < 1 s; (the issue "The derive engine in small rooms") `make test` with empty
+folders within 360 s, in seconds (TEST_SECONDS: a fresh clone's suite, as CI runs it, not a ratio).
 """
 
 from __future__ import annotations
@@ -256,6 +257,15 @@ def regress_rows(py, env) -> list:
 
 
 RECORD = ROOT / "docs" / "measured" / "bench.json"
+TEST_SECONDS = 360.0        # `make test` in a fresh clone (empty folders): a target in seconds
+
+
+def met(seconds: float, floor: float, target, fields: dict) -> bool | None:
+    """Whether a row meets its target: a ratio to the floor, or `target_seconds` (absolute) in its
+    fields; None where it has neither."""
+    if "target_seconds" in fields:
+        return seconds <= fields["target_seconds"]
+    return None if target is None else seconds / floor <= target
 
 
 def record(rows, floor: float, throughput) -> None:
@@ -268,9 +278,9 @@ def record(rows, floor: float, throughput) -> None:
     when = dict(date=datetime.date.today().isoformat(), commit=commit, cores=os.cpu_count(), floor=round(floor, 2))
     kept = json.loads(RECORD.read_text()) if RECORD.exists() else dict(rows={}, throughput={})
     for label, seconds, target, note, *fields in rows:
+        extra = fields[0] if fields else {}
         kept["rows"][label] = dict(seconds=round(seconds, 2), ratio=round(seconds / floor, 2), target=target,
-                                   met=None if target is None else seconds / floor <= target, note=note,
-                                   **(fields[0] if fields else {}), **when)
+                                   met=met(seconds, floor, target, extra), note=note, **extra, **when)
     for label, measured in throughput:
         kept["throughput"][label] = dict({name: round(median, -6) for name, median, _, _ in measured}, **when)
     RECORD.parent.mkdir(parents=True, exist_ok=True)
@@ -424,7 +434,8 @@ def main() -> int:
             for label in ("make test, XLA cache empty", "make test, XLA cache kept"):
                 seconds, out = timed([py, "-m", "pytest", "-q", "-n", "2", "--dist", "loadfile", "-p",
                                       "no:cacheprovider"], env)
-                rows.append((label, seconds, 75.0, out.strip().splitlines()[-1]))
+                rows.append((label, seconds, None, out.strip().splitlines()[-1],
+                             dict(target_seconds=TEST_SECONDS) if label.endswith("empty") else {}))
 
     import jax
     devices = [("CPU", jax.devices("cpu")[0])]
@@ -437,9 +448,12 @@ def main() -> int:
 
     print(f"import floor ({FLOOR}): {floor:.2f} s\n")
     print(f"{'':<30} {'seconds':>8} {'x floor':>8}  {'target':>8}  note")
-    for label, seconds, target, note, *_ in rows:
+    for label, seconds, target, note, *fields in rows:
         ratio = seconds / floor
-        verdict = "" if target is None else f"<= {target:g}x " + ("ok" if ratio <= target else "MISSED")
+        extra = fields[0] if fields else {}
+        limit = f"<= {extra['target_seconds']:g} s " if "target_seconds" in extra else f"<= {target:g}x "
+        ok = met(seconds, floor, target, extra)
+        verdict = "" if ok is None else limit + ("ok" if ok else "MISSED")
         print(f"{label:<30} {seconds:8.2f} {ratio:8.2f}  {verdict:>13}  {note}")
     for label, measured in throughput:
         print(f"\nlobe throughput, XLA on the {label} (float32, 2^24 values of t; 10^9 evaluations per second: "

@@ -330,7 +330,8 @@ def bench_table(record: dict) -> str:
     its floor, target and when it was measured."""
     lines = ["| what | seconds | x floor | target | met | note | floor (s) | measured |", "|---|---|---|---|---|---|---|---|"]
     for label, row in sorted(record.get("rows", {}).items()):
-        target = "" if row["target"] is None else f"{row['target']:g}x"
+        target = (f"{row['target_seconds']:g} s" if "target_seconds" in row
+                  else "" if row["target"] is None else f"{row['target']:g}x")
         met = "" if row["met"] is None else ("yes" if row["met"] else "no")
         lines.append(f"| {_escape(label)} | {row['seconds']:.1f} | {row['ratio']:.1f} | {target} | {met} | "
                      f"{_escape(row['note']).replace('|', '&#124;')} | {row['floor']:.2f} | {row['date']}, {row['commit']}, "
