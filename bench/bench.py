@@ -268,6 +268,15 @@ def met(seconds: float, floor: float, target, fields: dict) -> bool | None:
     return None if target is None else seconds / floor <= target
 
 
+def verdict(seconds: float, floor: float, target, fields: dict) -> str:
+    """A row's target and whether it met it, as printed ("<= 12x ok", "<= 360 s MISSED"; "" without one)."""
+    ok = met(seconds, floor, target, fields)
+    if ok is None:
+        return ""
+    limit = f"{fields['target_seconds']:g} s" if "target_seconds" in fields else f"{target:g}x"
+    return f"<= {limit} " + ("ok" if ok else "MISSED")
+
+
 def record(rows, floor: float, throughput) -> None:
     """Merge this run's rows into RECORD (module docstring), each under its label."""
     import json
@@ -450,11 +459,8 @@ def main() -> int:
     print(f"{'':<30} {'seconds':>8} {'x floor':>8}  {'target':>8}  note")
     for label, seconds, target, note, *fields in rows:
         ratio = seconds / floor
-        extra = fields[0] if fields else {}
-        limit = f"<= {extra['target_seconds']:g} s " if "target_seconds" in extra else f"<= {target:g}x "
-        ok = met(seconds, floor, target, extra)
-        verdict = "" if ok is None else limit + ("ok" if ok else "MISSED")
-        print(f"{label:<30} {seconds:8.2f} {ratio:8.2f}  {verdict:>13}  {note}")
+        judged = verdict(seconds, floor, target, fields[0] if fields else {})
+        print(f"{label:<30} {seconds:8.2f} {ratio:8.2f}  {judged:>13}  {note}")
     for label, measured in throughput:
         print(f"\nlobe throughput, XLA on the {label} (float32, 2^24 values of t; 10^9 evaluations per second: "
               "median [min, max] of 9)")

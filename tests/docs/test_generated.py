@@ -135,10 +135,14 @@ def test_make_bench_records_its_timed_rows(tmp_path, monkeypatch):
     assert rows["cold reproduce (empty cache)"]["ratio"] == 15.0 and rows["cold reproduce (empty cache)"]["met"] is False
     assert rows["warm reproduce"]["seconds"] == 3.0 and rows["warm reproduce"]["met"] is False
     assert json.loads(bench.RECORD.read_text())["throughput"]["CPU"]["f_Q2"] == 6.2e8
+    # as printed: a ratio's verdict, none without a target (make test's kept row)
+    assert bench.verdict(30.0, 2.0, 12.0, {}) == "<= 12x MISSED" and bench.verdict(1.0, 2.0, None, {}) == ""
     # a target in seconds (make test's): met by the seconds whatever the floor, and shown as seconds
     for seconds, floor, expected in ((359.0, 0.5, True), (361.0, 9.0, False)):
         bench.record([("make test, XLA cache empty", seconds, None, "t", dict(target_seconds=360.0))], floor, [])
         row = json.loads(bench.RECORD.read_text())["rows"]["make test, XLA cache empty"]
         assert row["met"] is expected and row["target_seconds"] == 360.0
+        assert bench.verdict(seconds, floor, None, dict(target_seconds=360.0)) == (
+            "<= 360 s ok" if expected else "<= 360 s MISSED")
         cell = "| 360 s | yes |" if expected else "| 360 s | no |"
         assert cell in docs.bench_table(json.loads(bench.RECORD.read_text()))
