@@ -12,6 +12,7 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import matplotlib.layout_engine  # noqa: E402
+import matplotlib.axis  # noqa: E402
 import matplotlib.text  # noqa: E402
 import matplotlib.ticker  # noqa: E402
 import numpy as np  # noqa: E402
@@ -39,9 +40,21 @@ def paper_value(config, result_path):
 POWER = 2       # the run's lobe.power, set before each figure is drawn (`figures.draw_into_cache`)
 
 
+def _texts(artist):
+    """Every text under `artist` but its axes' tick labels: each draw writes those from the axis's
+    formatter, so what they hold before is never drawn (and walking them would first make every
+    minor tick of a log axis, most of the time of a figure of many panels)."""
+    if isinstance(artist, matplotlib.text.Text):
+        yield artist
+    children = ((artist.label, artist.offsetText) if isinstance(artist, matplotlib.axis.Axis)
+                else artist.get_children())
+    for child in children:
+        yield from _texts(child)
+
+
 def _names_at_power(fig) -> None:
     """Every text of the figure through `at_power` (before any layout measures the texts)."""
-    for text in fig.findobj(matplotlib.text.Text):
+    for text in _texts(fig):
         text.set_text(at_power(text.get_text(), POWER))
 
 
