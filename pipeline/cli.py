@@ -11,6 +11,7 @@ importing JAX, sympy or pysindy.
 from __future__ import annotations
 
 import argparse
+import math
 import multiprocessing.util
 import os
 import sys
@@ -125,19 +126,43 @@ def _cache(args) -> int:
     return 0
 
 
+def _plan_option(args, error, *fixed):
+    """The recorded plans of `--plan` (a `budgets.Budget`), or None; `error` (the command's bad-input
+    exception) where the file holds no usable plan, where an option in `fixed` ((name, value) given,
+    not None) would change what the plan fixes, or where `--timeout` is not a positive number. Arms
+    the timeout."""
+    from .symbolic import budgets
+
+    if args.timeout is not None and not (math.isfinite(args.timeout) and args.timeout > 0):
+        raise error(f"--timeout {args.timeout:g}: give a positive number of seconds")
+    plan = None
+    if args.plan is not None:
+        given = [name for name, value in fixed if value is not None]
+        if given:
+            raise error(f"--plan fixes the work; {' and '.join(given)} would change it: give one or the other")
+        try:
+            plan = budgets.recorded(args.plan)
+        except budgets.PlanError as e:
+            raise error(str(e)) from None
+    faults.stop_after(args.timeout)
+    return plan
+
+
 def _regress(args) -> int:
     from .engine.cache import XLA
     from .optics.numerics import use_compilation_cache
     from .symbolic.regress import parse_operations, regress
 
     start = time.perf_counter()
+    plan = _plan_option(args, RegressError, ("--seconds", args.seconds), ("--engine", args.engine),
+                        ("--seed", args.seed))
     # the fits' compiled programs kept with the pipeline's (a later search with the same operations
     # skips their compilation, about 6 s with the ten operations)
     use_compilation_cache(paths.XLA_CACHE or paths.CACHE / XLA)
     out = Path(args.out) if args.out else paths.OUTPUTS / "regress" / Path(args.file).stem
     front = regress(Path(args.file), args.x, args.y, out, args.max_complexity, parse_operations(args.ops),
-                    seed=args.seed, noise=args.noise, engine=args.engine, loss=args.loss, cost=args.cost, gpu=args.gpu,
-                    seconds=args.seconds)
+                    seed=args.seed or 0, noise=args.noise, engine=args.engine or "auto", loss=args.loss, cost=args.cost,
+                    gpu=args.gpu, seconds=args.seconds, plan=plan)
     engines = len({m["engine"] for m in front}) > 1 or front[0]["engine"] != "exhaustive"
     cycles = args.gpu is not None
     print(f"complexity  {'loss: ' + args.loss:<12} DL (nats)  " + ("cycles  " if cycles else "")
@@ -147,7 +172,7 @@ def _regress(args) -> int:
               + (f"{m['cycles']:>6g}  " if cycles else "")
               + (f"{m['engine']:<10}  " if engines else "") + m["canonical"]
               + ("   <- selected" if m["selected"] else ""))
-    print(f"wrote {out / 'front.csv'} and {out / 'front.png'}; {time.perf_counter() - start:.1f} s")
+    print(f"wrote {out / 'front.csv'}, {out / 'front.png'} and {out / 'plan.json'}; {time.perf_counter() - start:.1f} s")
     return 0
 
 
@@ -160,6 +185,7 @@ def _derive(args) -> int:
     from .optics.spirv import ToolMissing
 
     start = time.perf_counter()
+    plan = _plan_option(args, DeriveError, ("--seconds", args.seconds))
     target = api.resolve(args.target, args.expr, args.var, args.metric, args.floor, args.table, args.x, args.parameter,
                          args.y, args.parameter_range, args.name)
     out = Path(args.out) if args.out else paths.OUTPUTS / "derive" / escape.folder_name(target.name)
@@ -167,7 +193,7 @@ def _derive(args) -> int:
     try:
         found = api.derive(target, gpu=args.gpu, seconds=args.seconds, max_cycles=args.max_cycles,
                            max_complexity=args.max_complexity, formula_complexity=args.formula_complexity,
-                           precision=args.precision)
+                           precision=args.precision, plan=plan)
     except (CompilerMissing, ToolMissing) as e:
         print(f"error: the GPU compilers cannot run here: {e}", file=sys.stderr)
         return faults.EXIT_ENVIRONMENT
@@ -271,10 +297,13 @@ def main(argv: list[str] | None = None) -> int:
         code = _main(argv)
         faults.check_interrupted()
         return code
-    except (faults.Interrupted, KeyboardInterrupt) as e:
-        name = e.signal_name if isinstance(e, faults.Interrupted) else "SIGINT"
-        print(f"\ninterrupted ({name}): stopped; finished stages stay in the cache, nothing half written was kept",
-              file=sys.stderr)
+    except (faults.Interrupted, faults.TimedOut, KeyboardInterrupt) as e:
+        if isinstance(e, faults.TimedOut):
+            print(f"error: stopped at the --timeout of {e.seconds:g} s; nothing written", file=sys.stderr)
+        else:
+            name = e.signal_name if isinstance(e, faults.Interrupted) else "SIGINT"
+            print(f"\ninterrupted ({name}): stopped; finished stages stay in the cache, nothing half written was kept",
+                  file=sys.stderr)
         sys.stdout.flush()
         sys.stderr.flush()
         # Stages still running in threads cannot be stopped from Python: end the process now rather
@@ -282,7 +311,7 @@ def main(argv: list[str] | None = None) -> int:
         # after multiprocessing's own exit handler (the figure worker's queues are released, so its
         # resource tracker has nothing to warn about).
         multiprocessing.util._exit_function()
-        os._exit(faults.EXIT_INTERRUPTED)
+        os._exit(faults.EXIT_TIMED_OUT if isinstance(e, faults.TimedOut) else faults.EXIT_INTERRUPTED)
     except faults.EnvironmentFault as e:
         print(f"error: {e}", file=sys.stderr)
     except BrokenProcessPool:
@@ -291,6 +320,15 @@ def main(argv: list[str] | None = None) -> int:
     except OSError as e:
         print(f"error: {faults.describe(e)}", file=sys.stderr)
     return faults.EXIT_ENVIRONMENT
+
+
+def _plan_arguments(parser, written: str) -> None:
+    parser.add_argument("--plan", default=None, metavar="FILE",
+                        help=f"run exactly the plan of an earlier run (its {written}, or a plan file): the same front "
+                             "on any machine")
+    parser.add_argument("--timeout", type=float, default=None, metavar="S",
+                        help="stop a run still going after S seconds (exit 124, nothing written); a run that finishes "
+                             "is never shaped by it")
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -332,17 +370,19 @@ def build_parser() -> argparse.ArgumentParser:
                           "cycles per wave; NVIDIA: cycles per warp by the throughput model)")
     reg.add_argument("--cost", default=None, metavar="FILE.toml",
                      help="a cost per operation ([cost] table: exp = 4, ...) to rank by instead of the default count")
-    reg.add_argument("--seed", type=int, default=0, help="seed of the random starts and of pyoperon (default 0)")
-    reg.add_argument("--engine", default="auto", choices=["auto", "exhaustive", "operon", "both"],
+    reg.add_argument("--seed", type=int, default=None, help="seed of the random starts and of pyoperon (default 0)")
+    reg.add_argument("--engine", default=None, choices=["auto", "exhaustive", "operon", "both"],
                      help="auto (default): within --seconds, the exhaustive search of + - * / first and deepest, "
                           "then of --ops and of the operations the data suggest, then pyoperon, one merged front "
                           "(--ops searched whole where they reach --max-complexity); both: the same, pyoperon always; "
                           "exhaustive: every expression up to --max-complexity, however long; operon: pyoperon alone")
     reg.add_argument("--seconds", type=float, default=None, metavar="S",
-                     help=f"time budget of --engine auto, both and operon (default, up to complexity 12 and beyond: "
-                          f"{BUDGET_SECONDS[(1, 12)]:.0f} and {BUDGET_SECONDS[(1, MAX_COMPLEXITY)]:.0f} s for one "
-                          f"variable, {BUDGET_SECONDS[(2, 12)]:.0f} and {BUDGET_SECONDS[(2, MAX_COMPLEXITY)]:.0f} s for "
-                          "two or three)")
+                     help=f"budget of --engine auto, both and operon, planned as work before the search at the "
+                          f"reference machine's rates: a forecast, never a cutoff (default, up to complexity 12 and "
+                          f"beyond: {BUDGET_SECONDS[(1, 12)]:.0f} and {BUDGET_SECONDS[(1, MAX_COMPLEXITY)]:.0f} s for "
+                          f"one variable, {BUDGET_SECONDS[(2, 12)]:.0f} and {BUDGET_SECONDS[(2, MAX_COMPLEXITY)]:.0f} s "
+                          "for two or three)")
+    _plan_arguments(reg, "plan.json")
     reg.add_argument("--noise", type=float, default=None, metavar="SIGMA",
                      help="the data's noise level, for model selection (default: the rounding floor of y where y "
                           "is rounded, else unknown)")
@@ -401,7 +441,10 @@ def build_parser() -> argparse.ArgumentParser:
                      help="the format the shader computes in: every form costed and executed in it (default the "
                           "target's, fp32)")
     der.add_argument("--max-cycles", type=float, default=None, metavar="N", help="leave out forms above N cycles")
-    der.add_argument("--seconds", type=float, default=60.0, metavar="S", help="the grammar search's budget (default 60)")
+    der.add_argument("--seconds", type=float, default=None, metavar="S",
+                     help="the grammar search's budget, planned as work before the search at the reference "
+                          "machine's rates: a forecast, never a cutoff (default 60)")
+    _plan_arguments(der, "results.json")
     der.add_argument("--max-complexity", type=int, default=12, metavar="K",
                      help="the grammar's largest complexity (default 12)")
     der.add_argument("--out", default=None, metavar="DIR", help="output folder (default outputs/derive/<target>)")

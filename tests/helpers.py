@@ -1,5 +1,6 @@
 """Helpers shared by the tests."""
 
+import contextlib
 import os
 
 import pytest
@@ -14,6 +15,26 @@ def cli_env(tmp_path, **extra):
     return dict(os.environ, PIPELINE_CACHE_DIR=str(tmp_path / "cache"), PIPELINE_OUTPUTS_DIR=str(tmp_path / "out"),
                 PIPELINE_XLA_CACHE_DIR=xla, **extra)
 
+
+
+@contextlib.contextmanager
+def busy_cores(count: int = 2):
+    """`count` other processes spinning on the CPU while the block runs (both cores of this machine
+    busy with another process), stopped after it."""
+    import subprocess
+    import sys
+
+    spinners = [subprocess.Popen([sys.executable, "-c", "while True: pass"]) for _ in range(count)]
+    try:
+        yield
+    finally:
+        for p in spinners:
+            p.kill()
+            p.wait()
+
+
+PLANTED_SLOW_RATES = {kind: dict(screen_s=1e-2, refit_s=1e-2, polish_s=1e-2, compile_s=500.0, operon_s=1.0)
+                      for kind in ("arithmetic/squares", "arithmetic/max", "functions/squares", "functions/max")}
 
 
 def copy_cache(source, target):

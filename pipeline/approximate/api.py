@@ -132,10 +132,10 @@ class Derivation:
 
 def derive(target=None, *, expr: str | None = None, var: str = "x=0:1", table: str | None = None,
            x: str | None = None, parameter: str | None = None, y: str | None = None, gpu=None,
-           metric: str | None = None, floor: float | None = None, seconds: float = engine.DEFAULT_SECONDS,
+           metric: str | None = None, floor: float | None = None, seconds: float | None = None,
            max_cycles: float | None = None, max_complexity: int = engine.MAX_COMPLEXITY, parameter_range=None,
            formula_complexity: int = 0, precision: str | None = None, name: str | None = None,
-           log=print) -> Derivation:
+           plan=None, log=print) -> Derivation:
     """The cheapest accurate forms of `target` (a registered name, a TOML file, a Target, a
     ParametricTarget), of `expr` in `var`, or of a CSV `table`'s column `y` over `x` and `parameter`
     (its range `parameter_range`, "LO:HI", where given; with `formula_complexity` > 0 the constants'
@@ -144,7 +144,12 @@ def derive(target=None, *, expr: str | None = None, var: str = "x=0:1", table: s
     every one whose compiler runs here): `engine.derive`, `parametric.derive` (several variables or a
     parameter), `parametric.derive_pair` (env_brdf). Raises DeriveError for bad input, CompilerMissing
     where no GPU compiler runs. `precision` (fp32 or fp16; default the target's, fp32): the format
-    every form is costed and executed in (`executed`, `executed_box`; a pair of outputs: fp32 only)."""
+    every form is costed and executed in (`executed`, `executed_box`; a pair of outputs: fp32 only).
+    `seconds` (default `engine.DEFAULT_SECONDS`): the searches' budget, planned as work before they
+    start (`symbolic.ladder.make_plan`); `plan`, the plans of an earlier run to run exactly instead (a
+    path to its results.json or plan file, or a `symbolic.budgets.Budget`); results.json's `plan`
+    records the plans run."""
+    from ..symbolic import budgets
     from .targets import PRECISIONS
 
     chosen = resolve(target, expr, var, metric, floor, table, x, parameter, y, parameter_range, name)
@@ -152,19 +157,34 @@ def derive(target=None, *, expr: str | None = None, var: str = "x=0:1", table: s
         raise DeriveError(f"--precision {precision!r}: give one of {', '.join(PRECISIONS)}")
     if isinstance(gpu, str):
         gpu = [g.strip() for g in gpu.split(",") if g.strip()]
+    if plan is not None and seconds is not None:
+        raise DeriveError("--plan fixes the work; --seconds would change it: give one or the other")
+    try:
+        budget = (budgets.Budget(engine.DEFAULT_SECONDS if seconds is None else seconds) if plan is None
+                  else plan if isinstance(plan, budgets.Budget) else budgets.recorded(plan))
+    except budgets.PlanError as e:
+        raise DeriveError(str(e)) from None
+    try:
+        raw = _derived(chosen, gpu, budget, max_cycles, max_complexity, formula_complexity, precision, log)
+    except budgets.PlanError as e:
+        raise DeriveError(f"--plan: {e}") from None
+    raw["plan"] = dict(seconds=budget.seconds, searches=budgets.plans_of(raw["coverage"]))
+    rendered.compare(raw, chosen, log=log)
+    return Derivation(chosen, raw)
+
+
+def _derived(chosen, gpu, budget, max_cycles, max_complexity: int, formula_complexity: int, precision, log) -> dict:
+    """The results of the engine that derives `chosen`'s kind of target."""
     if isinstance(chosen, parametric.PairTarget):
         if precision not in (None, "fp32"):
             raise DeriveError(f"{chosen.name}: --precision {precision}: a pair of outputs is executed and costed in "
                               "float32 only")
-        raw = parametric.derive_pair(chosen, gpu, seconds, max_cycles, max_complexity, log=log,
-                                     formula_complexity=formula_complexity)
-    elif isinstance(chosen, parametric.ParametricTarget):
-        raw = parametric.derive(chosen, gpu, seconds, max_cycles, max_complexity, log=log,
-                                formula_complexity=formula_complexity, precision=precision or "fp32")
-    else:
-        if formula_complexity:
-            raise DeriveError(f"{chosen.name} has no parameter: --formula-complexity applies to targets with one")
-        raw = engine.derive(chosen, gpu, seconds, max_cycles, max_complexity, log=log,
-                            precision=precision or chosen.precision)
-    rendered.compare(raw, chosen, log=log)
-    return Derivation(chosen, raw)
+        return parametric.derive_pair(chosen, gpu, budget, max_cycles, max_complexity, log=log,
+                                      formula_complexity=formula_complexity)
+    if isinstance(chosen, parametric.ParametricTarget):
+        return parametric.derive(chosen, gpu, budget, max_cycles, max_complexity, log=log,
+                                 formula_complexity=formula_complexity, precision=precision or "fp32")
+    if formula_complexity:
+        raise DeriveError(f"{chosen.name} has no parameter: --formula-complexity applies to targets with one")
+    return engine.derive(chosen, gpu, budget, max_cycles, max_complexity, log=log,
+                         precision=precision or chosen.precision)

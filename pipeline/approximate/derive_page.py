@@ -267,6 +267,7 @@ def data(results) -> dict:
     """The page's data (module docstring); every number from `results`."""
     from ..isa.architectures import ARCHITECTURES, VENDORS
     from ..isa.machine_code import backend
+    from ..symbolic.budgets import plan_text
 
     target = results["target"]
     precision = results.get("precision") or "fp32"
@@ -327,7 +328,9 @@ def data(results) -> dict:
                ["inputs executed", f"{execution['inputs']:,}" if execution.get("inputs") else None],
                ["families", ", ".join(results.get("families", []))],
                ["search", _coverage_text(results.get("coverage") or {})],
-               ["time", f"{results['seconds']} s"]]
+               ["plan", plan_text(results["plan"]) if (results.get("plan") or {}).get("searches") else None],
+               ["time", f"{results['seconds']} s" + (f" (forecast {results['estimated_seconds']} s)"
+                                                     if results.get("estimated_seconds") else "")]]
     notes = [f"{vendor}: {why}" for vendor, why in (results.get("missing") or {}).items()]
     return dict(
         kind="derive",
@@ -351,7 +354,8 @@ def data(results) -> dict:
 
 def rerun_command(results) -> str:
     """The command that reruns the run: its registered target by name, an expression's by --expr and
-    --var (and --name where the run was named otherwise), its architectures and its precision."""
+    --var (and --name where the run was named otherwise), its architectures and its precision; where
+    it recorded its plans, its largest complexity and `--plan results.json` (the same front again)."""
     from .parametric import pairs, registry
     from .targets import registry as one_variable
 
@@ -368,14 +372,21 @@ def rerun_command(results) -> str:
     command += ["--gpu", ",".join(results["architectures"])]
     if precision != "fp32":
         command += ["--precision", precision]
+    from .engine import MAX_COMPLEXITY
+
+    plans = list(((results.get("plan") or {}).get("searches") or {}).values())
+    if plans:
+        if plans[0]["max_complexity"] != MAX_COMPLEXITY:
+            command += ["--max-complexity", str(plans[0]["max_complexity"])]
+        command += ["--plan", "results.json"]
     return " ".join(command)
 
 
 def _coverage_text(coverage: dict) -> str | None:
     if not coverage.get("rungs"):
         return None
-    return "; ".join(f"{r['name']}: {r['forms']} forms to complexity {r['complexity']} ({r['seconds']} s)"
-                     for r in coverage["rungs"])
+    return "; ".join(f"{r['name']}: {r['forms']} forms to complexity {r['complexity']} ({r['seconds']} s, forecast "
+                     f"{r['estimated_seconds']} s)" for r in coverage["rungs"])
 
 
 def _rendered(results, folder) -> dict | None:

@@ -90,14 +90,16 @@ def _compile(forms: list[Form], architectures, log, precision: str = "fp32") -> 
     return cycles, missing
 
 
-def checked_options(gpu, seconds: float, max_cycles: float | None, max_complexity: int) -> list[str]:
+def checked_options(gpu, budget, max_cycles: float | None, max_complexity: int) -> list[str]:
     """The architectures `gpu` names (default every one whose compiler runs here), the other options
-    checked. Raises DeriveError naming a bad one, CompilerMissing where no compiler runs."""
+    (`budget`, a `symbolic.budgets.Budget`) checked. Raises DeriveError naming a bad one,
+    CompilerMissing where no compiler runs."""
+    seconds = budget.seconds
     from ..isa.architectures import ARCHITECTURES
     from ..isa.machine_code import CompilerMissing
     from ..symbolic import regress
 
-    if not (math.isfinite(seconds) and 5 <= seconds <= 3600):
+    if budget.recorded is None and not (math.isfinite(seconds) and 5 <= seconds <= 3600):
         raise DeriveError(f"--seconds {seconds:g}: give a number in [5, 3600]")
     if max_cycles is not None and not (math.isfinite(max_cycles) and max_cycles > 0):
         raise DeriveError(f"--max-cycles {max_cycles:g}: give a number > 0")
@@ -143,39 +145,43 @@ def _executed(forms: list[Form], target, precision: str, real: dict, log, chosen
                 not_executed=run["not_executed"] | not_printed, seconds=round(time.perf_counter() - started, 1))
 
 
-def derive(target, gpu=None, seconds: float = DEFAULT_SECONDS, max_cycles: float | None = None,
+def derive(target, gpu=None, budget=None, max_cycles: float | None = None,
            max_complexity: int = MAX_COMPLEXITY, log=print, precision: str = "fp32") -> dict:
     """The derivation of the module docstring for a checked `target` on the architectures `gpu`
     (names; default every one whose compiler runs here), every form costed and executed in
-    `precision` (fp32 or fp16, `executed`). Returns the results (`results.json`'s content) with the
-    forms' rows."""
+    `precision` (fp32 or fp16, `executed`), the search's work planned by `budget` (a
+    `symbolic.budgets.Budget`; default DEFAULT_SECONDS). Returns the results (`results.json`'s
+    content) with the forms' rows."""
     from ..isa.machine_code import estimate_seconds
-    from ..symbolic import gpu_costs, grammar, ladder
+    from ..symbolic import budgets, gpu_costs, grammar, ladder
     from ..symbolic.grammar import TEN
+
+    budget = budgets.Budget(DEFAULT_SECONDS) if budget is None else budget
 
     check(target)
     try:
         executed.check_precision(precision)
     except executed.ExecutedError as e:
         raise DeriveError(str(e)) from None
-    architectures = checked_options(gpu, seconds, max_cycles, max_complexity)
+    architectures = checked_options(gpu, budget, max_cycles, max_complexity)
     started = time.perf_counter()
     f = target.numpy()
     # The time announced: the families' and the search's (none where an earlier run kept them), the
     # calibration's shaders that no run kept and about three architectures' fronts compiled, the
     # forms measured and polished, and the command's start (its imports).
     search_estimate = 0.0
-    if not grammar_search.kept_file(target, seconds, max_complexity).is_file():
-        loss = "max-relative" if target.metric == "rel" and target.floor == 0 else "max"
-        search_estimate = FAMILY_SECONDS + ladder.plan_seconds(1, grammar_search.SEARCH_POINTS, max_complexity, TEN,
-                                                               seconds, loss)
+    plan = budget.plan("grammar", 1, grammar_search.SEARCH_POINTS, max_complexity, TEN, grammar_search.loss_of(target))
+    if not grammar_search.kept_file(target, budget, max_complexity).is_file():
+        search_estimate = FAMILY_SECONDS + ladder.forecast(plan)
     calibration = gpu_costs.not_kept(gpu_costs.calibration_expressions(CALIBRATION)[1], architectures)
     compile_estimate = estimate_seconds(CALIBRATION * calibration + 3 * grammar_search.PER_ARCHITECTURE, architectures)
     estimate = START_SECONDS + search_estimate + compile_estimate + MEASURE_SECONDS + EXECUTE_SECONDS[precision]
     log(f"{target.name}: {target.expression} on [{target.domain[0]:g}, {target.domain[1]:g}], error {target.metric}; "
         f"{len(architectures)} architecture{'s' * (len(architectures) > 1)}, {precision}; about {estimate:.0f} s")
 
-    found, trees, fitted, losses, coverage = grammar_search.searched(target, f, seconds, max_complexity, log)
+    log(f"the search's plan (" + (f"{budget.seconds:g} s at the reference rates" if budget.recorded is None
+                                  else "recorded") + f"): {ladder.covered_text(plan)}")
+    found, trees, fitted, losses, coverage = grammar_search.searched(target, f, budget, max_complexity, log)
     found = [anchor_refits.without_negligible(m, target, f) for m in found]
     found += anchor_refits.refitted_anchors(target, f, log)
     log(f"cost tables: {CALIBRATION} forms compiled per architecture")

@@ -18,18 +18,25 @@ SEARCH_POINTS = 129
 PER_ARCHITECTURE = 24           # grammar forms taken from each architecture's predicted front, at most
 
 
-def search(target, f, seconds: float, max_complexity: int, log) -> tuple[list, list, np.ndarray, dict]:
-    """The grammar's forms (`engine`'s docstring, step 2): (trees, constants, search losses, the
-    search's coverage)."""
+def loss_of(target) -> str:
+    """The search's loss: the largest relative error for a relative metric without a floor, else the
+    largest absolute error."""
+    return "max-relative" if target.metric == "rel" and target.floor == 0 else "max"
+
+
+def search(target, f, budget, max_complexity: int, log) -> tuple[list, list, np.ndarray, dict]:
+    """The grammar's forms (`engine`'s docstring, step 2) by the plan `budget` gives the search
+    "grammar": (trees, constants, search losses, the search's coverage, its plan among them)."""
     from ..symbolic import grammar, ladder
 
     lo, hi = target.domain
     x = minimax.chebyshev_points(lo, hi, SEARCH_POINTS)
     y = f(x)
-    loss = "max-relative" if target.metric == "rel" and target.floor == 0 else "max"
+    loss = loss_of(target)
     ops = grammar.TEN
+    plan = budget.plan("grammar", 1, y.size, max_complexity, ops, loss)
     started = time.perf_counter()
-    candidates, rungs, fitted = ladder.run(x[None], y, max_complexity, ops, seconds, loss,
+    candidates, rungs, fitted = ladder.run(x[None], y, max_complexity, ops, None, loss, plan=plan,
                                            log=lambda s: log("grammar: " + s))
     whole = [r.complexity for r in rungs if r.engine == "exhaustive" and set(r.operations) == set(ops)]
     operon = [r for r in rungs if r.engine == "operon"]
@@ -37,7 +44,8 @@ def search(target, f, seconds: float, max_complexity: int, log) -> tuple[list, l
                     exhaustive_forms=int(sum(r.forms for r in rungs if r.engine == "exhaustive")),
                     operon_seconds=round(operon[0].seconds, 1) if operon else 0.0,
                     operon_models=int(operon[0].forms) if operon else 0, max_complexity=int(max_complexity),
-                    rungs=[r.row() for r in rungs], seconds=round(time.perf_counter() - started, 1))
+                    rungs=[r.row() for r in rungs], seconds=round(time.perf_counter() - started, 1),
+                    forecast_seconds=round(sum(r.estimated_seconds for r in rungs), 1), **budget.record("grammar", plan))
     # every form the exhaustive rungs fitted (a form off the complexity front may be cheap in cycles)
     # and pyoperon's
     others = [c for c in candidates if c[4] == "operon"]
@@ -55,7 +63,7 @@ def code_version() -> str:
     return hashlib.sha256(b"".join(f.read_bytes() for f in files)).hexdigest()
 
 
-def kept_file(target, seconds: float, max_complexity: int):
+def kept_file(target, budget, max_complexity: int):
     """The file that keeps the search of a target under a budget (`searched`)."""
     import hashlib
     import json
@@ -63,17 +71,17 @@ def kept_file(target, seconds: float, max_complexity: int):
     from ..engine import paths
 
     key = json.dumps([code_version(), target.expression, target.variable, list(target.domain), target.metric,
-                      target.floor, seconds, max_complexity])
+                      target.floor, budget.key(), max_complexity])
     return paths.DERIVE_CACHE / f"{hashlib.sha256(key.encode()).hexdigest()[:32]}.json"
 
 
-def searched(target, f, seconds: float, max_complexity: int, log):
+def searched(target, f, budget, max_complexity: int, log):
     """(the families' members, the grammar's trees, constants, losses and coverage): kept in
     `paths.DERIVE_CACHE` by the target, the budget and this code, so that a rerun (another --gpu,
     --max-cycles) skips the search; an entry that cannot be read is searched again."""
     from . import kept as keeping
 
-    kept = kept_file(target, seconds, max_complexity)
+    kept = kept_file(target, budget, max_complexity)
     symbols = {target.variable: target.symbol()}
     entry = keeping.read(kept, log)
     try:
@@ -96,7 +104,7 @@ def searched(target, f, seconds: float, max_complexity: int, log):
         log(f"the kept search {kept.name} is not readable ({type(e).__name__}): searched again")
     log("families (minimax):")
     found = families.fit_families(target, f, lambda s: log(s))
-    trees, fitted, losses, coverage = search(target, f, seconds, max_complexity, log)
+    trees, fitted, losses, coverage = search(target, f, budget, max_complexity, log)
     try:
         texts = [keeping.text(m.expression, symbols) for m in found]
     except keeping.Unusable as e:

@@ -201,14 +201,14 @@ def _executed(everything, per_of, record, target, f, real, cycles, architectures
                 peaks=len(peaks), seconds=round(time.perf_counter() - started, 1))
 
 
-def _checked(target: ParametricTarget, gpu, seconds: float, max_cycles, max_complexity: int,
+def _checked(target: ParametricTarget, gpu, budget, max_cycles, max_complexity: int,
              formula_complexity: int) -> list[str]:
     """The architectures of `gpu` (`engine.checked_options`), once the target and the options are
     checked (DeriveError naming what is wrong)."""
     from . import engine
 
     check(target)
-    architectures = engine.checked_options(gpu, seconds, max_cycles, max_complexity)
+    architectures = engine.checked_options(gpu, budget, max_cycles, max_complexity)
     if not (isinstance(formula_complexity, int) and 0 <= formula_complexity <= MAX_FORMULA_COMPLEXITY):
         raise DeriveError(f"--formula-complexity {formula_complexity}: give an integer in [0, {MAX_FORMULA_COMPLEXITY}]")
     if formula_complexity and target.parameter is None:
@@ -221,23 +221,25 @@ def _headline(target: ParametricTarget, architectures) -> str:
             f"{len(architectures)} architecture{'s' * (len(architectures) > 1)}")
 
 
-def derive(target: ParametricTarget, gpu=None, seconds: float = 60.0, max_cycles: float | None = None,
+def derive(target: ParametricTarget, gpu=None, budget=None, max_cycles: float | None = None,
            max_complexity: int = 12, log=print, formula_complexity: int = 0, precision: str = "fp32",
            search: tuple[list[dict], dict] | None = None) -> dict:
     """The derivation of the module docstring for `target` on the architectures `gpu` (names;
     default every one whose compiler runs here), with `formula_complexity` > 0 the lines of the best
     templates also corrected by the symbolic regression (`corrected`); `search`: the search's
     (records, coverage) where it was computed beforehand (`derive_pair`: both parts' at once).
-    Returns the results (results.json's content) with the rows of front.csv."""
+    Returns the results (results.json's content) with the rows of front.csv. `budget`: the searches'
+    plans (a `symbolic.budgets.Budget`; default `engine.DEFAULT_SECONDS`)."""
     from .fronts import front, rounding_floor, verdict
 
-    architectures = _checked(target, gpu, seconds, max_cycles, max_complexity, formula_complexity)
+    budget = _budget(budget)
+    architectures = _checked(target, gpu, budget, max_cycles, max_complexity, formula_complexity)
     started = time.perf_counter()
     f = target.numpy()
     error_key = _error_key(target)
     if search is None:
         log(_headline(target, architectures))
-        search = _searched(target, f, seconds, max_complexity, log, formula_complexity)
+        search = _searched(target, f, budget, max_complexity, log, formula_complexity)
     found, coverage = search
     forms = [Form(r["name"], "found", r["family"], r["expression"], r["source"]) for r in found]
     per_of = {r["name"]: (r["expression"], r["per"]) for r in found}
@@ -356,9 +358,17 @@ def refitted_pair_anchors(target: PairTarget, log) -> list[dict]:
     return out
 
 
-def derive_pair(target: PairTarget, gpu=None, seconds: float = 60.0, max_cycles: float | None = None,
+def _budget(budget):
+    from ..symbolic import budgets
+    from . import engine
+
+    return budgets.Budget(engine.DEFAULT_SECONDS) if budget is None else budget
+
+
+def derive_pair(target: PairTarget, gpu=None, budget=None, max_cycles: float | None = None,
                 max_complexity: int = 12, log=print, formula_complexity: int = 0) -> dict:
-    """Each of the pair's targets derived (`derive`, its budget `seconds` each), then per architecture
+    """Each of the pair's targets derived (`derive`, the whole `budget` each: its searches' plans
+    named by the part, `budgets.Budget.within`), then per architecture
     and per `parameter_per` every pair of their front members (and each anchor's two parts)
     compiled as one shader computing F0 A + B (F0 a push constant): the shared subexpressions of
     the two count once, as the compiler makes them. A pair's error is the larger of its two (each
@@ -368,20 +378,22 @@ def derive_pair(target: PairTarget, gpu=None, seconds: float = 60.0, max_cycles:
     from .fronts import front, verdict
 
     check_pair(target)
+    budget = _budget(budget)
     started = time.perf_counter()
     pair_targets = (target.scale, target.bias)
     for t in pair_targets:
-        architectures = _checked(t, gpu, seconds, max_cycles, max_complexity, formula_complexity)
+        architectures = _checked(t, gpu, budget, max_cycles, max_complexity, formula_complexity)
     for part, t in zip(PAIR_PARTS, pair_targets):
         log(f"{part}: {_headline(t, architectures)}")
     # both parts' searches at once (in worker processes where there are cores), then each part derived
     logs = [lambda s, part=part: log(f"  {part}: {s}") for part in PAIR_PARTS]
-    searches = searched([Search(t, seconds, max_complexity, formula_complexity) for t in pair_targets],
+    searches = searched([Search(t, budget.within(part), max_complexity, formula_complexity)
+                         for part, t in zip(PAIR_PARTS, pair_targets)],
                         [t.numpy() for t in pair_targets], logs, log)
     parts = {}
     for part, t, search in zip(PAIR_PARTS, pair_targets, searches):
         log(f"{part} ({t.name}):")
-        parts[part] = derive(t, gpu, seconds, max_cycles, max_complexity, log=lambda s: log("  " + s),
+        parts[part] = derive(t, gpu, budget.within(part), max_cycles, max_complexity, log=lambda s: log("  " + s),
                              formula_complexity=formula_complexity, search=search)
     scale, bias = parts["scale"], parts["bias"]
     architectures = scale["architectures"]

@@ -39,7 +39,7 @@ class Search:
     target with a parameter), each kept in the derive cache under `key(part)`."""
 
     target: object
-    seconds: float
+    budget: object              # (a `symbolic.budgets.Budget`)
     max_complexity: int
     formula_complexity: int = 0
 
@@ -48,14 +48,15 @@ class Search:
 
     def key(self, part: str) -> list:
         return {"families": [repr(self.target), "families", self.formula_complexity],
-                "grammar": [repr(self.target), "grammar", self.seconds, self.max_complexity, self.formula_complexity],
+                "grammar": [repr(self.target), "grammar", self.budget.key(), self.max_complexity,
+                            self.formula_complexity],
                 "anchors": [repr(self.target), "anchors"]}[part]
 
     def compute(self, part: str, f, log) -> tuple[list[dict], dict]:
         if part == "families":
             return _family_search(self.target, f, log, self.formula_complexity)
         if part == "grammar":
-            return _grammar_search(self.target, f, self.seconds, self.max_complexity, log, self.formula_complexity)
+            return _grammar_search(self.target, f, self.budget, self.max_complexity, log, self.formula_complexity)
         return refitted_box_anchors(self.target, f, log)
 
 
@@ -181,13 +182,13 @@ def searched(searches: list[Search], functions: list, logs: list, log) -> list[t
     return out
 
 
-def _searched(target, f, seconds: float, max_complexity: int, log, formula_complexity: int = 0) -> tuple[list[dict], dict]:
+def _searched(target, f, budget, max_complexity: int, log, formula_complexity: int = 0) -> tuple[list[dict], dict]:
     """(the found forms, each {name, family, expression (sympy), source, per (material or pixel),
     errors, and for a template's, formulas: {formula, per_value_error, per_value_worst, constants}},
     the coverage): steps 1 to 4 of the module docstring. The families' fits are kept by the target
     and this code, the grammar's forms also by the budget, so that a rerun with other --gpu or
     --max-cycles only compiles, and one with another budget only searches again."""
-    (out,) = searched([Search(target, seconds, max_complexity, formula_complexity)], [f], [log], log)
+    (out,) = searched([Search(target, budget, max_complexity, formula_complexity)], [f], [log], log)
     return out
 
 
@@ -249,15 +250,16 @@ def _family_search(target, f, log, formula_complexity: int = 0) -> tuple[list[di
                                              family_seconds=round(time.perf_counter() - started, 1))
 
 
-def _grammar_search(target, f, seconds: float, max_complexity: int, log, formula_complexity: int = 0) -> tuple[list[dict], dict]:
-    """The grammar's templates fitted (steps 1 to 3) and the pixel search (step 4)."""
+def _grammar_search(target, f, budget, max_complexity: int, log, formula_complexity: int = 0) -> tuple[list[dict], dict]:
+    """The grammar's templates fitted (steps 1 to 3) and the pixel search (step 4), by the plans
+    `budget` gives the searches "templates" and "pixel search"."""
     from ..symbolic import grammar, ladder
 
     symbols = target.symbols()
     found: list[dict] = []
     coverage: dict = {}
     if target.parameter is not None:
-        templates, coverage["templates"] = grammar_templates(target, f, seconds * (1 - PIXEL_SHARE),
+        templates, coverage["templates"] = grammar_templates(target, f, budget.share(1 - PIXEL_SHARE),
                                                              max_complexity, log)
         log(f"{len(templates)} grammar templates: constants fitted per value of {target.parameter.name}, then as "
             "formulas")
@@ -270,10 +272,12 @@ def _grammar_search(target, f, seconds: float, max_complexity: int, log, formula
     x = mesh(target, SEARCH_AXIS_POINTS)
     y = f(*x)
     loss = _loss(target)
-    share = seconds * (PIXEL_SHARE if target.parameter is not None else 1.0)
-    candidates, rungs, _ = ladder.run(np.stack(x), y, max_complexity, grammar.TEN, share, loss,
+    share = budget.share(PIXEL_SHARE if target.parameter is not None else 1.0)
+    plan = share.plan("pixel search", len(x), y.size, max_complexity, grammar.TEN, loss)
+    candidates, rungs, _ = ladder.run(np.stack(x), y, max_complexity, grammar.TEN, None, loss, plan=plan,
                                       log=lambda s: log("pixel search: " + s))
-    coverage["pixel_search"] = dict(rungs=[r.row() for r in rungs], points=int(y.size), loss=loss)
+    coverage["pixel_search"] = dict(rungs=[r.row() for r in rungs], points=int(y.size), loss=loss,
+                                    **share.record("pixel search", plan))
     for i, (tree, c, loss_value, *_) in enumerate(sorted(candidates, key=lambda c: grammar.complexity(c[0]))):
         if not np.isfinite(loss_value) or not grammar.has_variable(tree):
             continue                # (a constant approximates nothing)

@@ -82,8 +82,9 @@ def _error_text(v) -> str:
 def _rungs_text(rungs) -> str:
     return "; ".join((f"{r['name']} ({r['operations']}): every form to complexity {r['complexity']} not fitted before "
                       f"({r['forms']} forms)" if r["engine"] == "exhaustive" else
-                      f"pyoperon to complexity {r['complexity']} ({r['forms']} models)") + f", {r['seconds']} s"
-                     for r in rungs)
+                      f"pyoperon to complexity {r['complexity']} ({r['forms']} models)")
+                     + f", {r['seconds']} s (forecast {r['estimated_seconds']} s)" for r in rungs)
+
 
 
 def _parametric_coverage(results) -> list[str]:
@@ -215,8 +216,12 @@ def report(results) -> str:
                 else "; pyoperon did not run (the budget left less than its minimum)")
              + f"; {c['seconds']} s. Not searched: min, max and saturate, and forms above complexity "
              f"{c['max_complexity']}."]
+    if results.get("plan", {}).get("searches"):
+        from ..symbolic import budgets
+
+        lines += [f"- The plan: {escape.markdown(budgets.plan_text(results['plan']))}."]
     lines += [f"- Time: {results['seconds']} s measured"
-              + (f", {results['estimated_seconds']} s estimated before the start." if results["estimated_seconds"]
+              + (f", {results['estimated_seconds']} s forecast before the start." if results["estimated_seconds"]
                  else "."), ""]
     if results["missing"]:
         lines += [not_compiled_text(results), ""]

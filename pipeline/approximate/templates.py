@@ -101,16 +101,18 @@ def family_templates(target: ParametricTarget, symmetric: bool, positive: bool =
     return out
 
 
-def grammar_templates(target: ParametricTarget, f, seconds: float, max_complexity: int, log) -> tuple[list, dict]:
+def grammar_templates(target: ParametricTarget, f, budget, max_complexity: int, log) -> tuple[list, dict]:
     """The grammar's forms in the variables at the parameter's middle value (the ladder's front, the
-    SEARCH_TEMPLATES most accurate), as templates; and the search's coverage."""
+    SEARCH_TEMPLATES most accurate) by the plan `budget` (a `symbolic.budgets.Budget`) gives the
+    search "templates", as templates; and the search's coverage, its plan among it."""
     from ..symbolic import grammar, ladder
 
     value = _middle(target.parameter)
     x = variables_at(target, SEARCH_AXIS_POINTS, value)
     y = f(*x, value)
     loss = _loss(target)
-    candidates, rungs, _ = ladder.run(np.stack(x), y, max_complexity, grammar.TEN, seconds, loss,
+    plan = budget.plan("templates", len(x), y.size, max_complexity, grammar.TEN, loss)
+    candidates, rungs, _ = ladder.run(np.stack(x), y, max_complexity, grammar.TEN, None, loss, plan=plan,
                                       log=lambda s: log("templates: " + s))
     symbols = target.symbols()[:len(target.variables)]
     chosen = sorted((c for c in candidates if 1 <= grammar.constants(c[0]) <= MAX_CONSTANTS and np.isfinite(c[2])),
@@ -121,7 +123,7 @@ def grammar_templates(target: ParametricTarget, f, seconds: float, max_complexit
         out.append(Template(f"grammar_{i + 1}", "grammar", grammar.substitute(tree, k, symbols, sympy_functions()),
                             len(k), f"grammar ({engine}): {grammar.show(tree, [s.name for s in symbols])}",
                             start=np.asarray(c, dtype=float)))
-    return out, dict(rungs=[r.row() for r in rungs], points=int(y.size), loss=loss)
+    return out, dict(rungs=[r.row() for r in rungs], points=int(y.size), loss=loss, **budget.record("templates", plan))
 
 
 def sympy_functions():

@@ -2,7 +2,7 @@
 
 0 done; 1 a check failed or a solver did not converge; 2 bad input (config, arguments, a CSV);
 3 an environment fault (a full disk, a file size limit, a path that is a file, no permission);
-130 interrupted (Ctrl-C or SIGTERM). Each is one line naming the cause and the remedy.
+124 stopped by its own `--timeout`; 130 interrupted (Ctrl-C or SIGTERM). Each is one line naming the cause and the remedy.
 """
 
 from __future__ import annotations
@@ -12,7 +12,7 @@ import os
 import signal
 from pathlib import Path
 
-EXIT_DONE, EXIT_FAILED, EXIT_BAD_INPUT, EXIT_ENVIRONMENT, EXIT_INTERRUPTED = 0, 1, 2, 3, 130
+EXIT_DONE, EXIT_FAILED, EXIT_BAD_INPUT, EXIT_ENVIRONMENT, EXIT_TIMED_OUT, EXIT_INTERRUPTED = 0, 1, 2, 3, 124, 130
 
 
 class EnvironmentFault(Exception):
@@ -25,6 +25,14 @@ class Interrupted(BaseException):
     def __init__(self, signal_name: str):
         super().__init__(signal_name)
         self.signal_name = signal_name
+
+
+class TimedOut(BaseException):
+    """The run's `--timeout` has passed (`stop_after`). The CLI exits with 124."""
+
+    def __init__(self, seconds: float):
+        super().__init__(seconds)
+        self.seconds = seconds
 
 
 _received: list[str] = []
@@ -54,6 +62,19 @@ def raise_on_signals() -> None:
     thread (`regress`), where no check point would be passed."""
     for sig in (signal.SIGINT, signal.SIGTERM):
         signal.signal(sig, _raise)
+
+
+def stop_after(seconds: float | None) -> None:
+    """Raises `TimedOut` in the main thread once `seconds` of wall time have passed (None: never): a
+    hard limit on a run, which a run that finishes never notices (its work is planned, not timed)."""
+    if seconds is None:
+        return
+
+    def fire(signum, frame):
+        raise TimedOut(seconds)
+
+    signal.signal(signal.SIGALRM, fire)
+    signal.setitimer(signal.ITIMER_REAL, seconds)
 
 
 def check_interrupted() -> None:

@@ -1,6 +1,6 @@
-"""The ladder of grammars: one time budget shared by the exhaustive search of narrower grammars
-first and deeper, then wider ones, then pyoperon, their fronts merged by the loss (`pipeline
-regress`, `pipeline derive`).
+"""The ladder of grammars: a budget planned as work before anything runs (`plan`), then that plan
+run to completion (`run`): the exhaustive search of narrower grammars first and deeper, then wider
+ones, then pyoperon, their fronts merged by the loss (`pipeline regress`, `pipeline derive`).
 
 A wider grammar holds more forms at each complexity, so the exhaustive search of it reaches less
 deep in the same time: the ten operations reach complexity 7 in two variables where + - * / alone
@@ -26,6 +26,7 @@ machine (`rates`), which every rung updates.
 from __future__ import annotations
 
 import time
+import math
 from dataclasses import asdict, dataclass
 
 import numpy as np
@@ -40,6 +41,15 @@ FLOOR = 5                   # the wide rung searches every form to this complexi
 OPERON_MIN_SECONDS = 10.0
 OPERON_SLACK_S = 3.0        # pyoperon's start, within the budget (its models' polish: `polish_estimate`)
 MODELS_PER_SEED = 50        # models a pyoperon run returns within the complexity asked, about (33 to 100)
+PLAN_VERSION = 1
+# the fits' settings a plan records (`search.search`): starts, screening steps, forms refitted per
+# complexity, their starts
+FIT = dict(starts=2, iterations=7, refine=8, polish_starts=4)
+
+
+class PlanError(ValueError):
+    """A recorded plan that does not fit the search it is given to (other data, operations, loss or
+    complexity), or that this version of the search does not execute the same way."""
 
 
 @dataclass
@@ -80,12 +90,13 @@ def new_forms(ops, variables: int, complexity: int, points: int, searched=()) ->
 
 
 def reach(ops, variables: int, points: int, max_complexity: int, seconds: float, kind: str,
-          searched=(), floor: int = 0) -> tuple[int, list, float]:
+          searched=(), floor: int = 0, kept: dict | None = None) -> tuple[int, list, float]:
     """(complexity, forms, estimated seconds): the deepest complexity up to `max_complexity` whose new
-    forms' fits are estimated to take at most `seconds` (compilation apart), with those forms; at
-    least `floor` whatever the time. A complexity is not enumerated where the growth of the last two
-    predicts it is out of reach (enumerating it alone takes long)."""
-    kept = rates.load()
+    forms' fits are estimated to take at most `seconds` (compilation apart) at the rates `kept` (of
+    every kind; default the reference rates, `rates.DEFAULTS`), with those forms; at least `floor`
+    whatever the time. A complexity is not enumerated where the growth of the last two predicts it is
+    out of reach (enumerating it alone takes long)."""
+    kept = rates.DEFAULTS if kept is None else kept
     depth, forms, counts, estimate = 0, [], [], 0.0
     for k in range(1, max_complexity + 1):
         if k > floor and len(counts) >= 2 and counts[-2] and counts[-1] > 50:
@@ -112,13 +123,13 @@ def estimate_seconds(forms: int, complexities: int, points: int, kind: str, kept
                          not rates.compiled(kind) if compiling is None else compiling, kept)
 
 
-def polish_estimate(models: int, points: int, kind: str) -> float:
-    """About how long the float64 polish of `models` of pyoperon's models takes here
-    (`operon.polished`, its rate `polish_s`), compilation included."""
+def polish_estimate(models: int, points: int, kind: str, kept: dict | None = None) -> float:
+    """About how long the float64 polish of `models` of pyoperon's models takes at the rates `kept`
+    (default this machine's; `operon.polished`, its rate `polish_s`), compilation included."""
     from . import operon, search
 
-    kept = rates.load()[kind]
-    return 0.5 * kept["compile_s"] + search.polish_units(models, points, operon.POLISH_STARTS) * kept["polish_s"]
+    rate = (rates.load() if kept is None else kept)[kind]
+    return 0.5 * rate["compile_s"] + search.polish_units(models, points, operon.POLISH_STARTS) * rate["polish_s"]
 
 
 def compile_estimate(kind: str) -> float:
@@ -142,46 +153,197 @@ def _suggested(candidates, arithmetic) -> tuple:
     return tuple(op for op in grammar.OPERATIONS if op in out)
 
 
-def run(x, y, max_complexity: int, ops, seconds: float, loss: str = "rms", cost=None, seed: int = 0,
+def make_plan(variables: int, points: int, max_complexity: int, ops, seconds: float | None, loss: str = "rms",
+              operon: str = "auto", seed: int = 0, fit: dict | None = None) -> dict:
+    """The work a budget of `seconds` buys (module docstring), planned at the reference rates before any
+    search: a plain dict (JSON) that `run` executes. `operon`: "auto" (pyoperon where the exhaustive
+    rungs do not search the operations whole and its share of the budget is at least
+    OPERON_MIN_SECONDS), "always", "never" or "only" (pyoperon alone, for the whole budget);
+    `seconds` None: every form to `max_complexity`, one rung, however long. `fit`: the fits'
+    settings (default FIT)."""
+    from . import operon as pyoperon
+
+    ops = grammar.operations(ops)
+    kind = rates.kind(grammar.operation_codes(ops), loss)
+    reference = rates.DEFAULTS
+    rate = reference[kind]
+    out = dict(version=PLAN_VERSION, variables=int(variables), points=int(points), max_complexity=int(max_complexity),
+               operations=list(ops), loss=loss, seconds=seconds, seed=int(seed), rates=dict(rate),
+               fit=dict(FIT if fit is None else fit), rungs=[])
+    rungs, searched = out["rungs"], []
+    spent = [0.0]               # the reference seconds of the rungs planned so far, compilation apart
+
+    def fixed(name, rung_ops, depth, forms, estimate):
+        if forms:
+            rungs.append(dict(name=name, engine="exhaustive", operations=list(rung_ops), complexity=int(depth),
+                              forms=len(forms), reference_seconds=estimate))
+            searched.append((tuple(rung_ops), depth))
+            spent[0] += estimate
+
+    if seconds is None:
+        forms = [e for k in range(1, max_complexity + 1) for e in new_forms(ops, variables, k, points)]
+        fixed("exhaustive", ops, max_complexity, forms,
+              estimate_seconds(len(forms), max_complexity, points, kind, reference, compiling=False))
+        return out
+    # the shares are of the budget less the compilation (paid once, by the first rung)
+    fits = max(seconds - rate["compile_s"], 0.0)
+    whole = False
+    if operon != "only":
+        depth, forms, estimate = reach(ops, variables, points, max_complexity, EXHAUSTIVE_SHARE * fits, kind)
+        whole = depth >= max_complexity
+        if whole:
+            fixed("wide", ops, depth, forms, estimate)
+        else:
+            arithmetic = tuple(op for op in ops if op in grammar.ARITHMETIC)
+            if arithmetic and arithmetic != ops:
+                fixed("arithmetic", arithmetic,
+                      *reach(arithmetic, variables, points, max_complexity, ARITHMETIC_SHARE * fits, kind, searched))
+            # (at least its own share, however long the arithmetic rung)
+            wide = max((ARITHMETIC_SHARE + WIDE_SHARE) * fits - spent[0], WIDE_SHARE * fits, 0.0)
+            fixed("wide", ops, *reach(ops, variables, points, max_complexity, wide, kind, searched, FLOOR))
+            whole = any(set(o) == set(ops) and d >= max_complexity for o, d in searched)
+            work = max(EXHAUSTIVE_SHARE * fits - spent[0], 0.0)
+            if not whole and work > 0:
+                # its operations are the data's: + - * / with those the front so far suggests (`_suggested`)
+                rungs.append(dict(name="suggested", engine="exhaustive", operations=None, complexity=None, forms=None,
+                                  reference_seconds=work))
+                spent[0] += work
+    if operon == "never" or operon == "auto" and whole:
+        return out
+    # pyoperon's share: what is left, less its models' polish (about MODELS_PER_SEED per seed) and its start
+    left = seconds if operon == "only" else seconds - rate["compile_s"] - spent[0]
+    seeds = pyoperon.seeds_in(left)
+    polish = polish_estimate(seeds * MODELS_PER_SEED, points, kind, reference)
+    budget = left if operon == "only" else left - polish - OPERON_SLACK_S
+    if operon == "auto" and budget < OPERON_MIN_SECONDS:
+        out["operon_not_run"] = (f"of the {max(left, 0):.0f} s left, its models' polish and start would take "
+                                 f"{polish + OPERON_SLACK_S:.0f} s, leaving {max(budget, 0):.0f} s for its search "
+                                 f"(less than {OPERON_MIN_SECONDS:.0f} s)")
+        return out
+    budget = max(budget, OPERON_MIN_SECONDS)
+    generations = pyoperon.generations_in(budget / seeds, points, rate["operon_s"])
+    rungs.append(dict(name="pyoperon", engine="operon", operations=list(ops), complexity=int(max_complexity),
+                      seeds=[int(seed) + k for k in range(seeds)], generations=generations,
+                      population=pyoperon.POPULATION, evaluations=pyoperon.EVALUATIONS, threads=pyoperon.THREADS,
+                      polish_starts=pyoperon.POLISH_STARTS, unless_whole=operon == "auto",
+                      reference_seconds=budget + polish))
+    return out
+
+
+def check(plan: dict, variables: int, points: int, max_complexity: int, ops, loss: str) -> dict:
+    """`plan` if it is a plan of this version for a search of these data, operations, loss and
+    complexity; else PlanError naming what differs."""
+    if not isinstance(plan, dict) or plan.get("version") != PLAN_VERSION:
+        raise PlanError(f"not a plan of this version ({PLAN_VERSION}): "
+                        f"{plan.get('version') if isinstance(plan, dict) else type(plan).__name__!r}")
+    wanted = dict(variables=int(variables), points=int(points), max_complexity=int(max_complexity),
+                  operations=list(grammar.operations(ops)), loss=loss)
+    for key, value in wanted.items():
+        if plan.get(key) != value:
+            raise PlanError(f"the plan was made for {key} {plan.get(key)!r}; this search has {value!r}")
+    try:
+        fit = {k: int(plan["fit"][k]) for k in FIT}
+        numbers = [float(plan["rates"][k]) for k in rates.DEFAULTS["arithmetic/squares"]]
+        int(plan["seed"])
+        for r in plan["rungs"]:
+            if r["engine"] == "operon":
+                [int(s) for s in r["seeds"]], int(r["generations"]), int(r["population"]), int(r["evaluations"])
+            elif r["engine"] == "exhaustive":
+                if r["operations"] is not None:
+                    grammar.operations(r["operations"]), int(r["complexity"]), int(r["forms"])
+                float(r["reference_seconds"])
+            else:
+                raise PlanError(f"the plan's rung {r.get('name')!r} has the engine {r['engine']!r}; "
+                                "give exhaustive or operon")
+    except (KeyError, TypeError, ValueError) as e:
+        if isinstance(e, PlanError):
+            raise
+        raise PlanError(f"the plan is incomplete or malformed ({type(e).__name__}: {e})") from None
+    if min(fit.values()) < 1 or not all(math.isfinite(v) and v > 0 for v in numbers):
+        raise PlanError("the plan's fits' settings must be positive integers and its rates positive numbers")
+    return plan
+
+
+def forecast(plan: dict, kept: dict | None = None) -> float:
+    """About how long `plan` takes here: each rung's work at this machine's kept rates (`kept`,
+    default `rates.load()`), with the compilation where this process has not compiled its kind."""
+    from . import operon as pyoperon
+
+    kept = rates.load() if kept is None else kept
+    kind = rates.kind(grammar.operation_codes(plan["operations"]), plan["loss"])
+    rate, points = kept[kind], plan["points"]
+    total = compile_estimate(kind)
+    for r in plan["rungs"]:
+        if r["engine"] == "operon":
+            total += (len(r["seeds"]) * pyoperon.generation_units(r["generations"], points) * rate["operon_s"]
+                      + polish_estimate(len(r["seeds"]) * MODELS_PER_SEED, points, kind, kept) + OPERON_SLACK_S)
+        elif r["operations"] is None:
+            total += r["reference_seconds"] * rate["screen_s"] / plan["rates"]["screen_s"]
+        else:
+            total += estimate_seconds(r["forms"], r["complexity"], points, kind, kept, compiling=False)
+    return total
+
+
+def covered_text(plan: dict) -> str:
+    """What a plan covers, in a line: each rung's grammar and depth, pyoperon's seeds and generations."""
+    out = []
+    for r in plan["rungs"]:
+        if r["engine"] == "operon":
+            out.append(f"pyoperon, {len(r['seeds'])} seed{'s' * (len(r['seeds']) > 1)} x {r['generations']} "
+                       f"generations of {r['population']}")
+        elif r["operations"] is None:
+            out.append(f"suggested: the data's operations, {r['reference_seconds']:.1f} reference s of fits")
+        else:
+            ops = r["operations"]
+            out.append(f"{r['name']}: {' '.join(ops) if len(ops) < 10 else 'the ten operations'} to complexity "
+                       f"{r['complexity']} ({r['forms']} forms)")
+    if plan.get("operon_not_run"):
+        out.append("pyoperon not run: " + plan["operon_not_run"])
+    return "; ".join(out)
+
+
+def run(x, y, max_complexity: int, ops, seconds: float | None, loss: str = "rms", cost=None, seed: int = 0,
         starts: int = 2, iterations: int = 7, refine: int = 8, polish_starts: int = 4, operon: str = "auto",
-        log=print):
-    """The ladder (module docstring) on x (variables, points) and y under a budget of `seconds`.
+        log=print, plan: dict | None = None):
+    """The ladder (module docstring) on x (variables, points) and y: `plan` executed to its end (a
+    recorded plan, `check`ed against these data), or where none is given the plan of a budget of
+    `seconds` (`make_plan` with `operon`, `seed` and the fits' settings).
 
     Returns (candidates, rungs, fitted): candidates (tree, constants, loss, converged, engine, rung)
-    of every rung's front; the rungs (`Rung`); fitted, every form fitted by an exhaustive rung
-    (forms, constants, complexity under `cost`, loss). `operon`: "auto" (pyoperon where the
-    exhaustive rungs did not search W to the requested complexity), "always" or "never"."""
+    of every rung's front; the rungs (`Rung`, each with this machine's forecast and the time it
+    took); fitted, every form fitted by an exhaustive rung (forms, constants, complexity under
+    `cost`, loss)."""
+    from . import operon as pyoperon
     from . import search
 
     x = np.atleast_2d(np.asarray(x, dtype=np.float64))
     ops = grammar.operations(ops)
     variables, points = x.shape[0], y.size
+    if plan is None:
+        plan = make_plan(variables, points, max_complexity, ops, seconds, loss, operon, seed,
+                         dict(starts=starts, iterations=iterations, refine=refine, polish_starts=polish_starts))
+    else:
+        check(plan, variables, points, max_complexity, ops, loss)
+    fit, seed = plan["fit"], plan["seed"]
     codes = grammar.operation_codes(ops)
     kind = rates.kind(codes, loss)
-    started = time.perf_counter()
-    # the shares are of the budget less the compilation expected (paid once, by the first rung)
-    compiling = compile_estimate(kind)
-    fits = max(seconds - compiling, 0.0)
+    planned_rates = {kind: plan["rates"]}
     candidates, rungs, searched = [], [], []
     fitted = dict(forms=[], constants=[], complexity=[], loss=[])
-    spent = [0.0]               # seconds of the exhaustive rungs' fits, compilation apart
 
-    def exhaustive(name, rung_ops, forms, depth, estimate):
-        if not forms:
-            return
-        estimate += compiling if not rungs else 0.0
+    def exhaustive(name, rung_ops, forms, depth):
+        forecast_s = estimate_seconds(len(forms), depth, points, kind)
         log(f"{name}: every form of {' '.join(rung_ops)} to complexity {depth} not fitted before "
-            f"({len(forms)} forms), about {estimate:.0f} s")
-        rung = Rung(name, tuple(rung_ops), depth, len(forms), estimate)
+            f"({len(forms)} forms), about {forecast_s:.0f} s here")
+        rung = Rung(name, tuple(rung_ops), depth, len(forms), forecast_s)
         clock = time.perf_counter()
-        found = search.search(x, y, depth, rung_ops, starts, iterations, refine, polish_starts, seed,
-                              progress=lambda s: log("  " + s), forms=forms, loss=loss, cost=cost, codes=codes)
+        found = search.search(x, y, depth, rung_ops, fit["starts"], fit["iterations"], fit["refine"],
+                              fit["polish_starts"], seed, progress=lambda s: log("  " + s), forms=forms, loss=loss,
+                              cost=cost, codes=codes)
         rates.learn(found["timing"])
         rung.seconds = time.perf_counter() - clock
-        spent[0] += rung.seconds - found["timing"]["compile_seconds"]
         rungs.append(rung)
-        log(f"{name}: {rung.seconds:.0f} s (estimated {rung.estimated_seconds:.0f} s); "
-            f"{max(seconds - (time.perf_counter() - started), 0):.0f} s of the {seconds:.0f} s budget left")
+        log(f"{name}: {rung.seconds:.0f} s (about {rung.estimated_seconds:.0f} s forecast)")
         searched.append((tuple(rung_ops), depth))
         for i in found["front"]:
             candidates.append((found["forms"][i], found["constants"][i][:found["constant_count"][i]],
@@ -191,58 +353,45 @@ def run(x, y, max_complexity: int, ops, seconds: float, loss: str = "rms", cost=
         fitted["complexity"] += list(found["complexity"])
         fitted["loss"] += list(found["loss"])
 
-    def reached(rung_ops, share, at_least=0.0, floor=0):
-        depth, forms, estimate = reach(rung_ops, variables, points, max_complexity,
-                                       max(share * fits - spent[0], at_least * fits, 0.0), kind, searched, floor)
-        return forms, depth, estimate
-
-    depth, forms, estimate = reach(ops, variables, points, max_complexity, EXHAUSTIVE_SHARE * fits, kind)
-    whole = depth >= max_complexity
-    if whole:
-        exhaustive("wide", ops, forms, depth, estimate)
-    else:
-        arithmetic = tuple(op for op in ops if op in grammar.ARITHMETIC)
-        if arithmetic and arithmetic != ops:
-            exhaustive("arithmetic", arithmetic, *reached(arithmetic, ARITHMETIC_SHARE))
-        # (its share even where the arithmetic rung took longer than estimated)
-        exhaustive("wide", ops, *reached(ops, ARITHMETIC_SHARE + WIDE_SHARE, WIDE_SHARE, FLOOR))
-        suggested = arithmetic + _suggested(candidates, arithmetic) if arithmetic and candidates else ops
-        if len(suggested) == len(arithmetic):
-            suggested = ops         # nothing suggested: the wide grammar deeper
-        forms, depth, estimate = reached(suggested, EXHAUSTIVE_SHARE)
-        exhaustive("suggested" if suggested != ops else "wide, deeper", suggested, forms, depth, estimate)
-        whole = any(set(o) == set(ops) and d >= max_complexity for o, d in searched)
-    # pyoperon's time: what is left, less its models' polish (about MODELS_PER_SEED per seed) and the rest
-    from . import operon as pyoperon
-
-    left = seconds - (time.perf_counter() - started)
-    seeds = pyoperon.seeds_in(left)
-    polish = polish_estimate(seeds * MODELS_PER_SEED, points, kind)
-    budget = left - polish - OPERON_SLACK_S
-    if operon == "auto" and not whole and budget < OPERON_MIN_SECONDS:
-        log(f"pyoperon: not run: of the {max(left, 0):.0f} s left, its models' polish and start would take "
-            f"{polish + OPERON_SLACK_S:.0f} s, leaving {max(budget, 0):.0f} s for its search (less than "
-            f"{OPERON_MIN_SECONDS:.0f} s)")
-    elif operon == "always" or operon == "auto" and not whole:
-        budget = max(budget, OPERON_MIN_SECONDS)
-        log(f"pyoperon: {' '.join(ops)} to complexity {max_complexity} for {budget:.0f} s")
-        rung = Rung("pyoperon", ops, max_complexity, 0, budget + polish, engine="operon")
-        clock = time.perf_counter()
-        models = pyoperon.seeded_models(x, y, max_complexity, ops, seed, budget, log)
-        for tree, c, value, ok in pyoperon.polished(models, x, y, seed, loss=loss, codes=codes):
-            candidates.append((tree, c, float(value), ok, "operon", "pyoperon"))
-        rung.forms, rung.seconds = len(models), time.perf_counter() - clock
-        rungs.append(rung)
-        log(f"pyoperon: {len(models)} models on its front within complexity {max_complexity}, polished in float64")
+    for planned in plan["rungs"]:
+        if planned["engine"] == "exhaustive" and planned["operations"] is None:
+            arithmetic = tuple(op for op in ops if op in grammar.ARITHMETIC)
+            suggested = arithmetic + _suggested(candidates, arithmetic) if arithmetic and candidates else ops
+            if len(suggested) == len(arithmetic):
+                suggested = ops         # nothing suggested: the wide grammar deeper
+            depth, forms, _ = reach(suggested, variables, points, max_complexity, planned["reference_seconds"], kind,
+                                    searched, 0, planned_rates)
+            if forms:
+                exhaustive("suggested" if suggested != ops else "wide, deeper", suggested, forms, depth)
+        elif planned["engine"] == "exhaustive":
+            rung_ops, depth = grammar.operations(planned["operations"]), int(planned["complexity"])
+            forms = [e for k in range(1, depth + 1) for e in new_forms(rung_ops, variables, k, points, searched)]
+            if len(forms) != planned["forms"]:
+                raise PlanError(f"the plan's rung {planned['name']!r} lists {planned['forms']} forms of "
+                                f"{' '.join(rung_ops)} to complexity {depth}; this version enumerates {len(forms)}")
+            exhaustive(planned["name"], rung_ops, forms, depth)
+        else:
+            whole = any(set(o) == set(ops) and d >= max_complexity for o, d in searched)
+            if planned.get("unless_whole") and whole:
+                log(f"pyoperon: not run: the exhaustive rungs searched {' '.join(ops)} to complexity {max_complexity}")
+                continue
+            seeds, generations = [int(s) for s in planned["seeds"]], int(planned["generations"])
+            forecast_s = (len(seeds) * pyoperon.generation_units(generations, points) * rates.load()[kind]["operon_s"]
+                          + polish_estimate(len(seeds) * MODELS_PER_SEED, points, kind))
+            log(f"pyoperon: {' '.join(ops)} to complexity {max_complexity}, {len(seeds)} seed"
+                f"{'s' * (len(seeds) > 1)} x {generations} generations, about {forecast_s:.0f} s here")
+            rung = Rung("pyoperon", ops, max_complexity, 0, forecast_s, engine="operon")
+            clock = time.perf_counter()
+            models = pyoperon.seeded_models(x, y, max_complexity, ops, seeds, generations, log,
+                                            population=int(planned["population"]),
+                                            evaluations=int(planned["evaluations"]))
+            rates.record(kind, operon=(len(seeds) * pyoperon.generation_units(generations, points),
+                                       time.perf_counter() - clock))
+            for tree, c, value, ok in pyoperon.polished(models, x, y, seed, loss=loss, codes=codes):
+                candidates.append((tree, c, float(value), ok, "operon", "pyoperon"))
+            rung.forms, rung.seconds = len(models), time.perf_counter() - clock
+            rungs.append(rung)
+            log(f"pyoperon: {len(models)} models on its front within complexity {max_complexity}, polished in float64")
+    if plan.get("operon_not_run"):
+        log("pyoperon: not run: " + plan["operon_not_run"])
     return candidates, rungs, fitted
-
-
-def plan_seconds(variables: int, points: int, max_complexity: int, ops, seconds: float, loss: str = "rms") -> float:
-    """The time the ladder is expected to take: the exhaustive search of W alone where it reaches the
-    requested complexity within EXHAUSTIVE_SHARE (its estimate), else the whole budget."""
-    ops = grammar.operations(ops)
-    kind = rates.kind(grammar.operation_codes(ops), loss)
-    compiling = compile_estimate(kind)
-    depth, _, estimate = reach(ops, variables, points, max_complexity, EXHAUSTIVE_SHARE * max(seconds - compiling, 0.0),
-                               kind)
-    return compiling + estimate if depth >= max_complexity else seconds

@@ -17,6 +17,10 @@ own (population 1000, Levenberg-Marquardt on the constants of every offspring): 
 2000, 1 to 50 optimizer iterations, the offspring generator 'os' and the objective r2 did no
 better on those laws and on t / (n - n t + t). That law came back exactly from one seed of four
 (with + - * /): where the budget allows, several seeds run (`SEED_SECONDS` each at least).
+
+A run is fixed by its seed, its generations and its evaluations, never by the clock: its models
+depend on them alone (the same for one thread as for two: pyoperon seeds each individual's random
+numbers from the run's), so that a plan (`ladder.make_plan`) gives the same models on any machine.
 """
 
 from __future__ import annotations
@@ -28,9 +32,11 @@ from . import grammar
 # pyoperon's settings: objectives RMS and length, Levenberg-Marquardt on the constants of every
 # offspring (optimizer_iterations > 0: its default 0 never tunes a constant), one thread per core.
 GENERATIONS = 300
-GENERATIONS_TIMED = 100_000     # generations when a time budget is what stops it
+MAX_GENERATIONS = 100_000       # a plan's generations per seed, at most
 POPULATION = 1000
-SECONDS = 60            # pyoperon stops here if its generations are not done (many points)
+EVALUATIONS = 10**7             # pyoperon's evaluation budget, per seed
+THREADS = 2
+GENERATION_POINTS = 250         # a generation costs as much as evaluating this many points more (`generation_units`)
 OPTIMIZER_ITERATIONS = 10
 SEED_SECONDS = 20.0     # a budget runs one seed per this many seconds (at most MAX_SEEDS)
 MAX_SEEDS = 4
@@ -72,12 +78,12 @@ def _integer_powers(tree, values, ops):
     return build(tree), out_values
 
 
-def operon_models(x, y, max_complexity: int, ops="+-*/", seed: int = 0, threads: int = 2,
+def operon_models(x, y, max_complexity: int, ops="+-*/", seed: int = 0, threads: int = THREADS,
                   generations: int | None = None, population: int | None = None,
-                  seconds: float | None = None) -> list[tuple]:
+                  evaluations: int = EVALUATIONS) -> list[tuple]:
     """pyoperon's Pareto front on x (variables, points) and y, as (tree, constants) in the grammar,
     constant-only subtrees folded; models above `max_complexity` or not in the grammar are left out.
-    `generations`, `population` and `seconds` default to GENERATIONS, POPULATION and SECONDS."""
+    `generations` and `population` default to GENERATIONS and POPULATION; no time limit."""
     import warnings
 
     from pyoperon.sklearn import SymbolicRegressor
@@ -88,7 +94,8 @@ def operon_models(x, y, max_complexity: int, ops="+-*/", seed: int = 0, threads:
     regressor = SymbolicRegressor(
         allowed_symbols=symbols, objectives=["rmse", "length"], optimizer_iterations=OPTIMIZER_ITERATIONS,
         max_length=2 * max_complexity, max_depth=max(4, max_complexity), generations=generations or GENERATIONS,
-        population_size=population or POPULATION, max_evaluations=10**7, max_time=int(max(seconds or SECONDS, 1)), n_threads=threads, random_state=seed)
+        population_size=population or POPULATION, max_evaluations=evaluations, max_time=None, n_threads=threads,
+        random_state=seed)
     with warnings.catch_warnings():
         # pyoperon says it adds its scale and offset terms (the rmse objective needs them)
         warnings.simplefilter("ignore", UserWarning)
@@ -172,23 +179,35 @@ def variants(e, values, max_complexity: int, cap: int = VARIANTS) -> list[tuple]
 
 
 def seeds_in(seconds: float) -> int:
-    """The seeds `seeded_models` runs in `seconds`: one per SEED_SECONDS, at least 1, at most MAX_SEEDS."""
+    """The seeds a plan gives `seconds` of pyoperon: one per SEED_SECONDS, at least 1, at most MAX_SEEDS."""
     return int(min(MAX_SEEDS, max(1, seconds // SEED_SECONDS)))
 
 
-def seeded_models(x, y, max_complexity: int, ops, seed: int, seconds: float, log=lambda s: None) -> list[tuple]:
-    """`operon_models` within `seconds`: one run per SEED_SECONDS (seeds seed, seed + 1, ..., at most
-    MAX_SEEDS), each evolving until its share of the time is up; their models together."""
-    seeds = seeds_in(seconds)
+def generation_units(generations: int, points: int) -> float:
+    """The work of `generations` generations of a population of POPULATION on `points` points, in
+    generation-points (`rates`' operon_s): a generation's own cost counts as GENERATION_POINTS points."""
+    return float(generations) * (points + GENERATION_POINTS)
+
+
+def generations_in(seconds: float, points: int, rate: float) -> int:
+    """The generations `seconds` of one seed's evolution buy at `rate` seconds per generation-point,
+    at least 1, at most MAX_GENERATIONS."""
+    return int(min(MAX_GENERATIONS, max(1, seconds // (rate * generation_units(1, points)))))
+
+
+def seeded_models(x, y, max_complexity: int, ops, seeds, generations: int, log=lambda s: None,
+                  population: int | None = None, evaluations: int = EVALUATIONS) -> list[tuple]:
+    """`operon_models` of each seed of `seeds` for `generations` generations, in that order; their
+    models together, each form once (its first seed's constants)."""
     out, seen = [], set()
-    for k in range(seeds):
-        for tree, c in operon_models(x, y, max_complexity, ops, seed + k, seconds=seconds / seeds,
-                                     generations=GENERATIONS_TIMED):
+    for seed in seeds:
+        for tree, c in operon_models(x, y, max_complexity, ops, seed, generations=generations, population=population,
+                                     evaluations=evaluations):
             if repr(tree) not in seen:
                 seen.add(repr(tree))
                 out.append((tree, c))
-        if seeds > 1:
-            log(f"pyoperon seed {seed + k}: {len(out)} models so far")
+        if len(seeds) > 1:
+            log(f"pyoperon seed {seed}: {len(out)} models so far")
     return out
 
 

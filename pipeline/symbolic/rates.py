@@ -11,7 +11,15 @@ A search's time is its compilation plus its fits (`search.search`; the units of 
 - the refits: `refit_s` seconds per refitted row-point (`refit_units`: the best forms of each
   complexity from several starts, and for the max losses their minimax refit);
 - the float64 polish of pyoperon's models (`operon.polished`): `polish_s` seconds per polished
-  row-point (`search.polish_units`: every model from several starts on every point, to convergence).
+  row-point (`search.polish_units`: every model from several starts on every point, to convergence);
+- pyoperon's evolution (`operon.seeded_models`): `operon_s` seconds per generation-point
+  (`operon.generation_units`: a generation of its population on the points, two threads).
+
+The rates serve two ends. The default rates (`DEFAULTS`, the reference machine's) turn a budget in
+seconds into the ladder's plan of work before a search starts (`ladder.plan`): a plan, and so a
+front, never depends on this machine's speed or load. The kept rates of this machine forecast how
+long a plan takes here (`ladder.forecast`), the time printed before a search and reported beside the
+time it took.
 
 The rates are kept per kind of search: the opcodes (`arithmetic`: + - * / only; `functions`: any
 other) and the loss (`squares`: rms and relative; `max`: max and max-relative). Each search of
@@ -32,12 +40,14 @@ from pathlib import Path
 
 KINDS = ("arithmetic/squares", "arithmetic/max", "functions/squares", "functions/max")
 # Measured on the project's 2-core machine (one process, XLA on both cores), December 2026; the max
-# losses refit by minimax too.
+# losses refit by minimax too. pyoperon's operon_s: 40 generations of a population of 1000 on 60,
+# 400 and 3000 points of one and two variables took 0.04 to 0.07, 0.09 to 0.11 and 0.52 to 0.57 s a
+# generation (1.6e-4 s per generation-point, `operon.generation_units`).
 DEFAULTS = {
-    "arithmetic/squares": dict(screen_s=8.0e-6, refit_s=2.5e-5, polish_s=5.0e-5, compile_s=7.0),
-    "arithmetic/max": dict(screen_s=8.0e-6, refit_s=5.0e-5, polish_s=1.0e-4, compile_s=10.0),
-    "functions/squares": dict(screen_s=1.0e-5, refit_s=2.5e-5, polish_s=5.0e-5, compile_s=8.0),
-    "functions/max": dict(screen_s=1.0e-5, refit_s=5.0e-5, polish_s=1.0e-4, compile_s=11.0),
+    "arithmetic/squares": dict(screen_s=8.0e-6, refit_s=2.5e-5, polish_s=5.0e-5, compile_s=7.0, operon_s=1.6e-4),
+    "arithmetic/max": dict(screen_s=8.0e-6, refit_s=5.0e-5, polish_s=1.0e-4, compile_s=10.0, operon_s=1.6e-4),
+    "functions/squares": dict(screen_s=1.0e-5, refit_s=2.5e-5, polish_s=5.0e-5, compile_s=8.0, operon_s=1.6e-4),
+    "functions/max": dict(screen_s=1.0e-5, refit_s=5.0e-5, polish_s=1.0e-4, compile_s=11.0, operon_s=1.6e-4),
 }
 WEIGHT = 0.5            # a new measurement's weight in the kept rate
 MIN_SECONDS = 1.0       # phases shorter than this measure the rate too coarsely to be kept
@@ -79,15 +89,15 @@ def load() -> dict:
 
 
 def record(kind_: str, screen: tuple | None = None, refit: tuple | None = None, polish: tuple | None = None,
-           compile_s: float | None = None) -> None:
-    """Moves the kept rates of `kind_` halfway (WEIGHT) to a search's measurements: screen, refit and
-    polish as (units, seconds), compile_s its compilation where it compiled. Phases shorter than
+           compile_s: float | None = None, operon: tuple | None = None) -> None:
+    """Moves the kept rates of `kind_` halfway (WEIGHT) to a search's measurements: screen, refit,
+    polish and operon as (units, seconds), compile_s its compilation where it compiled. Phases shorter than
     MIN_SECONDS are not kept. Written whole (a temporary file renamed), so that two searches at once
     leave a readable file."""
     with _LOCK:
         rates = load()
         entry = rates[kind_]
-        for name, measured in (("screen_s", screen), ("refit_s", refit), ("polish_s", polish)):
+        for name, measured in (("screen_s", screen), ("refit_s", refit), ("polish_s", polish), ("operon_s", operon)):
             if measured and measured[0] > 0 and measured[1] >= MIN_SECONDS:
                 entry[name] = (1 - WEIGHT) * entry[name] + WEIGHT * measured[1] / measured[0]
         if compile_s is not None and compile_s >= MIN_SECONDS:

@@ -3,8 +3,9 @@ one column against up to three others, within a time budget (`--seconds`): the l
 (`pipeline.symbolic.ladder`: the exhaustive search of `pipeline.symbolic.search` on + - * / first
 and deepest, then on the operations asked for and those the data suggest, then pyoperon), one front.
 
-Writes `front.csv` (one front member per row) and `front.png` into the output folder, both at once
-(nothing is written if anything fails, and no lock file is left beside it). Bad input raises
+Writes `front.csv` (one front member per row), `front.png` and `plan.json` (the work the search
+ran, `budgets`: `--plan plan.json` runs it again, the same front on any machine) into the output
+folder, all at once (nothing is written if anything fails, and no lock file is left beside it). Bad input raises
 `RegressError` naming the problem: a file that is not a table of numbers, a column of one repeated
 value, values whose squares overflow float64.
 
@@ -184,7 +185,7 @@ def _member(tree, c, value, converged, names, engine, x, y, cost=None):
 def regress(path: Path, x_column, y_column: str, out: Path, max_complexity: int = 12, ops=DEFAULT_OPERATIONS,
             starts: int = 2, iterations: int = 7, refine: int = 8, polish_starts: int = 4, seed: int = 0,
             log=print, noise: float | None = None, engine: str = "auto", loss: str = "rms", cost=None,
-            gpu: str | None = None, seconds: float | None = None) -> list[dict]:
+            gpu: str | None = None, seconds: float | None = None, plan=None) -> list[dict]:
     """Runs the search of y on the file's x column(s) (a name, or a list of up to 3); writes
     out/front.csv and out/front.png; returns the front, its selected member marked (`select`;
     `noise` the data's standard deviation if known).
@@ -193,7 +194,9 @@ def regress(path: Path, x_column, y_column: str, out: Path, max_complexity: int 
     for `seconds`), "auto" (the ladder of grammars within `seconds`, `ladder`: narrower grammars first
     and deeper, then the operations the data suggest, then pyoperon; the operations `ops` searched
     whole and alone where they reach max_complexity) or "both" (the ladder, pyoperon always).
-    `seconds`: the budget (default `budget_seconds`). `loss` ranks (`search.LOSSES`); `cost`, a TOML file of costs per
+    `seconds`: the budget (default `budget_seconds`), planned as work before the search
+    (`ladder.make_plan`); `plan`, a `budgets.Budget` of recorded plans, runs its "regress" plan
+    instead (the engine, seconds and seed then the plan's). `loss` ranks (`search.LOSSES`); `cost`, a TOML file of costs per
     operation (`grammar.read_cost_table`), ranks by its complexity instead of the default count.
     `gpu` (an architecture of `isa.architectures`: rdna3, ..., sm_120; one variable only): every front
     member compiled for that architecture, its cycles in the member's `cycles`
@@ -244,50 +247,27 @@ def regress(path: Path, x_column, y_column: str, out: Path, max_complexity: int 
     if engine != "operon" and y.size <= most:
         raise RegressError(f"{path}: {y.size} data points, but expressions up to complexity {shallow} have up "
                            f"to {most} constants; give at least {most + 1} points or a lower --max-complexity")
-    from . import ladder, rates, search
+    from . import budgets, ladder, search
 
-    candidates, rungs = [], []
-    fitted = dict(forms=[], complexity=[], loss=[])
-    started = time.perf_counter()
-    if engine == "exhaustive":
-        # (deeper forms with as many constants as points cannot be fitted: left out)
-        forms = [e for e in grammar.enumerate_forms(max_complexity, ops, len(names)) if grammar.constants(e) < y.size]
-        kind = rates.kind(grammar.opcodes(forms), loss)
-        estimate = ladder.estimate_seconds(len(forms), max_complexity, y.size, kind)
-        log(f"{path}: {y.size} points, {len(names)} variable{'s' * (len(names) > 1)}; searching {len(forms)} "
-            f"expressions up to complexity {max_complexity} with operations {' '.join(ops)}, loss {loss}: about "
-            f"{estimate:.0f} s here (the rates measured on this machine)")
-        log(f"fitting on JAX's default device: {search.jax.devices()[0].platform.upper()}")
-        found = search.search(x, y, max_complexity, ops, starts, iterations, refine, polish_starts, seed, progress=log,
-                              forms=forms, loss=loss, cost=table)
-        rates.learn(found["timing"])
-        for i in found["front"]:
-            candidates.append((found["forms"][i], found["constants"][i][:found["constant_count"][i]], float(found["loss"][i]),
-                               found["converged"].get(i, False), "exhaustive", "exhaustive"))
-        fitted = dict(forms=list(found["forms"]), complexity=list(found["complexity"]), loss=list(found["loss"]))
-        rungs.append(ladder.Rung("exhaustive", ops, max_complexity, len(forms), estimate,
-                                 time.perf_counter() - started))
-    elif engine == "operon":
-        from . import operon
-
-        log(f"{path}: {y.size} points, {len(names)} variable{'s' * (len(names) > 1)}; pyoperon to complexity "
-            f"{max_complexity} with operations {' '.join(ops)} for {budget:.0f} s")
-        models = operon.seeded_models(x, y, max_complexity, ops, seed, budget, log)
-        for tree, c, value, ok in operon.polished(models, x, y, seed, loss=loss):
-            candidates.append((tree, c, value, ok, "operon", "pyoperon"))
-        rungs.append(ladder.Rung("pyoperon", ops, max_complexity, len(models), budget, time.perf_counter() - started,
-                                 "operon"))
+    fit = dict(starts=starts, iterations=iterations, refine=refine, polish_starts=polish_starts)
+    if plan is not None:
+        try:
+            planned = plan.plan("regress", len(names), y.size, max_complexity, ops, loss)
+        except ladder.PlanError as e:
+            raise RegressError(f"--plan: {e}") from None
     else:
-        plan = ladder.plan_seconds(len(names), y.size, max_complexity, ops, budget, loss)
-        log(f"{path}: {y.size} points, {len(names)} variable{'s' * (len(names) > 1)}; searching expressions up to "
-            f"complexity {max_complexity} with operations {' '.join(ops)}, loss {loss}, within {budget:.0f} s: about "
-            f"{plan:.0f} s here (narrower grammars first, then wider, then pyoperon)")
-        log(f"fitting on JAX's default device: {search.jax.devices()[0].platform.upper()}")
-        candidates, rungs, fitted = ladder.run(x, y, max_complexity, ops, budget, loss, table, seed, starts, iterations,
-                                               refine, polish_starts, "always" if engine == "both" else "auto", log)
+        operon = dict(auto="auto", both="always", operon="only").get(engine)
+        planned = ladder.make_plan(len(names), y.size, max_complexity, ops, None if engine == "exhaustive" else budget,
+                                   loss, operon or "never", seed, fit)
+    log(f"{path}: {y.size} points, {len(names)} variable{'s' * (len(names) > 1)}; searching expressions up to "
+        f"complexity {max_complexity} with operations {' '.join(ops)}, loss {loss}; the plan"
+        + (f" of {planned['seconds']:g} s at the reference rates" if planned["seconds"] is not None else "")
+        + f": {ladder.covered_text(planned)}; about {ladder.forecast(planned):.0f} s here")
+    log(f"fitting on JAX's default device: {search.jax.devices()[0].platform.upper()}")
+    candidates, rungs, fitted = ladder.run(x, y, max_complexity, ops, None, loss, table, log=log, plan=planned)
     log("covered: " + "; ".join(f"{r.name} ({' '.join(r.operations)}) to complexity {r.complexity}, "
                                  f"{r.forms} {'models' if r.engine == 'operon' else 'forms'}, {r.seconds:.0f} s "
-                                 f"(estimated {r.estimated_seconds:.0f} s)" for r in rungs))
+                                 f"(forecast {r.estimated_seconds:.0f} s)" for r in rungs))
     front, fits = _merged_front(candidates, names, x, y, weights, table)
     rows, share = dominating_rows(fits, x, y)
     if rows:
@@ -312,7 +292,8 @@ def regress(path: Path, x_column, y_column: str, out: Path, max_complexity: int 
     covered = "; ".join(f"{r.name}: {' '.join(r.operations) if len(r.operations) < 10 else 'the ten operations'} to "
                         f"{r.complexity}" for r in rungs)
     _write(Path(out), front, escape.mathtext(f"{Path(path).name}: {y_column} against {', '.join(x_columns)}") + "\n"
-           + textwrap.fill(f"({covered})", TITLE_WIDTH), x, y, everything, loss, table is not None)
+           + textwrap.fill(f"({covered})", TITLE_WIDTH), x, y, everything, loss, table is not None,
+           dict(seconds=planned["seconds"], searches={"regress": planned}))
     return front
 
 
@@ -408,18 +389,22 @@ def _merged_front(candidates, names, x, y, weights, cost=None):
     return front, fits
 
 
-def _write(out: Path, front, title, x, y, found, loss="rms", costed=False) -> None:
-    """front.csv and front.png, published together (`pipeline.engine.publishing`: a temporary folder
-    renamed into place under a lock, so a failure or a second writer leaves nothing half written)."""
+def _write(out: Path, front, title, x, y, found, loss="rms", costed=False, plan=None) -> None:
+    """front.csv, front.png and plan.json (the plan the search ran, `budgets`), published together
+    (`pipeline.engine.publishing`: a temporary folder renamed into place under a lock, so a failure
+    or a second writer leaves nothing half written)."""
+    import json
+
     from ..engine.cache import digest
     from ..engine.publishing import publish
 
     def write(tmp: Path) -> str:
         write_front_csv(tmp / "front.csv", front)
         symbolic_front_figure(tmp / "front.png", front, found, title, loss, costed)
+        (tmp / "plan.json").write_text(json.dumps(dict(plan=plan), indent=1) + "\n")
         return f"{len(front)} front members"
 
-    publish(out, digest("regress", title, x, y, front), lambda s: None, write)
+    publish(out, digest("regress", title, x, y, front, json.dumps(plan, sort_keys=True)), lambda s: None, write)
 
 
 FRONT_COLUMNS = ("complexity", "cycles", "structure", "loss", "rms", "form", "expression", "canonical", "max_rel_to_exact",

@@ -12,9 +12,9 @@ import sys
 import numpy as np
 import pytest
 
-from pipeline.approximate import anchor_refits, engine, forms, fronts, publish, targets
+from pipeline.approximate import anchor_refits, derive_page, engine, forms, fronts, publish, targets
 from pipeline.engine import escape
-from tests.helpers import cli_env
+from tests.helpers import PLANTED_SLOW_RATES, busy_cores, cli_env
 
 
 def _rows(*pairs):
@@ -80,6 +80,9 @@ def test_an_anchors_numbers_refitted_reach_the_minimax_of_its_form():
     (["--target", "acos", "--expr", "x"], "one of them"),
     (["--target", "schlick", "--metric", "rel"], "give a floor"),
     (["--target", "acos", "--seconds", "1"], "--seconds 1"),
+    (["--target", "acos", "--plan", "/nonexistent/results.json"], "--plan /nonexistent/results.json: no such file"),
+    (["--target", "acos", "--plan", "results.json", "--seconds", "10"], "--plan fixes the work; --seconds would"),
+    (["--target", "acos", "--timeout", "0"], "--timeout 0: give a positive number"),
 ])
 def test_bad_input_is_one_line_and_exit_2(argv, message, capsys):
     from pipeline.cli import main
@@ -119,7 +122,32 @@ def schlick_runs(tmp_path_factory):
     again = subprocess.run(command[:-1] + [str(half), "--precision", "fp16"], capture_output=True, text=True, env=env,
                            timeout=600)
     assert again.returncode == 0, again.stdout + again.stderr
+    # the same command once more, its search not kept, both cores busy with other processes and this
+    # machine's kept rates a machine's 1000 times slower
+    (tmp_path / "slow.json").write_text(json.dumps(PLANTED_SLOW_RATES))
+    with busy_cores(2):
+        loaded = subprocess.run(command[:-1] + [str(tmp_path / "loaded")], capture_output=True, text=True, timeout=600,
+                                env=env | dict(PIPELINE_DERIVE_CACHE=str(tmp_path / "derive_loaded"),
+                                               PIPELINE_RATES=str(tmp_path / "slow.json")))
+    assert loaded.returncode == 0, loaded.stdout + loaded.stderr
+    assert "the search of an earlier run" not in loaded.stdout
     return tmp_path, out, half, done.stdout, again.stdout
+
+
+def test_the_same_derive_command_gives_the_same_front_on_a_busy_machine(schlick_runs):
+    """The whole command again with its search computed anew on a loaded machine whose kept rates
+    say it is 1000 times slower: front.csv byte-identical, the same plans in results.json, which
+    names them (the first run's plan: + - * / and the ten operations to their planned depths); the
+    page's command reruns exactly that plan."""
+    tmp_path, out, *_ = schlick_runs
+    assert (out / "front.csv").read_bytes() == (tmp_path / "loaded" / "front.csv").read_bytes()
+    results = json.loads((out / "results.json").read_text())
+    loaded = json.loads((tmp_path / "loaded" / "results.json").read_text())
+    assert results["plan"] == loaded["plan"] and list(results["plan"]["searches"]) == ["grammar"]
+    grammar = results["plan"]["searches"]["grammar"]
+    assert grammar["max_complexity"] == 6 and grammar["rungs"][0]["engine"] == "exhaustive"
+    assert derive_page.rerun_command(results).endswith("--max-complexity 6 --plan results.json")
+    assert "The same command with --plan results.json runs exactly these plans again" in (out / "report.md").read_text()
 
 
 def test_pipeline_derive_renders_schlick_in_its_place(schlick_runs):

@@ -11,6 +11,7 @@ import sympy as sp
 
 from pipeline.approximate import parametric, parametric_search
 from pipeline.approximate.parametric_search import Search
+from pipeline.symbolic.budgets import Budget
 
 TARGET = parametric.registry()["smith_ggx_visibility"]
 
@@ -57,7 +58,7 @@ def test_the_parts_computed_in_workers_are_those_computed_here_and_kept(monkeypa
     and coverage as computed here (but the process), each search's lines in the parts' order,
     each part kept (a second run reads all five and starts no process)."""
     monkeypatch.setenv("PLANTED_PARENT", str(os.getpid()))
-    searches = [PlantedSearch(TARGET, 10.0, 4), PlantedSearch(TARGET, 20.0, 4)]
+    searches = [PlantedSearch(TARGET, Budget(10.0), 4), PlantedSearch(TARGET, Budget(20.0), 4)]
     here, here_lines, _ = _run(searches, monkeypatch, tmp_path / "here", 0)
     there, there_lines, top = _run(searches, monkeypatch, tmp_path / "there", 2)
     assert top == ["searching: 6 parts (anchors' refits, families' fits, grammar's search) in 2 processes"]
@@ -82,7 +83,7 @@ def test_a_worker_that_dies_leaves_its_parts_to_this_process(monkeypatch, tmp_pa
     """The grammar's part ends its worker process: one line says so, and every part not computed
     by then is computed here; the records are all there."""
     monkeypatch.setenv("PLANTED_PARENT", str(os.getpid()))
-    search = PlantedSearch(TARGET, 10.0, 4)
+    search = PlantedSearch(TARGET, Budget(10.0), 4)
     object.__setattr__(search, "dies", "grammar")
     ((found, coverage),), _, top = _run([search], monkeypatch, tmp_path, 2)
     assert top[-1] == "a search process died (killed, or out of memory): the rest is computed in this process"
@@ -95,7 +96,7 @@ def test_a_part_s_error_ends_the_other_workers_at_once(monkeypatch, tmp_path):
     (planted: for two minutes) is ended with it, not waited for."""
     monkeypatch.setenv("PLANTED_PARENT", str(os.getpid()))
     monkeypatch.setenv("PLANTED_SLEEPER", str(tmp_path / "sleeper.pid"))
-    search = PlantedSearch(TARGET, 10.0, 4)
+    search = PlantedSearch(TARGET, Budget(10.0), 4)
     object.__setattr__(search, "fails", "families")
     object.__setattr__(search, "sleeps", "grammar")
     started = time.monotonic()

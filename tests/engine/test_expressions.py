@@ -288,6 +288,7 @@ def test_a_kept_entry_changed_or_holding_code_is_recomputed_with_one_line(tmp_pa
     import json
 
     from pipeline.approximate import kept, parametric, parametric_search
+    from pipeline.symbolic.budgets import Budget
     from pipeline.engine import paths
 
     monkeypatch.setattr(paths, "DERIVE_CACHE", tmp_path / "derive")
@@ -304,7 +305,7 @@ def test_a_kept_entry_changed_or_holding_code_is_recomputed_with_one_line(tmp_pa
             return [dict(name="planted", expression=expr)] * (part == "families"), dict(seconds=1.0)
 
     def run():
-        ((found, _),) = parametric_search.searched([Planted(target, 1.0, 2)], [None], [lines.append], lines.append)
+        ((found, _),) = parametric_search.searched([Planted(target, Budget(1.0), 2)], [None], [lines.append], lines.append)
         return found[0]["expression"]
 
     assert run() == expr and len(calls) == 1

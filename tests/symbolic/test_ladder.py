@@ -14,8 +14,8 @@ from pipeline.symbolic.grammar import TEN
 
 @pytest.fixture
 def pinned_rates(monkeypatch, tmp_path):
-    """The default rates, not learned during the test (the depths a budget reaches are then the same
-    on every machine), and a compiled search assumed (no compilation counted)."""
+    """The kept rates not learned during the test, and a compiled search assumed: the forecasts the
+    same on every machine (the plans are made at the reference rates whatever the machine)."""
     monkeypatch.setenv("PIPELINE_RATES", str(tmp_path / "rates.json"))
     monkeypatch.setattr(rates, "learn", lambda timing: None)
     monkeypatch.setattr(rates, "compiled", lambda kind: True)
@@ -52,8 +52,9 @@ def test_a_law_the_arithmetic_grammar_finds_is_not_lost_to_the_ten_operations(pi
     rng = np.random.default_rng(5)
     x = rng.uniform(0.5, 3.0, (variables, 60))
     y = law(x)
-    seconds = 6.0
-    wide, _, _ = ladder.reach(TEN, variables, y.size, 12, ladder.EXHAUSTIVE_SHARE * seconds, "functions/squares")
+    # 6 s of fits, beside the compilation a plan counts
+    seconds = 6.0 + rates.DEFAULTS["functions/squares"]["compile_s"]
+    wide, _, _ = ladder.reach(TEN, variables, y.size, 12, ladder.EXHAUSTIVE_SHARE * 6.0, "functions/squares")
     assert wide < complexity
     candidates, rungs, _ = ladder.run(x, y, 12, TEN, seconds, operon="never", log=lambda s: None)
     arithmetic = next(r for r in rungs if r.name == "arithmetic")
@@ -70,13 +71,13 @@ def test_what_pyoperon_alone_finds_the_ladder_keeps(pinned_rates, monkeypatch):
     """With pyoperon's run fixed by its generations (not its time), the ladder's pyoperon rung is
     pyoperon alone: the ladder's front is at least as good at every complexity as pyoperon's
     polished front alone (same seed), on a law beyond the exhaustive reach of a small budget."""
-    monkeypatch.setattr(operon, "GENERATIONS_TIMED", 40)
+    monkeypatch.setattr(operon, "MAX_GENERATIONS", 40)
     monkeypatch.setattr(operon, "POPULATION", 300)
     x = np.linspace(0.0, 3.0, 60)[None]
     y = 0.5 + 2.0 * x[0] * np.exp(-1.5 * x[0])
     candidates, rungs, _ = ladder.run(x, y, 12, TEN, 12.0, operon="always", log=lambda s: None)
     assert rungs[-1].engine == "operon"
-    models = operon.operon_models(x, y, 12, TEN, 0, seconds=60, generations=40, population=300)
+    models = operon.operon_models(x, y, 12, TEN, 0, generations=40, population=300)
     alone = operon.polished(models, x, y, 0)
     assert alone
     for tree, _, value, _ in alone:

@@ -77,7 +77,7 @@ def test_regress_on_two_columns_with_both_engines(tmp_path, monkeypatch):
     data, x, v = noisy_two_column_data(tmp_path)
     said, models = [], []
     monkeypatch.setattr(operon, "GENERATIONS", 60)
-    monkeypatch.setattr(operon, "GENERATIONS_TIMED", 60)
+    monkeypatch.setattr(operon, "MAX_GENERATIONS", 60)
     monkeypatch.setattr(operon, "POPULATION", 500)
     polished = operon.polished
     monkeypatch.setattr(operon, "polished", lambda *a, **k: models.extend(polished(*a, **k)) or models)
@@ -103,7 +103,7 @@ def test_pyoperon_s_members_fill_the_front_beyond_the_exhaustive_reach(tmp_path,
 
     data, x, v = noisy_two_column_data(tmp_path)
     monkeypatch.setattr(operon, "GENERATIONS", 60)
-    monkeypatch.setattr(operon, "GENERATIONS_TIMED", 60)
+    monkeypatch.setattr(operon, "MAX_GENERATIONS", 60)
     monkeypatch.setattr(operon, "POPULATION", 500)
     reach = ladder.reach
     monkeypatch.setattr(ladder, "reach", lambda ops, variables, points, max_complexity, *a: reach(

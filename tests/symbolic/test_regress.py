@@ -140,3 +140,46 @@ def test_regress_takes_complexity_up_to_16_and_says_how_long_first(tmp_path):
     said = []
     regress(data, "t", "v", tmp_path / "out", max_complexity=5, log=said.append)
     assert "searching expressions up to complexity 5" in said[0] and "s here" in said[0]
+
+
+def test_the_same_command_gives_the_same_front_on_a_busy_machine_and_from_its_plan(tmp_path):
+    """`pipeline regress` with a budget that the ladder shares between rungs, twice: the second time
+    with both cores busy with other processes and this machine's kept rates replaced by those of a
+    machine 1000 times slower: front.csv and plan.json byte-identical. The first run's plan.json
+    given back (`--plan`, in Python): the same front.csv. `--timeout` shorter than the run: exit 124,
+    one line, nothing written. `--plan` beside `--seconds`: exit 2."""
+    import json
+
+    from pipeline.symbolic import budgets
+
+    from ..helpers import PLANTED_SLOW_RATES, busy_cores
+
+    t = np.linspace(0.5, 3.0, 40)
+    data = tmp_path / "d.csv"
+    data.write_text("t,v\n" + "".join(f"{float(a)!r},{float(b)!r}\n" for a, b in zip(t, 0.3 + 1.0 / (t + 0.5)
+                                                                                       + 0.1 * np.exp(-t))))
+    (tmp_path / "slow.json").write_text(json.dumps(PLANTED_SLOW_RATES))
+    command = [sys.executable, "-m", "pipeline", "regress", str(data), "--x", "t", "--y", "v", "--seconds", "14",
+               "--max-complexity", "8", "--out"]
+    env = cli_env(tmp_path, PIPELINE_RATES=str(tmp_path / "rates.json"))
+    first = subprocess.run(command + [str(tmp_path / "first")], capture_output=True, text=True, env=env, timeout=600)
+    assert first.returncode == 0, first.stderr
+    with busy_cores(2):
+        second = subprocess.run(command + [str(tmp_path / "second")], capture_output=True, text=True, timeout=600,
+                                env=env | dict(PIPELINE_RATES=str(tmp_path / "slow.json")))
+    assert second.returncode == 0, second.stderr
+    plan = json.loads((tmp_path / "first" / "plan.json").read_text())["plan"]
+    assert [r["name"] for r in plan["searches"]["regress"]["rungs"]][:2] == ["arithmetic", "wide"]
+    for name in ("front.csv", "plan.json"):
+        assert (tmp_path / "first" / name).read_bytes() == (tmp_path / "second" / name).read_bytes(), name
+    regress(data, "t", "v", tmp_path / "third", max_complexity=8, log=lambda s: None,
+            plan=budgets.recorded(tmp_path / "first" / "plan.json"))
+    assert (tmp_path / "first" / "front.csv").read_bytes() == (tmp_path / "third" / "front.csv").read_bytes()
+    late = subprocess.run(command + [str(tmp_path / "late"), "--timeout", "0.5"], capture_output=True, text=True,
+                          env=env, timeout=600)
+    assert late.returncode == 124 and late.stderr.strip().splitlines() == [
+        "error: stopped at the --timeout of 0.5 s; nothing written"], late.stderr
+    assert not (tmp_path / "late").exists()
+    both = subprocess.run(command[:-5] + ["--plan", str(tmp_path / "first" / "plan.json"), "--seconds", "20"],
+                          capture_output=True, text=True, env=env, timeout=600)
+    assert both.returncode == 2 and "--plan fixes the work; --seconds would change it" in both.stderr
