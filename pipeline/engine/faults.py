@@ -2,7 +2,8 @@
 
 0 done; 1 a check failed or a solver did not converge; 2 bad input (config, arguments, a CSV);
 3 an environment fault (a full disk, a file size limit, a path that is a file, no permission);
-124 stopped by its own `--timeout`; 130 interrupted (Ctrl-C or SIGTERM). Each is one line naming the cause and the remedy.
+124 stopped by its own `--timeout`; 130 interrupted (Ctrl-C or SIGTERM). Each is one line naming
+the cause and the remedy.
 """
 
 from __future__ import annotations

@@ -196,8 +196,9 @@ def regress(path: Path, x_column, y_column: str, out: Path, max_complexity: int 
     whole and alone where they reach max_complexity) or "both" (the ladder, pyoperon always).
     `seconds`: the budget (default `budget_seconds`), planned as work before the search
     (`ladder.make_plan`); `plan`, a `budgets.Budget` of recorded plans, runs its "regress" plan
-    instead (the engine, seconds and seed then the plan's). `loss` ranks (`search.LOSSES`); `cost`, a TOML file of costs per
-    operation (`grammar.read_cost_table`), ranks by its complexity instead of the default count.
+    instead (the engine, seconds and seed then the plan's). `loss` ranks (`search.LOSSES`); `cost`,
+    a TOML file of costs per operation (`grammar.read_cost_table`), ranks by its complexity instead
+    of the default count.
     `gpu` (an architecture of `isa.architectures`: rdna3, ..., sm_120; one variable only): every front
     member compiled for that architecture, its cycles in the member's `cycles`
     (`gpu_costs.expression_cycles`)."""
