@@ -14,6 +14,7 @@ import argparse
 import math
 import multiprocessing.util
 import os
+import signal
 import sys
 import time
 from concurrent.futures.process import BrokenProcessPool
@@ -298,6 +299,7 @@ def main(argv: list[str] | None = None) -> int:
         faults.check_interrupted()
         return code
     except (faults.Interrupted, faults.TimedOut, KeyboardInterrupt) as e:
+        signal.setitimer(signal.ITIMER_REAL, 0)         # (a --timeout's repeated signal: not once more)
         if isinstance(e, faults.TimedOut):
             print(f"error: stopped at the --timeout of {e.seconds:g} s; nothing written", file=sys.stderr)
         else:

@@ -11,6 +11,7 @@ from __future__ import annotations
 import errno
 import os
 import signal
+import sys
 from pathlib import Path
 
 EXIT_DONE, EXIT_FAILED, EXIT_BAD_INPUT, EXIT_ENVIRONMENT, EXIT_TIMED_OUT, EXIT_INTERRUPTED = 0, 1, 2, 3, 124, 130
@@ -65,14 +66,28 @@ def raise_on_signals() -> None:
         signal.signal(sig, _raise)
 
 
+RAISE_AGAIN_SECONDS = 0.2
+
+
 def stop_after(seconds: float | None) -> None:
     """Raises `TimedOut` in the main thread once `seconds` of wall time have passed (None: never): a
-    hard limit on a run, which a run that finishes never notices (its work is planned, not timed)."""
+    hard limit on a run, which a run that finishes never notices (its work is planned, not timed).
+    The signal lands wherever the main thread is; where that is a callback whose exceptions are
+    ignored (JAX's garbage-collection hook), the exception is lost: it is raised again every
+    RAISE_AGAIN_SECONDS until it reaches the command (which then exits at once)."""
     if seconds is None:
         return
+    default_hook = sys.unraisablehook
 
     def fire(signum, frame):
+        signal.setitimer(signal.ITIMER_REAL, RAISE_AGAIN_SECONDS)
         raise TimedOut(seconds)
+
+    def unraisable(what):           # (the lost one is raised again: no traceback of it on stderr)
+        if not isinstance(what.exc_value, TimedOut):
+            default_hook(what)
+
+    sys.unraisablehook = unraisable
 
     signal.signal(signal.SIGALRM, fire)
     signal.setitimer(signal.ITIMER_REAL, seconds)

@@ -22,10 +22,10 @@ from .ladder import PlanError
 
 @dataclasses.dataclass(frozen=True)
 class Budget:
-    """`seconds` to plan each search from, or `recorded` plans (JSON text of {name: plan}) to replay;
-    `scope`, the prefix of this part's plans' names (a pair's part)."""
+    """`seconds` to plan each search from (None: every form, however long), or `recorded` plans (JSON
+    text of {name: plan}) to replay; `scope`, the prefix of this part's plans' names (a pair's part)."""
 
-    seconds: float
+    seconds: float | None
     recorded: str | None = None
     scope: str = ""
 
@@ -80,9 +80,10 @@ def recorded(path) -> Budget:
         raise PlanError(f"--plan {path}: no plan in it (a results.json of pipeline derive or a plan.json of "
                         "pipeline regress holds one, under \"plan\")")
     seconds = plan.get("seconds")
-    if not isinstance(seconds, (int, float)) or not math.isfinite(seconds):
-        raise PlanError(f"--plan {path}: the plan's budget \"seconds\" is {seconds!r}, not a number")
-    return Budget(float(seconds), json.dumps(plan["searches"], sort_keys=True))
+    if seconds is not None and (not isinstance(seconds, (int, float)) or not math.isfinite(seconds)):
+        raise PlanError(f"--plan {path}: the plan's budget \"seconds\" is {seconds!r}, not a number (nor null: "
+                        "every form, however long)")
+    return Budget(None if seconds is None else float(seconds), json.dumps(plan["searches"], sort_keys=True))
 
 
 def plans_of(coverage) -> dict:

@@ -15,9 +15,10 @@ from tests.helpers import PLANTED_SLOW_RATES
 
 X = np.linspace(0.5, 3.0, 40)[None]
 Y = 0.3 + 1.0 / (X[0] + 0.5) + 0.1 * np.exp(-X[0])
-# 5 s of fits beside the compilation: + - * / to complexity 8, the ten operations to 5, the
-# suggested rung's work, no pyoperon
-SECONDS = rates.DEFAULTS["functions/squares"]["compile_s"] + 5.0
+# 2.5 s of fits beside the compilation: + - * / to complexity 9, the ten operations to 5, the
+# suggested rung's work (half a second, which a 2 s slower first rung took under a budget counted
+# in seconds), no pyoperon
+SECONDS = rates.DEFAULTS["functions/squares"]["compile_s"] + 2.5
 
 
 def same(a, b) -> bool:
@@ -70,6 +71,7 @@ def test_a_slow_rung_leaves_the_front_as_it_is_and_a_recorded_plan_replays_it(mo
     monkeypatch.setattr(search, "search", slow)
     again, slow_rungs, _ = ladder.run(X, Y, 9, TEN, SECONDS, log=lambda s: None)
     assert slow_rungs[0].seconds >= 2.0 and [r.row()["forms"] for r in slow_rungs] == [r.row()["forms"] for r in rungs]
+    assert [r.name for r in slow_rungs][2:] in (["suggested"], ["wide, deeper"])     # (the work the sleep took before)
     assert same(first, again)
     monkeypatch.setattr(search, "search", original)
     (tmp_path / "slow.json").write_text(json.dumps(PLANTED_SLOW_RATES))
@@ -127,6 +129,18 @@ def test_a_plan_for_another_search_or_a_file_without_one_is_refused(tmp_path):
     (tmp_path / "other.json").write_text(json.dumps(dict(plan=dict(seconds=10.0, searches=dict(grammar=plan)))))
     with pytest.raises(ladder.PlanError, match="no plan for the search 'regress' .*'grammar'"):
         budgets.recorded(tmp_path / "other.json").plan("regress", 1, X.size, 9, TEN, "rms")
+
+
+def test_an_exhaustive_search_s_plan_has_no_budget_and_replays(tmp_path):
+    """`regress --engine exhaustive`'s plan: one rung of every form to the complexity, its budget null
+    in plan.json, read back as it was written."""
+    plan = ladder.make_plan(1, X.size, 6, TEN, None)
+    assert [(r["name"], r["complexity"]) for r in plan["rungs"]] == [("exhaustive", 6)]
+    assert plan["rungs"][0]["forms"] == sum(len(ladder.new_forms(TEN, 1, k, X.size)) for k in range(1, 7))
+    path = tmp_path / "plan.json"
+    path.write_text(json.dumps(dict(plan=dict(seconds=None, searches=dict(regress=plan)))))
+    budget = budgets.recorded(path)
+    assert budget.seconds is None and budget.plan("regress", 1, X.size, 6, TEN, "rms") == plan
 
 
 def test_a_run_s_plans_are_found_in_its_coverage_by_their_names():
