@@ -20,17 +20,21 @@ def cli_env(tmp_path, **extra):
 @contextlib.contextmanager
 def busy_cores(count: int = 2):
     """`count` other processes spinning on the CPU while the block runs (both cores of this machine
-    busy with another process), stopped after it."""
+    busy with another process), stopped after it, or earlier by the function the block is given."""
     import subprocess
     import sys
 
     spinners = [subprocess.Popen([sys.executable, "-c", "while True: pass"]) for _ in range(count)]
-    try:
-        yield
-    finally:
+
+    def stop():
         for p in spinners:
             p.kill()
             p.wait()
+
+    try:
+        yield stop
+    finally:
+        stop()
 
 
 PLANTED_SLOW_RATES = {kind: dict(screen_s=1e-2, refit_s=1e-2, polish_s=1e-2, compile_s=500.0, operon_s=1.0)
