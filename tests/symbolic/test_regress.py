@@ -154,7 +154,7 @@ def test_the_same_command_gives_the_same_front_on_a_busy_machine_and_from_its_pl
 
     from ..helpers import PLANTED_SLOW_RATES, busy_cores
 
-    t = np.linspace(0.5, 3.0, 24)
+    t = np.linspace(0.5, 3.0, 60)
     data = tmp_path / "d.csv"
     data.write_text("t,v\n" + "".join(f"{float(a)!r},{float(b)!r}\n" for a, b in zip(t, 0.3 + 1.0 / (t + 0.5)
                                                                                        + 0.1 * np.exp(-t))))
