@@ -1,4 +1,4 @@
-"""The ladder of grammars: a budget planned as work before anything runs (`plan`), then that plan
+"""The ladder of grammars: a budget planned as work before anything runs (`make_plan`), then that plan
 run to completion (`run`): the exhaustive search of narrower grammars first and deeper, then wider
 ones, then pyoperon, their fronts merged by the loss (`pipeline regress`, `pipeline derive`).
 
@@ -25,8 +25,8 @@ machine (`rates`), which every rung updates.
 
 from __future__ import annotations
 
-import time
 import math
+import time
 from dataclasses import asdict, dataclass
 
 import numpy as np

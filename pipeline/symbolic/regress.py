@@ -30,7 +30,6 @@ import csv
 import math
 import re
 import textwrap
-import time
 from pathlib import Path
 
 import numpy as np
@@ -195,8 +194,8 @@ def regress(path: Path, x_column, y_column: str, out: Path, max_complexity: int 
     and deeper, then the operations the data suggest, then pyoperon; the operations `ops` searched
     whole and alone where they reach max_complexity) or "both" (the ladder, pyoperon always).
     `seconds`: the budget (default `budget_seconds`), planned as work before the search
-    (`ladder.make_plan`); `plan`, a `budgets.Budget` of recorded plans, runs its "regress" plan
-    instead (the engine, seconds and seed then the plan's). `loss` ranks (`search.LOSSES`); `cost`,
+    (`ladder.make_plan`); `plan` (a plan file's path, or a `budgets.Budget` of recorded plans) runs
+    its "regress" plan instead (the engine, seconds and seed then the plan's). `loss` ranks (`search.LOSSES`); `cost`,
     a TOML file of costs per operation (`grammar.read_cost_table`), ranks by its complexity instead
     of the default count.
     `gpu` (an architecture of `isa.architectures`: rdna3, ..., sm_120; one variable only): every front
@@ -253,6 +252,8 @@ def regress(path: Path, x_column, y_column: str, out: Path, max_complexity: int 
     fit = dict(starts=starts, iterations=iterations, refine=refine, polish_starts=polish_starts)
     if plan is not None:
         try:
+            if not isinstance(plan, budgets.Budget):
+                plan = budgets.recorded(plan)
             planned = plan.plan("regress", len(names), y.size, max_complexity, ops, loss)
         except ladder.PlanError as e:
             raise RegressError(f"--plan: {e}") from None
