@@ -178,7 +178,8 @@ def _regress(args) -> int:
 
 
 def _derive(args) -> int:
-    from .approximate import api, publish
+    from .approximate import api
+    from .approximate.publishing import derive_files as publish
     from .engine import escape
     from .engine.cache import XLA
     from .isa.machine_code import CompilerMissing

@@ -524,7 +524,7 @@ STAGES: tuple[Stage, ...] = (
                                      "and as numpy's per-operation emulation, with both winners [list]",
     }),
     _stage("lobe_renders", "beyond", (), ("lobe_search.ranges", "decision.candidates", "decision.table"), {
-        "rule": "when a render counts as invisible (`approximate.rendered.RULE`) [text]",
+        "rule": "when a render counts as invisible (`approximate.measures.rendered.RULE`) [text]",
         "statistic": "the FLIP statistic the rule reads [text]",
         "thresholds": "per n range: the rule's threshold in its scene and the spheres' roughness [list]",
         "candidates": "per lobe candidate and n range: FLIP mean, 99th percentile and largest against cos^n over the "

@@ -13,7 +13,7 @@ CACHE = Path(os.environ.get("PIPELINE_CACHE_DIR", ROOT / ".cache" / "stages"))
 # (`pipeline.isa.machine_code`): shared by every run and cache folder of this checkout.
 MACHINE_CODE_CACHE = Path(os.environ.get("PIPELINE_MACHINE_CODE_CACHE", ROOT / ".cache" / "machine_code"))
 # `pipeline derive`'s searches (the families' fits and the grammar's candidates), by target, budget
-# and the code that searches (`pipeline.approximate.engine`).
+# and the code that searches (`pipeline.approximate.engines`).
 DERIVE_CACHE = Path(os.environ.get("PIPELINE_DERIVE_CACHE", ROOT / ".cache" / "derive"))
 # The `pipeline` modules each source file of the package imports, kept by the sources' digest
 # (`engine.cache`: the code keys of stages, memos and figures).

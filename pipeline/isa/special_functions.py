@@ -106,7 +106,7 @@ def spacing(value, precision: str) -> np.ndarray:
 
 def allowed(a: Accuracy, argument, value, precision: str) -> np.ndarray:
     """The absolute error `a` allows at each input (its argument and its exact value); pow's,
-    inherited, is computed from exp2's and log2's (`approximate.bounds`)."""
+    inherited, is computed from exp2's and log2's (`approximate.measures.bounds`)."""
     if a.inherited:
         raise ValueError(f"{a.function}: its accuracy is inherited from {a.inherited}")
     argument = np.asarray(argument, dtype=np.float64)

@@ -12,7 +12,7 @@ vector; NoV = N.V, NoL = N.L, NoH = N.H, VoH = V.H (all cosines, in (0, 1] where
    int f_spec NoL dL = F0 A + B for Schlick's Fresnel, by a deterministic quadrature (`env_brdf`),
    and its two anchors: Karis's `EnvBRDFApprox` (2014) and Lazarov's fit (2013).
 3. `largest_error`: the largest |error| of an approximation over a box of 2 or 3 variables, on a
-   grid refined at its largest local maxima (as `pipeline.approximate.measure` does in one variable).
+   grid refined at its largest local maxima (as `pipeline.approximate.measures.measure` does in one variable).
 
 Measured (the tests pin each): Hammon's V is at most 28.586 % off (1 - sqrt(0.51), below the exact
 V, at alpha = 0.02, NoV = NoL = 1/51), and so is Filament's fast V. Against the quadrature on

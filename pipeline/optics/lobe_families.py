@@ -19,7 +19,7 @@ from the previous n's optimum.
 - `rational_square`: (t / (A t + B))^2.
 
 The fit (`pipeline.stages.lobe_search.fit_family`, by `pipeline derive`'s minimax,
-`approximate.minimax.along`) minimizes max |g / cos^n - 1| over `ZONE_POINTS` points of the zone
+`approximate.search.minimax.along`) minimizes max |g / cos^n - 1| over `ZONE_POINTS` points of the zone
 (Chebyshev points in w, which crowd its ends, where the error peaks). The fitted lobes' d and D are
 then measured exactly (`optics.extrema`), not on the points.
 """
@@ -150,7 +150,7 @@ NEWTON_STEPS = 12      # Newton steps to Beckmann's zone edge (quadratic converg
 @dataclasses.dataclass(frozen=True)
 class ZoneStart:
     """t at the edge of the epicenter zone {target >= level}, a numpy function of n (arrays): the
-    lower end of t in the search's box (`approximate.parametric.Axis.lo_of`). cos^n: level^(1/n).
+    lower end of t in the search's box (`approximate.targets.Axis.lo_of`). cos^n: level^(1/n).
     Beckmann: the root of g(t) = (n + 2) (1 - 1 / t^2) / 2 - 4 log t - log level, by Newton's method
     from the root without its 4 log t (g is increasing and concave in t <= 1 for n >= 2: every step
     after the first lands left of the root and climbs to it); `zone_w`'s root where Newton's does

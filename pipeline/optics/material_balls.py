@@ -1,5 +1,5 @@
 """Material balls as a real-time engine shades them: the scene in which a shading term's
-approximations are rendered and compared by FLIP (`approximate.rendered`).
+approximations are rendered and compared by FLIP (`approximate.measures.rendered`).
 
 The scene: spheres in a grid, one column per roughness (perceptual; alpha = roughness^2) and two
 rows of F0, a dielectric's 0.04 over a red base colour (Lambert diffuse) and gold's
@@ -14,7 +14,7 @@ rows of F0, a dielectric's 0.04 over a red base colour (Lambert diffuse) and gol
 
 Each light's specular is D V F NoL E (GGX's D, the height-correlated Smith-GGX visibility, Schlick's
 Fresnel F0 + (1 - F0)(1 - VoH)^5); the environment's is the prefiltered radiance times F0 A + B, A
-and B the split-sum environment BRDF of GGX (`parametric.env_brdf_table`'s quadrature). A shading
+and B the split-sum environment BRDF of GGX (`approximate.targets.env_brdf_table`'s quadrature). A shading
 term's role (`ROLES`) names which factor a form replaces; the other factors stay exact. Every factor
 is rounded to float32 and the shading composed in float32 (`shade`), as an engine's fragment shader
 computes it; the radiance is tone-mapped by the Khronos PBR Neutral operator, encoded in sRGB and

@@ -1,5 +1,5 @@
 """The linear program of one minimax step: minimize t subject to |r + J d| <= t at every point and
-|d_j| <= radius_j, the step d of sequential linear programming (`approximate.minimax.slp_points`,
+|d_j| <= radius_j, the step d of sequential linear programming (`approximate.search.minimax.slp_points`,
 `symbolic.search`'s refit) in the constants of a form whose residuals r and Jacobian J are taken at
 the current constants.
 

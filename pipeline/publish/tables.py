@@ -5,7 +5,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from ..approximate.publish import write_csv
+from ..approximate.publishing.derive_files import write_csv
 from ..engine.exponents import n_range
 from ..symbolic.regress import write_front_csv
 
@@ -41,7 +41,7 @@ def write(out: Path, config, results) -> None:
 
 def lobe_search_rows(search) -> list[dict]:
     """The lobe search's candidates and placed lobes as `pipeline derive`'s front.csv rows
-    (`approximate.publish.COLUMNS`): per architecture and range, each form with its parameters as
+    (`approximate.publishing.derive_files.COLUMNS`): per architecture and range, each form with its parameters as
     lines in n (`parameter_per` material: computed once per material), max_rel_error its d with the
     best parameters per n (what the fronts rank), d_line with the lines (measured at every integer n),
     D and D_line the absolute errors over the whole lobe; the registry's lobes as anchors."""

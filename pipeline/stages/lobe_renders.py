@@ -2,7 +2,7 @@
 specular lobe of the material balls (`optics.material_balls`: each light's D = coef max(f(N.H; n), 0),
 coef the lobe's own exact normalization, n = 2 / alpha^2 - 2 of each sphere's roughness, the spheres'
 roughness spanning each n range of the lobe search), compared by FLIP with cos^n's render, and the
-rule of `approximate.rendered` (invisible: the largest FLIP over the spheres no more than that of
+rule of `approximate.measures.rendered` (invisible: the largest FLIP over the spheres no more than that of
 the exact image raised one display level). Per architecture and range, the common Blinn case (n per
 material, fp32): the cheapest invisible candidate beside the decision's winner by max d, and whether
 the two differ.
@@ -14,7 +14,7 @@ import time
 
 import numpy as np
 
-from ..approximate import rendered
+from ..approximate.measures import rendered
 from ..optics import material_balls as balls
 from ..optics.lobe_candidates import cos_power, evaluator, phong_integral
 

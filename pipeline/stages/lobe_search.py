@@ -13,11 +13,11 @@ are also given as lines in n per range, as the paper does for k, fitted as `pipe
 parameter's formulas: the range is the registry's `cos_n` target (t over the zone, n over the
 range; `search_target`), the family its template (`template`), its lines started by least squares
 to the per-n optima and polished together by minimax of d over the box
-(`approximate.parametric.polish_formulas`); they are then measured exactly at every integer n of
+(`approximate.search.formulas.polish_formulas`); they are then measured exactly at every integer n of
 the range: what a per-material line costs in accuracy. Where a line is not enough (its d more
 than `LINE_ENOUGH` times the per-n optimum's) and `lobe_search.formula_complexity` > 0 (a refit: 0
 by default, for the run's time), the parameters take the formulas `derive` finds with the symbolic
-regression (`approximate.parametric.corrected`: each parameter's per-n optima at the grid's and the
+regression (`approximate.search.formulas.corrected`: each parameter's per-n optima at the grid's and the
 halfway exponents searched up to that complexity, each level's formulas polished on the box, the
 best level kept where it beats the lines), computed once per material; they are kept where their d,
 measured at every integer n, is below the lines'.
@@ -48,8 +48,8 @@ from ..optics.numerics import jax
 import jax.numpy as jnp
 import numpy as np
 
-from ..approximate import fronts
-from ..approximate import minimax
+from ..approximate.measures import fronts
+from ..approximate.search import minimax
 from ..engine import expressions, toolchains
 from ..isa import machine_code
 from ..optics import lobe_families, registry
@@ -76,7 +76,7 @@ def fit_family(family: str, n, level: float, zone_points: int, target: str = "co
     """The family's (or the grammar form's, by its text in w, from `own_start`) minimax fit to the
     target at every exponent of n, in order, each from the previous optimum, and at the geometric
     midpoints: q, the shader parameters (families) and the zone error on the points. The fit is
-    `pipeline derive`'s (`approximate.minimax.along`: sequential linear programs on `zone_points`
+    `pipeline derive`'s (`approximate.search.minimax.along`: sequential linear programs on `zone_points`
     points of the zone, weight 1 / target: the relative error), in the scaled variable w."""
     from ..symbolic import grammar
     form = family
@@ -220,34 +220,36 @@ def exact_errors(name: str, n, P, level, cells: int, settings: SolverSettings, t
 def search_target(target: str, level: float, lo: float, hi: float):
     """The search's problem on the range [lo, hi] of n as `pipeline derive`'s parametric target (t
     over the epicenter zone, which moves with n; the relative error): cos^n is the registry's `cos_n`
-    (`approximate.parametric.cos_n_target`) at the run's level; Beckmann's D over its peak,
+    (`approximate.targets.cos_n_target`) at the run's level; Beckmann's D over its peak,
     exp((t^2 - 1) (n + 2) / (2 t^2)) / t^4 (`lobe_families.target_u`, whose t >= 0.05 holds in every
     zone), with the zone's edge `lobe_families.ZoneStart`."""
-    from ..approximate import parametric
+    from ..approximate import targets
+
     if target == "cos_n":
-        return parametric.with_range(parametric.cos_n_target(level), (lo, hi))
+        return targets.with_range(targets.cos_n_target(level), (lo, hi))
     edge = lobe_families.ZoneStart(level, target)
-    return parametric.check(parametric.ParametricTarget(
+    return targets.check(targets.Target(
         target, "exp((t**2 - 1)*(n + 2)/(2*t**2))/t**4",
-        (parametric.Axis("t", float(np.min(edge(np.array([lo, hi])))), 1.0, lo_of=edge),), parametric.Axis("n", lo, hi),
+        (targets.Axis("t", float(np.min(edge(np.array([lo, hi])))), 1.0, lo_of=edge),), targets.Axis("n", lo, hi),
         "rel", description="Beckmann's D over its peak, its roughness matched to n"))
 
 
 def template(family: str, text: str = ""):
     """The family (or the grammar form `text`, in w = n (1 - t)) as `pipeline derive`'s template
-    (`approximate.parametric.Template`) in t, its constants what is per material: a family's shader
+    (`approximate.search.templates.Template`) in t, its constants what is per material: a family's shader
     parameters A, B, C (square_peak1's k alone: A = k, B = 1 - k), a grammar form's c0, c1, ...
     (the form reads n)."""
     import sympy as sp
 
-    from ..approximate import parametric
+    from ..approximate.search import templates
     from ..symbolic import grammar
+
     t, n = sp.Symbol("t", real=True), sp.Symbol("n", real=True)
     if text:
         form = grammar.parse(text)
-        k = parametric.constant_symbols(grammar.constants(form))
-        expression = grammar.substitute(form, k, [n * (1 - t)], parametric.sympy_functions())
-        return parametric.Template(family, "grammar", expression, len(k), text)
+        k = templates.constant_symbols(grammar.constants(form))
+        expression = grammar.substitute(form, k, [n * (1 - t)], templates.sympy_functions())
+        return templates.Template(family, "grammar", expression, len(k), text)
     entry = lobe_families.FAMILIES[family]
     symbols = {p: sp.Symbol(p, real=True) for p in "ABC"}
     expression = expressions.parse(entry.python, dict(symbols, t=t), what=f"the family {family}")
@@ -255,8 +257,8 @@ def template(family: str, text: str = ""):
     if family == "square_peak1":
         expression = expression.xreplace({symbols["B"]: 1 - symbols["A"]})
     count = len(entry.start)
-    k = parametric.constant_symbols(count)
-    return parametric.Template(family, "lobe", expression.xreplace(dict(zip([symbols[p] for p in "ABC"], k))), count,
+    k = templates.constant_symbols(count)
+    return templates.Template(family, "lobe", expression.xreplace(dict(zip([symbols[p] for p in "ABC"], k))), count,
                                entry.formula)
 
 
@@ -281,29 +283,31 @@ def shader_values(family: str, constants) -> np.ndarray:
 def parameter_formulas(family: str, text: str, values, constants, errors, on_grid, level: float, target: str,
                        lo: float, hi: float, complexity: int = 0) -> dict:
     """The template's constants as functions of n on [lo, hi], fitted as `pipeline derive` fits a
-    parameter's formulas (`approximate.parametric`): lines, by least squares to the per-n optima at
+    parameter's formulas (`approximate.search.formulas`): lines, by least squares to the per-n optima at
     the grid's exponents, then every line's coefficients polished together by minimax of the relative
     error over the box of zone and n, its worst point added (`polish_formulas`). With `complexity`
     > 0, also the symbolic regression's formulas of the per-n optima at the grid's and the halfway
     exponents (`corrected`: each level's formulas polished on the box, the best level kept where it
     beats the lines). Returns the lines' slopes and intercepts, their error on the box, and the
     formulas (sympy text in n, one per constant; empty where none beats the lines)."""
-    from ..approximate import parametric
+    from ..approximate.search import formulas, templates
+    from ..approximate.search.per_value import PerValue
+
     form = template(family, text)
     problem = search_target(target, level, lo, hi)
     f = problem.numpy()
-    per_value = parametric.PerValue(np.asarray(values, dtype=np.float64), np.asarray(constants, dtype=np.float64),
+    per_value = PerValue(np.asarray(values, dtype=np.float64), np.asarray(constants, dtype=np.float64),
                                     np.asarray(errors, dtype=np.float64), np.asarray(on_grid, dtype=bool))
-    coefficients, box_error = parametric.polish_formulas(form, per_value, ("line",) * form.count, problem, f)
-    out = dict(slopes=coefficients[:, parametric.POWERS.index(1)], intercepts=coefficients[:, parametric.POWERS.index(0)],
+    coefficients, box_error = formulas.polish_formulas(form, per_value, ("line",) * form.count, problem, f)
+    out = dict(slopes=coefficients[:, formulas.POWERS.index(1)], intercepts=coefficients[:, formulas.POWERS.index(0)],
                box_error=float(box_error), formulas=[], formulas_box_error=float("nan"), formula_level=0)
     if complexity > 0:
         n = problem.symbols()[-1]
-        k = parametric.constant_symbols(form.count)
-        pixel = form.expression.xreplace(dict(zip(k, parametric.formula_expressions(coefficients, n))))
-        line = parametric.Fitted(form, "line", coefficients, per_value, parametric.measure_box(pixel, problem, f), pixel,
+        k = templates.constant_symbols(form.count)
+        pixel = form.expression.xreplace(dict(zip(k, formulas.formula_expressions(coefficients, n))))
+        line = formulas.Fitted(form, "line", coefficients, per_value, formulas.measure_box(pixel, problem, f), pixel,
                                  None)
-        better = parametric.corrected(line, problem, f, int(complexity), log=lambda _: None)
+        better = formulas.corrected(line, problem, f, int(complexity), log=lambda _: None)
         if better is not None:
             out.update(formulas=[str(e) for e in better.formulas], formula_level=int(better.formula[len("found"):]),
                        formulas_box_error=float(better.errors["max_rel_error"]))
@@ -354,12 +358,12 @@ def compiled_cycles(families, grammar=()) -> dict:
     architecture whose compiler runs here by `derive`'s costing (`isa.machine_code.form_cycles`:
     the parameters push constants, A, B, C as c0, c1, c2; a grammar form's constants c0 ... and n after
     them), or {"reason": why not}."""
-    from ..approximate import parametric
+    from ..approximate.search import settings
     from ..symbolic import grammar as grammar_
 
     bodies = {name: (re.sub(r"\b[ABC]\b", lambda m: f"c{'ABC'.index(m.group(0))}", lobe_families.FAMILIES[name].glsl),
                      ["t"]) for name in families}
-    n_at = parametric.MAX_CONSTANTS          # (after the most constants a form has)
+    n_at = settings.MAX_CONSTANTS          # (after the most constants a form has)
     for text in grammar:
         form = grammar_.glsl(grammar_.parse(text), [], variable="w", uniforms="c")
         bodies[text] = (f"float w = c{n_at} - c{n_at} * t;\n    return "
@@ -398,14 +402,14 @@ def predicted_cycles(name: str, table: dict) -> float:
 
 def front_of(rows) -> list[dict]:
     """The rows no other row beats at equal or lower cycles, by max d: `pipeline derive`'s front
-    (`approximate.fronts.front`; a tie kept by the row listed first: a family before a grammar form
+    (`approximate.measures.fronts.front`; a tie kept by the row listed first: a family before a grammar form
     that is the same function written in w)."""
     return fronts.front(rows, "d")
 
 
 def placement(cycles: float, d: float, front) -> dict | None:
     """The front member that beats a lobe of `cycles` and max d `d`: the most accurate member of at
-    most its cycles (`approximate.fronts.verdict`, as derive places its anchors), where its d is
+    most its cycles (`approximate.measures.fronts.verdict`, as derive places its anchors), where its d is
     smaller; None where the lobe is on the front (nothing beats it)."""
     best = fronts.verdict(cycles, d, [dict(r, name=i) for i, r in enumerate(front)], "d")
     return front[best["by"]] if best["by"] is not None and best["ratio"] < 1.0 else None

@@ -8,7 +8,8 @@ import numpy as np
 import pytest
 import sympy as sp
 
-from pipeline.approximate import bounds, targets
+from pipeline.approximate import targets
+from pipeline.approximate.measures import bounds
 from pipeline.isa import special_functions
 
 

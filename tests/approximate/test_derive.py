@@ -13,7 +13,10 @@ import sys
 import numpy as np
 import pytest
 
-from pipeline.approximate import anchor_refits, derive_page, engine, forms, fronts, publish, targets
+from pipeline.approximate import engines, forms, targets
+from pipeline.approximate.measures import fronts
+from pipeline.approximate.publishing import derive_files as publish, derive_page
+from pipeline.approximate.search import anchor_refits
 from pipeline.engine import escape
 from tests.helpers import PLANTED_SLOW_RATES, busy_cores, cli_env
 
@@ -104,7 +107,7 @@ def schlick_runs(tmp_path_factory):
     """The whole command once, on RDNA3 and GCN5 with a small budget, on schlick as a target file
     whose name, description and anchor's source hold HTML, |, $ and backticks; then again in float16
     from the kept search: (folder, float32 output, float16 output, the first run's stdout)."""
-    if "rdna3" not in engine.available_architectures():
+    if "rdna3" not in engines.available_architectures():
         pytest.skip("Mesa's RADV does not run here: pipeline derive was not run")
     tmp_path = tmp_path_factory.mktemp("schlick")
     schlick = targets.registry()["schlick"]
@@ -292,7 +295,7 @@ def test_the_readme_example_of_the_python_api_runs(tmp_path, capsys, monkeypatch
     import pipeline
     from pipeline.engine import paths
 
-    if "rdna3" not in engine.available_architectures():
+    if "rdna3" not in engines.available_architectures():
         pytest.skip("Mesa's RADV does not run here: the example was not run")
     monkeypatch.setattr(paths, "DERIVE_CACHE", tmp_path / "derive")
     readme = (Path(pipeline.__file__).parent.parent / "README.md").read_text()
@@ -447,7 +450,8 @@ def test_the_page_s_rerun_command_names_the_run_as_it_was_made(target, name, pre
     named otherwise; read back by the CLI's own parser and `api.resolve`, the same target."""
     import shlex
 
-    from pipeline.approximate import api, derive_page
+    from pipeline.approximate import api
+    from pipeline.approximate.publishing import derive_page
     from pipeline.cli import build_parser
 
     command = derive_page.rerun_command(dict(target=target, architectures=["rdna3", "sm_89"], precision=precision))

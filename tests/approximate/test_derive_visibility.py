@@ -10,7 +10,8 @@ import sys
 import pytest
 import sympy as sp
 
-from pipeline.approximate import engine, parametric, parametric_search
+from pipeline.approximate import engines, targets
+from pipeline.approximate.search import box_search as parametric_search
 from tests.helpers import cli_env
 
 
@@ -19,7 +20,7 @@ def test_pipeline_derive_on_the_smith_ggx_visibility(tmp_path):
     material rows with their constants' formulas, Hammon's V placed and beaten by a pixel form at no
     more cycles, Filament's fast V beaten (by its own form with its 0.5 held, its ones refitted, at
     no more cycles), the twins equal to the members' values, and a rerun that keeps the search."""
-    if "rdna3" not in engine.available_architectures():
+    if "rdna3" not in engines.available_architectures():
         pytest.skip("Mesa's RADV does not run here: pipeline derive was not run")
     out = tmp_path / "v"
     command = [sys.executable, "-m", "pipeline", "derive", "--target", "smith_ggx_visibility", "--gpu", "rdna3",
@@ -58,7 +59,7 @@ def test_pipeline_derive_on_the_smith_ggx_visibility(tmp_path):
     spec = importlib.util.spec_from_file_location("derive_twin", out / "derive_twin.py")
     twin = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(twin)
-    target = parametric.registry()["smith_ggx_visibility"]
+    target = targets.several_variable_targets()["smith_ggx_visibility"]
     symbols = {s.name: s for s in target.symbols()}
     points = [(0.1, 0.7, 0.3), (0.9, 0.05, 0.9), (0.5, 0.5, 0.02)]
     for name, member in results["members"].items():

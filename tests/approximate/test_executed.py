@@ -10,7 +10,8 @@ import numpy as np
 import pytest
 import sympy as sp
 
-from pipeline.approximate import executed, forms, targets
+from pipeline.approximate import forms, targets
+from pipeline.approximate.measures import executed
 from pipeline.isa import execution
 from tests.helpers import spirv_tools_missing
 

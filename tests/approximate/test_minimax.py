@@ -5,7 +5,8 @@ import math
 import numpy as np
 import pytest
 
-from pipeline.approximate import measure, minimax
+from pipeline.approximate.measures import measure
+from pipeline.approximate.search import minimax
 
 
 def _powers(degree):

@@ -9,9 +9,11 @@ import numpy as np
 import pytest
 import sympy as sp
 
-from pipeline.approximate import engine, formulas, parametric, parametric_search, templates
-from pipeline.approximate.parametric import Axis, ParametricTarget
-from pipeline.approximate.targets import DeriveError
+from pipeline.approximate import engines, targets
+from pipeline.approximate.engines import pairs, several_variables
+from pipeline.approximate.search import anchor_refits, box_search as parametric_search, formulas, templates
+from pipeline.approximate.search import per_value as fits
+from pipeline.approximate.targets import Axis, DeriveError, Target
 from pipeline.optics import brdf
 from tests.helpers import cli_env
 
@@ -20,7 +22,7 @@ X, Y = sp.symbols("x y", real=True)
 
 def test_symmetric_monomials_are_the_symmetric_sums():
     def terms(*args):
-        out = parametric._monomials([X, Y], *args)
+        out = templates._monomials([X, Y], *args)
         assert out[0] == 1 and len(set(out)) == len(out)         # (the constant first, no repeats)
         return set(out)
 
@@ -30,7 +32,7 @@ def test_symmetric_monomials_are_the_symmetric_sums():
     assert terms(2, False, False) == {1, X, Y, X * Y, X**2, Y**2}
 
 
-PLANTED = ParametricTarget("planted", "1/((0.5 + 1.5*a)*(x + y) + (2 - a)*x*y)", (Axis("x", 0.1, 1.0), Axis("y", 0.1, 1.0)),
+PLANTED = Target("planted", "1/((0.5 + 1.5*a)*(x + y) + (2 - a)*x*y)", (Axis("x", 0.1, 1.0), Axis("y", 0.1, 1.0)),
                            Axis("a", 0.0, 1.0), "rel")
 
 
@@ -47,12 +49,12 @@ def test_an_anchors_numbers_refitted_on_the_box_come_back_exactly():
 
     from pipeline.approximate.targets import Anchor
 
-    target = parametric.check(dataclasses.replace(PLANTED, anchors=(
+    target = targets.check(dataclasses.replace(PLANTED, anchors=(
         Anchor("off", "1/((0.4 + 1.6*a)*(x + y) + (2.2 - a)*x*y)", "planted"),
         Anchor("halved", "0.5/((0.25 + 0.75*a)*(x + y) + (2 - 0.5*a)*x*y)", "planted"),
         Anchor("integers", "1/((1 + a)*(x + y) + (2 - a)*x*y)", "planted"))))
     f = target.numpy()
-    found, coverage = parametric.refitted_box_anchors(target, f, lambda s: None)
+    found, coverage = anchor_refits.refitted_box_anchors(target, f, lambda s: None)
     names = ["off_refitted", "halved_refitted", "halved_refitted_offsets", "integers_refitted_offsets"]
     assert [r["name"] for r in found] == names == coverage["refitted_anchors"]
     by_name = {r["name"]: r for r in found}
@@ -61,7 +63,7 @@ def test_an_anchors_numbers_refitted_on_the_box_come_back_exactly():
         assert by_name[name]["errors"]["max_rel_error"] < 1e-9, name
     held = {float(v) for v in by_name["halved_refitted_offsets"]["expression"].atoms(sp.Float)}
     assert {0.5, -0.5} <= held and 2.0 not in held
-    written = {name: parametric.measure_box(e, target, f)["max_rel_error"]
+    written = {name: formulas.measure_box(e, target, f)["max_rel_error"]
                for name, e in target.anchor_expressions().items()}
     assert written["off"] > 0.05 and written["halved"] > 0.05
     integers = by_name["integers_refitted_offsets"]
@@ -73,7 +75,7 @@ def test_offsets_free_holds_amds_free_factors_and_frees_the_sums_integers():
     """Filament's fast V: its 0.5 (an output modifier on AMD) held exactly, each 1 of (1 - alpha) a
     decimal number to refit (one number: both are the same 1), exponents and the -1 of -alpha as they
     are; a factor that is no power of two stays a number to refit."""
-    from pipeline.approximate import anchor_refits
+    from pipeline.approximate.search import anchor_refits
 
     nov, nol, alpha = sp.symbols("NoV NoL alpha", real=True)
     filament = sp.Float(0.5) / (nov * (nol * (1 - alpha) + alpha) + nol * (nov * (1 - alpha) + alpha))
@@ -90,12 +92,12 @@ def test_a_pairs_anchor_is_refitted_as_one_keeping_its_shared_number_shared():
     from pipeline.approximate.targets import Anchor
 
     def part(name, law, anchor):
-        return parametric.check(ParametricTarget(name, law, (Axis("x", 0.0, 1.0),), Axis("a", 0.5, 1.0), "abs",
+        return targets.check(Target(name, law, (Axis("x", 0.0, 1.0),), Axis("a", 0.5, 1.0), "abs",
                                                  anchors=(Anchor("off", anchor, "planted"),)))
 
-    pair = parametric.PairTarget("planted", part("s", "1/(1 + a*x)", "1/(1 + 1.2*a*x)"),
+    pair = targets.pair("planted", part("s", "1/(1 + a*x)", "1/(1 + 1.2*a*x)"),
                                  part("b", "x/(2*(1 + a*x))", "0.4*x/(1 + 1.2*a*x)"))
-    (found,) = parametric.refitted_pair_anchors(pair, lambda s: None)
+    (found,) = pairs.refitted_pair_anchors(pair, lambda s: None)
     assert found["name"] == "off_refitted"
     assert max(e["max_abs_error"] for e in found["errors"].values()) < 1e-9
     shared = {float(v) for v in found["scale"].atoms(sp.Float)} & {float(v) for v in found["bias"].atoms(sp.Float)}
@@ -105,25 +107,25 @@ def test_a_pairs_anchor_is_refitted_as_one_keeping_its_shared_number_shared():
 def test_a_planted_law_comes_back_exactly_with_lines_in_the_parameter():
     """1/(k0 (x + y) + k1 x y) with k0 = 0.5 + 1.5 a, k1 = 2 - a: the symmetric reciprocal template is
     exact at every value, and its constants' lines, polished together, are the planted ones."""
-    target = parametric.check(PLANTED)
+    target = targets.check(PLANTED)
     f = target.numpy()
-    assert parametric.is_symmetric(target, f)
-    template = next(t for t in parametric.family_templates(target, True)
+    assert targets.is_symmetric(target, f)
+    template = next(t for t in templates.family_templates(target, True)
                     if t.name == "reciprocal_polynomial_bilinear_no_constant_symmetric")
-    per_value = parametric.fit_per_value(template, target, f)
+    per_value = fits.fit_per_value(template, target, f)
     assert per_value.errors.max() < 1e-10
-    coefficients, error = parametric.polish_formulas(template, per_value, ("line", "line"), target, f)
+    coefficients, error = formulas.polish_formulas(template, per_value, ("line", "line"), target, f)
     assert error < 1e-10
     np.testing.assert_allclose(coefficients[:, 1:3], [[0.5, 1.5], [2.0, -1.0]], atol=1e-8)     # (p^0, p^1)
     assert np.all(coefficients[:, [0, 3]] == 0)     # (a line has no 1 / p and no square term)
     # the same with k0 proportional: not the law, measurably worse, never better than per value
-    reduced_coefficients, reduced = parametric.polish_formulas(template, per_value, ("proportional", "line"), target, f)
+    reduced_coefficients, reduced = formulas.polish_formulas(template, per_value, ("proportional", "line"), target, f)
     assert reduced > 1e-3
     # written with k0's factor in the numerator: the same function
-    k, (x, y, a) = parametric.constant_symbols(2), target.symbols()
-    pixel = template.expression.xreplace(dict(zip(k, parametric.formula_expressions(reduced_coefficients, a))))
-    fitted = parametric.Fitted(template, "formulas_pl", reduced_coefficients, per_value, {}, pixel, None)
-    scaled = parametric._scaled(fitted, a)
+    k, (x, y, a) = templates.constant_symbols(2), target.symbols()
+    pixel = template.expression.xreplace(dict(zip(k, formulas.formula_expressions(reduced_coefficients, a))))
+    fitted = formulas.Fitted(template, "formulas_pl", reduced_coefficients, per_value, {}, pixel, None)
+    scaled = parametric_search._scaled(fitted, a)
     assert scaled != pixel and sp.srepr(scaled).count("Float") == sp.srepr(pixel).count("Float")
     points = np.random.default_rng(2).uniform(0.1, 1.0, (3, 50))
     np.testing.assert_allclose(sp.lambdify((x, y, a), scaled)(*points), sp.lambdify((x, y, a), pixel)(*points), rtol=1e-13)
@@ -135,32 +137,32 @@ def test_a_template_no_better_than_a_constant_at_one_value_is_dropped_there(monk
     the order they are fitted) whose error reaches it; one above them all gives every value's fit, bit
     for bit the unbounded one's. material_forms drops by the best constant's error and lists the
     template with the rule's numbers, and fits the others as before."""
-    from pipeline.approximate.per_value import Dropped
+    from pipeline.approximate.search.per_value import Dropped
 
-    target = parametric.check(PLANTED)
+    target = targets.check(PLANTED)
     f = target.numpy()
-    template = next(t for t in parametric.family_templates(target, True) if t.name == "polynomial_degree1_symmetric")
-    full = parametric.fit_per_value(template, target, f)
-    grid, _ = parametric.parameter_values(target.parameter)
+    template = next(t for t in templates.family_templates(target, True) if t.name == "polynomial_degree1_symmetric")
+    full = fits.fit_per_value(template, target, f)
+    grid, _ = targets.parameter_values(target.parameter)
     middle = grid.size // 2
     order = list(range(middle, grid.size)) + list(range(middle - 1, -1, -1)) + list(range(grid.size, full.values.size))
-    first = parametric.fit_per_value(template, target, f, give_up=full.errors[middle])
+    first = fits.fit_per_value(template, target, f, give_up=full.errors[middle])
     assert isinstance(first, Dropped) and first.fitted == 1
     assert (first.value, first.error) == (full.values[middle], full.errors[middle])
     later = max(full.errors[order[:3]]) * (1 + 1e-9)            # above the first three values' errors
     assert later < full.errors.max()
     k = next(i for i, j in enumerate(order) if full.errors[j] >= later)
-    dropped = parametric.fit_per_value(template, target, f, give_up=later)
+    dropped = fits.fit_per_value(template, target, f, give_up=later)
     assert isinstance(dropped, Dropped) and dropped.fitted == k + 1 and dropped.value == full.values[order[k]]
-    kept = parametric.fit_per_value(template, target, f, give_up=full.errors.max() * 1.01)
+    kept = fits.fit_per_value(template, target, f, give_up=full.errors.max() * 1.01)
     assert np.array_equal(kept.constants, full.constants) and np.array_equal(kept.errors, full.errors)
     # the constant's error planted between the two templates' per-value errors: the worse one is dropped
-    good = next(t for t in parametric.family_templates(target, True)
+    good = next(t for t in templates.family_templates(target, True)
                 if t.name == "reciprocal_polynomial_bilinear_no_constant_symmetric")
     listed: list = []
     planted = full.errors.max() / 2
     monkeypatch.setattr(formulas, "_constant_error", lambda target, f: planted)
-    forms = parametric.material_forms([template, good], target, f, lambda s: None, dropped=listed)
+    forms = formulas.material_forms([template, good], target, f, lambda s: None, dropped=listed)
     assert [d["template"] for d in listed] == [template.name] and listed[0]["constant_error"] == planted
     assert listed[0]["per_value_error"] >= planted and {m.template.name for m in forms} == {good.name}
 
@@ -168,46 +170,46 @@ def test_a_template_no_better_than_a_constant_at_one_value_is_dropped_there(monk
 def test_the_per_value_optimum_bounds_the_formulas_on_the_visibility():
     """On V(NoV, NoL; alpha): the reciprocal bilinear template's lines are no better than its
     constants fitted at each value alone, and Hammon's error is its closed form 1 - sqrt(0.51)."""
-    target = parametric.registry()["smith_ggx_visibility"]
+    target = targets.several_variable_targets()["smith_ggx_visibility"]
     f = target.numpy()
-    template = next(t for t in parametric.family_templates(target, True)
+    template = next(t for t in templates.family_templates(target, True)
                     if t.name == "reciprocal_polynomial_bilinear_no_constant_symmetric")
-    per_value = parametric.fit_per_value(template, target, f)
-    _, line = parametric.polish_formulas(template, per_value, ("line", "line"), target, f)
+    per_value = fits.fit_per_value(template, target, f)
+    _, line = formulas.polish_formulas(template, per_value, ("line", "line"), target, f)
     assert line >= per_value.errors.max() * (1 - 1e-9)
-    hammon = parametric.measure_box(target.anchor_expressions()["Hammon"], target, f)["max_rel_error"]
+    hammon = formulas.measure_box(target.anchor_expressions()["Hammon"], target, f)["max_rel_error"]
     assert hammon == pytest.approx(brdf.hammon_largest_relative_error(0.02)[0], rel=1e-6)
     assert line < hammon / 2        # (measured 0.132 against 0.286)
 
 
 @pytest.mark.parametrize("target, message", [
-    (ParametricTarget("t", "x*y", (Axis("x", 1.0, 0.0), Axis("y", 0, 1))), "x in [1.0, 0.0]"),
-    (ParametricTarget("t", "x*y", (Axis("x", 0, 1), Axis("x", 0, 1))), "repeat"),
-    (ParametricTarget("t", "x*z", (Axis("x", 0, 1), Axis("y", 0, 1))), "unknown name 'z'"),
-    (ParametricTarget("t", "1/x", (Axis("x", 0, 1),), Axis("a", 0, 1), "abs"), "is not finite at x = 0"),
-    (ParametricTarget("t", "x - a", (Axis("x", 0, 1),), Axis("a", 0, 1), "rel"), "is 0"),
-    (ParametricTarget("t", "x", (Axis("x", 0, 1), Axis("y", 0, 1), Axis("z", 0, 1)), Axis("a", 0, 1)), "at most 3"),
+    (Target("t", "x*y", (Axis("x", 1.0, 0.0), Axis("y", 0, 1))), "x in [1.0, 0.0]"),
+    (Target("t", "x*y", (Axis("x", 0, 1), Axis("x", 0, 1))), "repeat"),
+    (Target("t", "x*z", (Axis("x", 0, 1), Axis("y", 0, 1))), "unknown name 'z'"),
+    (Target("t", "1/x", (Axis("x", 0, 1),), Axis("a", 0, 1), "abs"), "is not finite at x = 0"),
+    (Target("t", "x - a", (Axis("x", 0, 1),), Axis("a", 0, 1), "rel"), "is 0"),
+    (Target("t", "x", (Axis("x", 0, 1), Axis("y", 0, 1), Axis("z", 0, 1)), Axis("a", 0, 1)), "at most 3"),
 ])
 def test_bad_targets_are_named(target, message):
     with pytest.raises(DeriveError, match=message.replace("[", r"\[").replace("]", r"\]")):
-        parametric.check(target)
+        targets.check(target)
 
 
 def test_the_environment_brdf_table_is_the_quadrature_between_its_points():
     """The tables (65 x 65 Chebyshev points, cubic splines) against `optics.brdf.env_brdf` itself at
     points off the grid (measured: 6e-7 in A, 1.7e-6 in B at 300 points), and the anchors as the
     targets write them against `optics.brdf`'s own (Karis's and Lazarov's A and B)."""
-    scale, bias = parametric.env_brdf_table()
+    scale, bias = targets.env_brdf_table()
     rng = np.random.default_rng(1)
     nov, roughness = rng.uniform(0.02, 1.0, 40), rng.uniform(0.05, 1.0, 40)
     A, B = brdf.env_brdf(nov, roughness)
     assert np.abs(scale(nov, roughness) - A).max() < 1e-5
     assert np.abs(bias(nov, roughness) - B).max() < 1e-5
-    targets = parametric.env_brdf_targets()
+    both = targets.env_brdf_targets()
     for part, name in enumerate(("env_brdf_scale", "env_brdf_bias")):
-        target = targets[name]
+        target = both[name]
         for anchor, function in (("Karis", brdf.env_brdf_karis_mobile), ("Lazarov", brdf.env_brdf_lazarov)):
-            written = parametric._numpy_of(target.anchor_expressions()[anchor], target.symbols())
+            written = targets.numpy_function(target.anchor_expressions()[anchor], target.symbols())
             np.testing.assert_allclose(written(nov, roughness), function(nov, roughness)[part], rtol=1e-12, atol=1e-14)
 
 
@@ -220,7 +222,7 @@ def _planted_csv(path, rows=None):
 
 def test_a_csv_table_is_a_target_on_its_grid(tmp_path):
     x, a = _planted_csv(tmp_path / "law.csv")
-    target = parametric.from_csv(tmp_path / "law.csv", ["x"], "a")
+    target = targets.from_csv(tmp_path / "law.csv", ["x"], "a")
     assert (target.variables[0], target.parameter) == (Axis("x", 0.0, 1.0), Axis("a", 0.5, 2.0))
     f = target.numpy()
     X, A = np.meshgrid(x, a, indexing="ij")
@@ -238,14 +240,14 @@ def test_a_csv_table_is_a_target_on_its_grid(tmp_path):
 def test_a_malformed_csv_table_is_named(tmp_path, rows, args, message):
     _planted_csv(tmp_path / "bad.csv", rows)
     with pytest.raises(DeriveError, match=message):
-        parametric.from_csv(tmp_path / "bad.csv", *args)
+        targets.from_csv(tmp_path / "bad.csv", *args)
 
 
 def test_pairs_take_the_larger_error_and_share_the_push_constants(monkeypatch):
     """`derive_pair` on two planted parts: each pair compiled as F0 A + B, its error the larger of its
     parts' (each in its own column), the bias's push constants numbered after the scale's, and the
     anchor's verdict by the rule (a planted pair at fewer cycles and smaller error beats it)."""
-    if "rdna3" not in engine.available_architectures():
+    if "rdna3" not in engines.available_architectures():
         pytest.skip("Mesa's RADV does not run here")
     from pipeline.approximate.forms import Form
 
@@ -271,13 +273,12 @@ def test_pairs_take_the_larger_error_and_share_the_push_constants(monkeypatch):
                        1 - nov * nov * r * r * r),
                   part({"b1": (nov * r, 0.02, "pixel"), "b2": (c0 + nov, 0.04, "material")},
                        nov * nov * r * r * r)])
-    monkeypatch.setattr(parametric, "derive", lambda *args, **kwargs: next(parts))
-    monkeypatch.setattr(parametric, "searched", lambda searches, *args: [([], {}) for _ in searches])  # (derive's)
-    monkeypatch.setattr(parametric, "refitted_pair_anchors", lambda *args: [])     # (the real anchors' refit)
-    targets = parametric.env_brdf_targets()
-    pair = parametric.PairTarget("planted", targets["env_brdf_scale"], targets["env_brdf_bias"])
-    monkeypatch.setattr(parametric, "check_pair", lambda t: t)
-    results = parametric.derive_pair(pair, gpu=["rdna3"], log=lambda s: None)
+    monkeypatch.setattr(pairs, "derive", lambda *args, **kwargs: next(parts))
+    monkeypatch.setattr(pairs, "searched", lambda searches, *args: [([], {}) for _ in searches])  # (derive's)
+    monkeypatch.setattr(pairs, "refitted_pair_anchors", lambda *args: [])     # (the real anchors' refit)
+    both = targets.env_brdf_targets()
+    pair = targets.pair("planted", both["env_brdf_scale"], both["env_brdf_bias"])
+    results = pairs.derive_pair(pair, gpu=["rdna3"], log=lambda s: None)
     pixel = results["members"]["a1 + b1"]
     assert (pixel["max_abs_error"], pixel["max_abs_error_scale"], pixel["max_abs_error_bias"]) == (0.02, 0.01, 0.02)
     material = results["forms"]["a2 + b2"].expression
@@ -293,7 +294,7 @@ def test_a_csv_table_runs_through_derive(tmp_path, monkeypatch):
     """A CSV table of 1 / (1 + a x) through `pipeline.derive` (the Python API), the templates cut to
     the reciprocal line and the grammar left out for time: its constants' formulas recover the law (k0 = 1, k1 = a) to the
     table's interpolation error, per material and per pixel, and no exact row (a table has no shader)."""
-    if "rdna3" not in engine.available_architectures():
+    if "rdna3" not in engines.available_architectures():
         pytest.skip("Mesa's RADV does not run here")
     from pipeline import derive
 
@@ -341,10 +342,10 @@ def test_a_toml_file_with_variables_is_a_parametric_target(tmp_path):
 
     (tmp_path / "d.toml").write_text(GGX)
     target = api.resolve(str(tmp_path / "d.toml"))
-    assert isinstance(target, ParametricTarget)
+    assert isinstance(target, Target)
     assert (target.variables, target.parameter, target.metric) == ((Axis("NoH", 0.0, 1.0),), Axis("a2", 0.01, 1.0), "rel")
     assert target.numpy()(np.array(1.0), np.array(0.25)) == pytest.approx(1 / (np.pi * 0.25))     # D(1) = 1 / (pi a2)
-    mine = parametric._numpy_of(target.anchor_expressions()["mine"], target.symbols())
+    mine = targets.numpy_function(target.anchor_expressions()["mine"], target.symbols())
     assert mine(np.array(0.3), np.array(0.5)) == pytest.approx(target.numpy()(np.array(0.3), np.array(0.5)))
 
 
@@ -358,7 +359,7 @@ def test_a_toml_file_with_variables_is_a_parametric_target(tmp_path):
 def test_a_bad_toml_target_is_named(tmp_path, edit, message):
     (tmp_path / "d.toml").write_text(edit(GGX))
     with pytest.raises(DeriveError, match=message.replace("[", r"\[").replace("]", r"\]").replace("(", r"\(")):
-        parametric.from_file(tmp_path / "d.toml")
+        targets.from_file(tmp_path / "d.toml")
 
 
 def test_ggx_d_comes_back_exactly_with_its_constants_in_one_over_a2(tmp_path):
@@ -366,16 +367,16 @@ def test_ggx_d_comes_back_exactly_with_its_constants_in_one_over_a2(tmp_path):
     constants are pi / a2, 2 pi (1 - 1 / a2) and pi (1 / a2 - 2 + a2): a + b p + c / p formulas
     (`laurent`) make it exact over the whole box; lines cannot (its k0 grows as 1 / a2)."""
     (tmp_path / "d.toml").write_text(GGX)
-    target = parametric.from_file(tmp_path / "d.toml")
+    target = targets.from_file(tmp_path / "d.toml")
     f = target.numpy()
-    template = next(t for t in parametric.family_templates(target, False, True)
+    template = next(t for t in templates.family_templates(target, False, True)
                     if t.name == "reciprocal_polynomial_degree4")
-    per_value = parametric.fit_per_value(template, target, f)
-    coefficients, error = parametric.polish_formulas(template, per_value, ("laurent",) * 5, target, f)
+    per_value = fits.fit_per_value(template, target, f)
+    coefficients, error = formulas.polish_formulas(template, per_value, ("laurent",) * 5, target, f)
     assert error < 1e-9
     np.testing.assert_allclose(coefficients[[0, 2, 4], :3],
                                [[np.pi, 0, 0], [-2 * np.pi, 2 * np.pi, 0], [np.pi, -2 * np.pi, np.pi]], atol=1e-7)
-    _, line = parametric.polish_formulas(template, per_value, ("line",) * 5, target, f)
+    _, line = formulas.polish_formulas(template, per_value, ("line",) * 5, target, f)
     assert line > 0.1
 
 
@@ -385,11 +386,11 @@ def test_coefficients_at_rounding_level_are_dropped(tmp_path, monkeypatch):
     formulas a + b p + c / p alone: the others are not what this tests.)"""
     monkeypatch.setattr(formulas, "formula_variants", lambda count, reduce, laurent=False: [("laurent",) * count])
     (tmp_path / "d.toml").write_text(GGX)
-    target = parametric.from_file(tmp_path / "d.toml")
+    target = targets.from_file(tmp_path / "d.toml")
     f = target.numpy()
-    template = next(t for t in parametric.family_templates(target, False, True)
+    template = next(t for t in templates.family_templates(target, False, True)
                     if t.name == "reciprocal_polynomial_degree4")
-    fitted = next(m for m in parametric.material_forms([template], target, f, lambda s: None) if m.formula == "laurent")
+    fitted = next(m for m in formulas.material_forms([template], target, f, lambda s: None) if m.formula == "laurent")
     assert np.all(fitted.coefficients[[1, 3]] == 0) and fitted.errors["max_rel_error"] < 1e-9
     names = {s.name for s in fitted.material.free_symbols}
     assert {"c0", "c2", "c4"} <= names and not names & {"c1", "c3"}
@@ -402,20 +403,20 @@ def test_cos_n_s_zone_moves_with_n_and_the_spherical_gaussian_errs_its_closed_fo
     Gaussian exp(n (t - 1)) errs most at the zone's edge of the smallest n (its ratio to t^n,
     exp(n (t - 1 - ln t)), falls in t and in n there): exp(2 (sqrt(L) - 1)) / L - 1, within 1e-9."""
     level = 0.5
-    target = parametric.cos_n_target(level)
-    t, n = parametric.mesh(target, 9)
+    target = targets.cos_n_target(level)
+    t, n = targets.mesh(target, 9)
     assert np.all(t >= level ** (1 / n) * (1 - 1e-15)) and np.all(t <= 1.0)
     assert np.any(np.isclose(t, level ** (1 / n), rtol=0, atol=1e-15)) and set(np.round(n, 9)) >= {2.0, 1000.0}
     sg = target.anchor_expressions()["SG"]
-    measured = parametric.measure_box(sg, target, target.numpy())["max_rel_error"]
+    measured = formulas.measure_box(sg, target, target.numpy())["max_rel_error"]
     assert measured == pytest.approx(np.exp(2 * (np.sqrt(level) - 1)) / level - 1, rel=1e-9)
-    names = [t.name for t in parametric.family_templates(target, False, True)]
+    names = [t.name for t in templates.family_templates(target, False, True)]
     assert len(names) == 12 and not any("degree3" in n or "degree4" in n for n in names)    # (max_degree 2)
     with pytest.raises(DeriveError, match="lower end below 1"):
-        parametric.check(ParametricTarget("bad", "t**n", (Axis("t", 0.5, 1.0, lo_of="2**(1/n)"),),
+        targets.check(Target("bad", "t**n", (Axis("t", 0.5, 1.0, lo_of="2**(1/n)"),),
                                           Axis("n", 2.0, 10.0), "rel"))
     with pytest.raises(DeriveError, match="there is none"):
-        parametric.check(ParametricTarget("bad", "t**2", (Axis("t", 0.5, 1.0, lo_of="0.5"),), None, "rel"))
+        targets.check(Target("bad", "t**2", (Axis("t", 0.5, 1.0, lo_of="0.5"),), None, "rel"))
 
 
 def test_the_engine_and_the_lobe_search_fit_the_spherical_gaussian_s_class_alike():
@@ -433,14 +434,14 @@ def test_the_engine_and_the_lobe_search_fit_the_spherical_gaussian_s_class_alike
     from pipeline.stages import lobe_search
 
     level = 0.6
-    target = parametric.cos_n_target(level, (10.0, 100.0))
+    target = targets.cos_n_target(level, (10.0, 100.0))
     f = target.numpy()
-    template = next(t for t in parametric.family_templates(target, False, True) if t.name == "exp2_polynomial_degree1")
-    per_value = parametric.fit_per_value(template, target, f)
+    template = next(t for t in templates.family_templates(target, False, True) if t.name == "exp2_polynomial_degree1")
+    per_value = fits.fit_per_value(template, target, f)
     search = lobe_search.fit_family("exp2_linear", per_value.values, level, 256)
     ratio = per_value.errors / search["grid_zone_error"]
     assert np.all(ratio <= 1 + 1e-4) and np.all(ratio > 0.98), ratio
-    _, line_error = parametric.polish_formulas(template, per_value, ("line", "line"), target, f)
+    _, line_error = formulas.polish_formulas(template, per_value, ("line", "line"), target, f)
     n = lobe_search.n_grid([(10.0, 100.0)], 6)
     fit = lobe_search.fit_family("exp2_linear", n, level, 256)
     settings = SolverSettings(1e-12, 1e-14, 200)
@@ -470,7 +471,7 @@ def test_a_parameter_s_range_is_replaced_as_the_lobe_search_splits_n(tmp_path):
 
     target = api.resolve("cos_n", parameter_range="100:1000")
     assert (target.parameter.lo, target.parameter.hi) == (100.0, 1000.0)
-    assert target.variables[0].lo == pytest.approx(parametric.COS_N_LEVEL ** (1 / 100), rel=1e-12)
+    assert target.variables[0].lo == pytest.approx(targets.COS_N_LEVEL ** (1 / 100), rel=1e-12)
     pair = api.resolve("env_brdf", parameter_range=(0.5, 1.0))
     assert pair.scale.parameter.lo == pair.bias.parameter.lo == 0.5
     for bad, message in (("schlick", "has no parameter"), ("cos_n", "give LO:HI"), ("env_brdf", "the table covers")):
@@ -487,16 +488,16 @@ def test_a_constant_no_line_holds_comes_from_the_symbolic_regression():
     """1 / (1 + sqrt(a) x): the reciprocal of a line whose slope is sqrt(a), a in [0.1, 4]. Lines in a
     err above 1e-2; the symbolic regression finds k0 = 1 and k1 = sqrt(a) from the per-value optima
     (`--formula-complexity`), and the member errs below 1e-6 over the whole box."""
-    target = ParametricTarget("sqrt_slope", "1/(1 + sqrt(a)*x)", (Axis("x", 0.0, 1.0),), Axis("a", 0.1, 4.0), "rel")
+    target = Target("sqrt_slope", "1/(1 + sqrt(a)*x)", (Axis("x", 0.0, 1.0),), Axis("a", 0.1, 4.0), "rel")
     f = target.numpy()
-    template = next(t for t in parametric.family_templates(target, False, True) if t.name == "reciprocal_polynomial_degree1")
-    fitted = parametric.material_forms([template], target, f, lambda s: None, formula_complexity=4)
+    template = next(t for t in templates.family_templates(target, False, True) if t.name == "reciprocal_polynomial_degree1")
+    fitted = formulas.material_forms([template], target, f, lambda s: None, formula_complexity=4)
     line = next(m for m in fitted if m.formula == "line")
     found = next(m for m in fitted if m.formula.startswith("found"))
     assert line.errors["max_rel_error"] > 1e-2 and found.errors["max_rel_error"] < 1e-6, (line.errors, found.errors)
     a = sp.Symbol("a", real=True)
     assert sp.simplify(found.formulas[1] - sp.sqrt(a)).evalf(subs={a: 2.0}) == pytest.approx(0, abs=1e-8)
-    record = parametric._records([found], target)[0]
+    record = parametric_search._records([found], target)[0]
     assert float(sp.sympify(record["formulas"]["constants"][1]).subs("a", 2.0)) == pytest.approx(np.sqrt(2.0), rel=1e-6)
     with pytest.raises(DeriveError, match="no parameter"):
         from pipeline.approximate import api
@@ -511,13 +512,13 @@ def test_a_pixel_form_costs_at_least_the_same_form_per_material():
     that shader pays in sequence (the pitfall the netting avoids; 6 cycles against 12 measured)."""
     from pipeline.isa import machine_code
 
-    architectures = [a for a in ("rdna3", "sm_89", "xe_hpg", "g610", "a740") if a in engine.available_architectures()]
+    architectures = [a for a in ("rdna3", "sm_89", "xe_hpg", "g610", "a740") if a in engines.available_architectures()]
     if not architectures:
         pytest.skip("no vendor's compiler runs here")
-    target = parametric.cos_n_target()
+    target = targets.cos_n_target()
     t, n = target.symbols()
     forms = {"material": (t ** sp.Symbol("c0", real=True), "material"), "pixel": (t ** n, "pixel")}
-    cycles, missing = parametric.compile_forms(forms, target, architectures)
+    cycles, missing = several_variables.compile_forms(forms, target, architectures)
     assert not missing, missing
     for a in architectures:
         assert cycles[a]["pixel"] >= cycles[a]["material"] > 0, (a, cycles[a])
@@ -532,10 +533,10 @@ def test_a_refitted_anchor_is_the_tree_its_kept_text_reads_back():
     from text (it distributes a number over a sum), so the refit is taken as its kept text reads it
     (`anchor_refits._as_kept`): the same values, and a tree the derive cache keeps; a tree that reads
     back already is left as it is."""
-    from pipeline.approximate import anchor_refits, kept
+    from pipeline.approximate.search import anchor_refits, kept
     from pipeline.approximate.forms import free_numbers
 
-    target = parametric.registry()["env_brdf_scale"]
+    target = targets.several_variable_targets()["env_brdf_scale"]
     symbols = {s.name: s for s in templates.kept_symbols(target)}
     (free,), q, numbers = free_numbers(target.anchor_expressions()["Karis"])
     refit = free.xreplace({qi: sp.Float(float(v) * 1.01, 17) for qi, v in zip(q, numbers)})

@@ -9,11 +9,12 @@ from pathlib import Path
 import pytest
 import sympy as sp
 
-from pipeline.approximate import parametric, parametric_search
-from pipeline.approximate.parametric_search import Search
+from pipeline.approximate import targets
+from pipeline.approximate.search import box_search as parametric_search
+from pipeline.approximate.search.box_search import Search
 from pipeline.symbolic.budgets import Budget
 
-TARGET = parametric.registry()["smith_ggx_visibility"]
+TARGET = targets.several_variable_targets()["smith_ggx_visibility"]
 
 
 class PlantedSearch(Search):

@@ -5,7 +5,8 @@ import numpy as np
 import pytest
 import sympy as sp
 
-from pipeline.approximate import parametric, rendered, targets
+from pipeline.approximate import targets
+from pipeline.approximate.measures import rendered
 from pipeline.approximate.targets import DeriveError
 from pipeline.optics.images import flip_map
 
@@ -43,28 +44,28 @@ def test_each_registered_role_renders_its_exact_term_invisibly_and_a_known_fit_v
     float32 is invisible; a fit that errs by tenths somewhere (Hammon's visibility, 0.29 relative;
     Karis's EnvBRDFApprox, 0.18 absolute; the paper's f_Q2 lobe outside its zone) is not invisible by
     nothing: its FLIP is above 0."""
-    visibility = parametric.registry()["smith_ggx_visibility"]
+    visibility = targets.several_variable_targets()["smith_ggx_visibility"]
     hammon = visibility.anchor_expressions()["Hammon"]
     drawn = rendered.render(visibility, {"exact": visibility.sympy(), "Hammon": hammon}, size=SIZE, log=lambda s: None)
     assert rendered.invisible(drawn["statistics"]["exact"], drawn["threshold"])
     assert drawn["statistics"]["Hammon"]["flip_max"] > drawn["threshold"]
 
-    pair = parametric.pairs()["env_brdf"]
+    pair = targets.pairs()["env_brdf"]
     F0 = sp.Symbol("F0", real=True)
     karis = F0 * pair.scale.anchor_expressions()["Karis"] + pair.bias.anchor_expressions()["Karis"]
     drawn = rendered.render(pair, {"Karis": karis}, size=SIZE, log=lambda s: None)
     assert drawn["statistics"]["Karis"]["flip_max"] > drawn["threshold"]
 
-    lobe = parametric.registry()["cos_n"]
+    lobe = targets.several_variable_targets()["cos_n"]
     drawn = rendered.render(lobe, {"exact": lobe.sympy()}, size=SIZE, log=lambda s: None)
     assert rendered.invisible(drawn["statistics"]["exact"], drawn["threshold"])
 
 
 def test_the_spheres_span_the_target_s_roughness():
     """The parameter's range in roughness: alpha = roughness^2, n = 2 / alpha^2 - 2; its low end a column."""
-    visibility = parametric.registry()["smith_ggx_visibility"]
+    visibility = targets.several_variable_targets()["smith_ggx_visibility"]
     assert rendered.scene_of(visibility).roughness[0] == pytest.approx(0.02 ** 0.5)
-    lobe = parametric.registry()["cos_n"]
+    lobe = targets.several_variable_targets()["cos_n"]
     lo, hi = rendered.roughness_range(lobe, rendered.role_of(lobe))
     assert 2.0 / (lo ** 4) - 2.0 == pytest.approx(1000.0) and 2.0 / (hi ** 4) - 2.0 == pytest.approx(2.0)
 
@@ -114,7 +115,7 @@ def test_a_declared_role_must_fit_the_target(tmp_path):
         targets.from_file(path)
     path.write_text('[target]\nexpression = "a*b"\nrole = "lobe"\n[[variable]]\nname = "a"\nrange = [0, 1]\n'
                     '[parameter]\nname = "b"\nrange = [1, 2]\n')
-    assert parametric.from_file(path).role == "lobe"
+    assert targets.from_file(path).role == "lobe"
 
 
 def test_a_target_without_a_role_says_why_it_is_not_rendered():

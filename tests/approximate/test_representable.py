@@ -10,7 +10,8 @@ import numpy as np
 import pytest
 import sympy as sp
 
-from pipeline.approximate import families, minimax, representable, targets
+from pipeline.approximate import targets
+from pipeline.approximate.search import families, minimax, representable
 from pipeline.approximate.forms import free_numbers
 
 

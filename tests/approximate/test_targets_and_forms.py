@@ -10,11 +10,12 @@ import numpy as np
 import pytest
 import sympy as sp
 
-from pipeline.approximate import forms, measure, targets
+from pipeline.approximate import forms, targets
+from pipeline.approximate.measures import measure
 from pipeline.approximate.targets import DeriveError
 
 
-@pytest.mark.parametrize("name", targets.NAMES)
+@pytest.mark.parametrize("name", list(targets.one_variable_targets()))
 def test_a_registered_target_is_one_expression_in_numpy_jax_and_sympy(name):
     target = targets.check(targets.registry()[name])
     x = np.linspace(*target.domain, 7)
@@ -76,6 +77,76 @@ def test_a_target_from_a_file(tmp_path):
         targets.named(str(tmp_path / "none.toml"))
 
 
+def test_every_source_of_a_target_yields_the_one_type(tmp_path):
+    """A registered name of each shape, an expression, a TOML file of one variable and of [[variable]]
+    tables, a CSV table and a Target given: each read by the one reader (`targets.read`) into a
+    `targets.Target`, whose `shape` names the engine that derives it (a pair's two parts Targets
+    too); a one-variable expression and a one-variable file are the same target."""
+    one = tmp_path / "one.toml"
+    one.write_text('[target]\nname = "atan"\nexpression = "atan(x)"\ndomain = [0, 1]\n')
+    box = tmp_path / "box.toml"
+    box.write_text('[target]\nname = "d"\nexpression = "1/(1 + x*y*a)"\nmetric = "rel"\n'
+                   '[[variable]]\nname = "x"\nrange = [0, 1]\n[[variable]]\nname = "y"\nrange = [0, 1]\n'
+                   '[parameter]\nname = "a"\nrange = [0.5, 2]\n')
+    table = tmp_path / "law.csv"
+    table.write_text("x,a,value\n" + "".join(f"{x},{a},{1 / (1 + a * x)!r}\n" for x in (0.0, 0.25, 0.5, 0.75, 1.0)
+                                             for a in (0.5, 1.0, 1.5, 2.0)))
+    given = targets.Target("mine", "x*x", (targets.Axis("x", 0.0, 2.0),))
+    sources = {
+        "a registered function of one variable": (dict(target="schlick"), targets.ONE_VARIABLE),
+        "a registered function of several variables": (dict(target="smith_ggx_visibility"), targets.SEVERAL_VARIABLES),
+        "a registered table": (dict(target="env_brdf_scale"), targets.SEVERAL_VARIABLES),
+        "a registered pair": (dict(target="env_brdf"), targets.PAIR),
+        "an expression": (dict(expr="atan(x)", name="atan"), targets.ONE_VARIABLE),
+        "a TOML file of one variable": (dict(target=str(one)), targets.ONE_VARIABLE),
+        "a TOML file of [[variable]] tables": (dict(target=str(box)), targets.SEVERAL_VARIABLES),
+        "a CSV table": (dict(table=str(table), x="x", parameter="a"), targets.SEVERAL_VARIABLES),
+        "a Target": (dict(target=given), targets.ONE_VARIABLE),
+    }
+    read = {what: targets.read(**arguments) for what, (arguments, _) in sources.items()}
+    assert {what: (type(t), t.shape) for what, t in read.items()} == {
+        what: (targets.Target, shape) for what, (_, shape) in sources.items()}
+    assert [type(p) for p in read["a registered pair"].parts] == [targets.Target, targets.Target]
+    assert read["an expression"].numpy()(np.array([0.5])) == read["a TOML file of one variable"].numpy()(np.array([0.5]))
+    assert (read["an expression"].variables, read["an expression"].parameter) == (
+        read["a TOML file of one variable"].variables, None)
+    assert read["a Target"] is given
+
+
+def test_the_engines_take_the_target_of_their_shape(monkeypatch):
+    """`engines.derive` hands each checked target to the engine of its shape (planted engines record
+    what they receive), and no engine or search module calls the targets' readers: a target is read
+    once, before the engine."""
+    import ast
+
+    from pipeline.approximate import engines
+    from pipeline.approximate.engines import one_variable, pairs, several_variables
+
+    received = []
+    for module, function in ((one_variable, "derive"), (several_variables, "derive"), (pairs, "derive_pair")):
+        monkeypatch.setattr(module, function, lambda target, *args, name=module.__name__, **kwargs:
+                            received.append((target.name, name.rsplit(".", 1)[1])) or {})
+    for name in ("schlick", "smith_ggx_visibility", "env_brdf"):
+        engines.derive(targets.read(name), ["rdna3"], None, None, 4)
+    assert received == [("schlick", "one_variable"), ("smith_ggx_visibility", "several_variables"),
+                        ("env_brdf", "pairs")]
+    readers = {"read", "named", "from_expression", "from_file", "from_csv", "with_range", "check", "registry",
+               "one_variable_targets", "several_variable_targets", "pairs"}
+    package = Path(engines.__file__).parent.parent
+    called = {}
+    for room in ("engines", "search"):
+        for path in (package / room).glob("*.py"):
+            for node in ast.walk(ast.parse(path.read_text())):
+                if isinstance(node, ast.ImportFrom) and node.module and node.module.endswith("targets"):
+                    for alias in node.names:
+                        if alias.name in readers:
+                            called.setdefault(path.name, []).append(alias.name)
+                if (isinstance(node, ast.Attribute) and node.attr in readers and isinstance(node.value, ast.Name)
+                        and node.value.id == "targets"):
+                    called.setdefault(path.name, []).append(node.attr)
+    assert called == {}
+
+
 def test_predicted_operations_of_a_form():
     x = sp.Symbol("x", real=True)
     karis = targets.parse("exp2((-5.55473*x - 6.98316)*x)")
@@ -125,7 +196,7 @@ def test_a_form_printed_compiles_and_its_twin_is_its_value(tmp_path):
 def test_the_best_constant_s_error_is_its_closed_form():
     """abs: half the range; rel: (max - min) / (max + min) of |f|, the floor raising the least; 1 where f
     changes sign (no constant has a relative error below 1 there)."""
-    from pipeline.approximate.measure import best_constant_error
+    from pipeline.approximate.measures.measure import best_constant_error
 
     assert best_constant_error([0.0, 0.3, 1.0], "abs") == 0.5
     assert best_constant_error([1.0, 2.0, 3.0], "rel") == 0.5

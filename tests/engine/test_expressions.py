@@ -122,13 +122,13 @@ def sympy_reading(text: str, names) -> sp.Expr:
 def registry_texts() -> list[tuple[str, tuple]]:
     """Every expression the registries hold: targets, anchors, moving range ends, the lobe families'
     and the paper's lobes', with their names."""
-    from pipeline.approximate import parametric, targets
+    from pipeline.approximate import targets
     from pipeline.optics import lobe_families
 
     out = []
     for t in targets.registry().values():
         out += [(t.expression, (t.variable,))] + [(a.expression, (t.variable,)) for a in t.anchors]
-    for t in list(parametric.registry().values()) + [p for pair in parametric.pairs().values()
+    for t in list(targets.several_variable_targets().values()) + [p for pair in targets.pairs().values()
                                                       for p in (pair.scale, pair.bias)]:
         if t.table is None:
             out.append((t.expression, t.names))
@@ -287,13 +287,14 @@ def test_a_kept_entry_changed_or_holding_code_is_recomputed_with_one_line(tmp_pa
     import hashlib
     import json
 
-    from pipeline.approximate import kept, parametric, parametric_search
+    from pipeline.approximate import targets
+    from pipeline.approximate.search import box_search as parametric_search, kept
     from pipeline.symbolic.budgets import Budget
     from pipeline.engine import paths
 
     monkeypatch.setattr(paths, "DERIVE_CACHE", tmp_path / "derive")
     monkeypatch.setattr(parametric_search, "worker_count", lambda parts: 0)       # (the planted search: here)
-    target = parametric.registry()["smith_ggx_visibility"]
+    target = targets.several_variable_targets()["smith_ggx_visibility"]
     nov, nol, alpha = target.symbols()
     c0 = sp.Symbol("c0", real=True)
     expr = sp.Float(1 / 3, 17) / (nov * nol * sp.Float(0.25) + alpha * c0) + sp.Max(0, nov - nol) ** 2

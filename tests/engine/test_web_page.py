@@ -4,7 +4,7 @@ names nothing outside itself."""
 import json
 import re
 
-from pipeline.approximate.derive_page import gles_function
+from pipeline.approximate.publishing.derive_page import gles_function
 from pipeline.engine import web_page
 
 

@@ -171,9 +171,9 @@ def test_every_input_of_a_form_is_interpolated_none_folded():
     what its arithmetic costs on every architecture: 1 / (0.7 z (x + y)) holds a reciprocal, a multiply
     and an add. RADV links each fragment shader to `radv.VERTEX`, which writes four outputs: an input
     it did not write would be a constant, the form folded to nothing (as rcp(0))."""
-    from pipeline.approximate import engine
+    from pipeline.approximate import engines
 
-    available = [a for a in ("rdna3", "gcn5", "sm_89", "xe_hpg", "g610", "a740") if a in engine.available_architectures()]
+    available = [a for a in ("rdna3", "gcn5", "sm_89", "xe_hpg", "g610", "a740") if a in engines.available_architectures()]
     if not available:
         pytest.skip("no GPU compiler runs here")
     names = ["x", "y", "z"]
@@ -190,9 +190,9 @@ def test_a_form_a_back_end_cannot_lower_is_left_out_and_the_rest_compiled_in_hal
     output) among 15 others: it alone is left out with its reason, every other form costs what it
     costs in a batch without it, and the batches are halves of halves (at most 1 + 2 log2(16) = 9
     compilations), not the 17 of one batch and then each form alone."""
-    from pipeline.approximate import engine
+    from pipeline.approximate import engines
 
-    available = [a for a in ("sm_89", "xe_hpg") if a in engine.available_architectures()]
+    available = [a for a in ("sm_89", "xe_hpg") if a in engines.available_architectures()]
     if not available:
         pytest.skip("neither NVIDIA's nor Intel's compiler runs here")
     bodies = {f"f{i}": (f"return x * (x + {i + 1}.0);", ["x"]) for i in range(15)}
@@ -293,7 +293,7 @@ def test_a_float16_form_computes_in_16_bits_on_every_vendor():
     """The same form costed in fp16 (`form_cycles(..., "fp16")`) on one architecture per vendor whose
     compiler runs here: its machine code holds the vendor's 16-bit instructions (v_*_f16, HFMA2,
     :hf, ir3's half registers, Bifrost's v2f16), and its float32 twin's does not."""
-    from pipeline.approximate.engine import available_architectures
+    from pipeline.approximate.engines.options import available_architectures
 
     here = [a for a in HALF_MARKERS if a in available_architectures()]
     if not here:

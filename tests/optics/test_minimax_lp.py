@@ -93,20 +93,22 @@ def test_two_variables_and_a_binding_trust_region(rows_solved):
 def test_every_template_of_the_visibility_gets_the_whole_program_s_optimum():
     """The first step of each family template's fit at the middle roughness, from its own start,
     on a 41 x 41 grid of (NoV, NoL)."""
-    from pipeline.approximate import parametric
+    from pipeline.approximate import targets
+    from pipeline.approximate.search import per_value
+    from pipeline.approximate.search import templates as template_forms
 
-    target = parametric.registry()["smith_ggx_visibility"]
+    target = targets.several_variable_targets()["smith_ggx_visibility"]
     f = target.numpy()
     symbols = target.symbols()[:2]
     value = 0.5
-    x = parametric.variables_at(target, 41, value)
+    x = targets.variables_at(target, 41, value)
     y = f(*x, value)
-    w = parametric.weight_of(target)(y)
-    templates = parametric.family_templates(target, parametric.is_symmetric(target, f), True)
+    w = targets.weight_of(target)(y)
+    templates = template_forms.family_templates(target, targets.is_symmetric(target, f), True)
     assert len(templates) == 18
     for template in templates:
-        model = parametric.Model(template.expression, symbols, parametric.constant_symbols(template.count))
-        c = template.start if not template.basis else parametric._linear_start(template, x, y, w, symbols)
+        model = per_value.Model(template.expression, symbols, template_forms.constant_symbols(template.count))
+        c = template.start if not template.basis else per_value._linear_start(template, x, y, w, symbols)
         r = w * (model(c, x) - y)
         J = w[:, None] * model.jacobian(c, x)
         scale = np.max(np.abs(r))

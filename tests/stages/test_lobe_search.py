@@ -367,7 +367,7 @@ def test_each_family_s_template_is_the_family_its_constants_the_shader_parameter
     template reads n through w = n (1 - t)."""
     import sympy as sp
 
-    from pipeline.approximate import parametric
+    from pipeline.approximate.search import templates
     from pipeline.stages.lobe_search import shader_values, template
     from pipeline.symbolic import grammar
     t = np.linspace(0.6, 1.0, 9)
@@ -375,11 +375,11 @@ def test_each_family_s_template_is_the_family_its_constants_the_shader_parameter
     for index, name in enumerate(lobe_families.NAMES):
         form = template(name)
         constants = np.array([[0.9, 0.2, -0.3][:form.count]]) + 0.01 * rng.standard_normal((1, form.count))
-        value = sp.lambdify([sp.Symbol("t", real=True), *parametric.constant_symbols(form.count)], form.expression)
+        value = sp.lambdify([sp.Symbol("t", real=True), *templates.constant_symbols(form.count)], form.expression)
         expected = lobe_families.value_t(np, index, t, shader_values(name, constants)[0])
         np.testing.assert_allclose(value(t, *constants[0]), expected, rtol=1e-13, err_msg=name)
     form = template("grammar_1", "exp(c - (c * x))")
-    value = sp.lambdify([sp.Symbol("t", real=True), sp.Symbol("n", real=True), *parametric.constant_symbols(2)],
+    value = sp.lambdify([sp.Symbol("t", real=True), sp.Symbol("n", real=True), *templates.constant_symbols(2)],
                         form.expression)
     np.testing.assert_allclose(value(t, 40.0, 0.01, 0.9),
                                grammar.evaluate_numpy(grammar.parse("exp(c - (c * x))"), [0.01, 0.9], 40.0 * (1 - t)),
@@ -407,7 +407,7 @@ def test_the_search_s_rows_are_written_as_derive_writes_its_fronts(search, tmp_p
     anchors whose on_front is their placement's."""
     import csv
 
-    from pipeline.approximate.publish import COLUMNS, write_csv
+    from pipeline.approximate.publishing.derive_files import COLUMNS, write_csv
     from pipeline.publish.tables import lobe_search_rows
     write_csv(tmp_path / "front.csv", lobe_search_rows(search))
     with open(tmp_path / "front.csv") as f:

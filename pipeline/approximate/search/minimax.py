@@ -29,8 +29,9 @@ from __future__ import annotations
 import numpy as np
 from scipy.optimize import minimize_scalar
 
-from ..optics.minimax_lp import linear_minimax
-from . import measure
+from ...optics.minimax_lp import linear_minimax
+from ..measures import measure
+from ..targets.box import chebyshev_points
 
 EXACT = 1e-13           # an error below this (relative to the largest |w f|) is rounding: the fit is exact
 LEVELS = 1e-9           # the exchange stops where the extrema's levels agree to this (relative)
@@ -46,11 +47,6 @@ GROWTH = 1.25           # an error this much above the previous value's calls fo
 class MinimaxFailed(RuntimeError):
     """The exchange found fewer alternating extrema than the reference needs (not a Haar system on
     the interval, or the error vanished)."""
-
-
-def chebyshev_points(lo: float, hi: float, count: int) -> np.ndarray:
-    k = np.arange(count)
-    return lo + (hi - lo) * (1 - np.cos(np.pi * k / (count - 1))) / 2
 
 
 def _alternating_extrema(x, e):

@@ -1,4 +1,4 @@
-"""The one-variable search of `pipeline derive` (`engine`, steps 1 and 2), kept between runs: the
+"""The one-variable search of `pipeline derive` (`engines.one_variable`, steps 1 and 2), kept between runs: the
 families fitted by minimax and the grammar's forms by the ladder of grammars within the budget, on
 `SEARCH_POINTS` Chebyshev points; the forms each architecture's cost table puts on its predicted
 front (`select`); a grammar form's constants polished on the whole interval (`polish`).
@@ -12,7 +12,7 @@ import time
 import numpy as np
 
 from . import families, minimax
-from .forms import Form
+from ..forms import Form
 
 SEARCH_POINTS = 129
 PER_ARCHITECTURE = 24           # grammar forms taken from each architecture's predicted front, at most
@@ -25,9 +25,9 @@ def loss_of(target) -> str:
 
 
 def search(target, f, budget, max_complexity: int, log) -> tuple[list, list, np.ndarray, dict]:
-    """The grammar's forms (`engine`'s docstring, step 2) by the plan `budget` gives the search
+    """The grammar's forms (`engines.one_variable`'s docstring, step 2) by the plan `budget` gives the search
     "grammar": (trees, constants, search losses, the search's coverage, its plan among them)."""
-    from ..symbolic import grammar, ladder
+    from ...symbolic import grammar, ladder
 
     lo, hi = target.domain
     x = minimax.chebyshev_points(lo, hi, SEARCH_POINTS)
@@ -58,8 +58,8 @@ def code_version() -> str:
     import hashlib
     from pathlib import Path
 
-    here = Path(__file__).parent
-    files = sorted(here.glob("*.py")) + sorted((here.parent / "symbolic").glob("*.py"))
+    approximate = Path(__file__).parent.parent
+    files = sorted(approximate.rglob("*.py")) + sorted((approximate.parent / "symbolic").glob("*.py"))
     return hashlib.sha256(b"".join(f.read_bytes() for f in files)).hexdigest()
 
 
@@ -68,7 +68,7 @@ def kept_file(target, budget, max_complexity: int):
     import hashlib
     import json
 
-    from ..engine import paths
+    from ...engine import paths
 
     key = json.dumps([code_version(), target.expression, target.variable, list(target.domain), target.metric,
                       target.floor, budget.key(), max_complexity])
@@ -120,9 +120,9 @@ def searched(target, f, budget, max_complexity: int, log):
 def select(trees, losses, tables: dict) -> list[int]:
     """The forms on some architecture's front of predicted cycles (its cost table) against the
     search's loss, at most PER_ARCHITECTURE each."""
-    from ..symbolic import gpu_costs
+    from ...symbolic import gpu_costs
 
-    from ..symbolic import grammar
+    from ...symbolic import grammar
 
     if not trees:
         return []
@@ -143,7 +143,7 @@ def select(trees, losses, tables: dict) -> list[int]:
 
 def polish(tree, c, target, f, weight) -> np.ndarray:
     """A grammar form's constants, minimax on the whole interval from c (finite differences)."""
-    from ..symbolic import grammar
+    from ...symbolic import grammar
 
     lo, hi = target.domain
 

@@ -9,7 +9,7 @@ import dataclasses
 import numpy as np
 
 from . import minimax
-from .parametric_targets import AXIS_POINTS, parameter_values, ParametricTarget, variables_at, weight_of
+from ..targets import AXIS_POINTS, parameter_values, Target, variables_at, weight_of
 from .templates import constant_symbols, Template
 
 
@@ -71,7 +71,7 @@ class Dropped:
     fitted: int
 
 
-def fit_per_value(template: Template, target: ParametricTarget, f,
+def fit_per_value(template: Template, target: Target, f,
                   give_up: float = np.inf) -> PerValue | Dropped | None:
     """Step 2 of the module docstring (`minimax.along`: from the middle value outward, each value from
     its neighbour's constants, and from the template's own start where that leads astray; the halfway

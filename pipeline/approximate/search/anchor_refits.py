@@ -9,9 +9,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from . import families, measure, minimax
-from .forms import Form, free_numbers
-from .targets import numpy_function
+from ..measures import measure
+from . import families, minimax
+from ..forms import Form, free_numbers
+from ..targets import numpy_function
 
 NEGLIGIBLE = 1e-9               # a constant below this share of a form's largest is tried without it
 
@@ -116,7 +117,7 @@ def _as_kept(expr, target):
     same numbers in the tree sympy builds from their text, where a number times a sum is distributed
     (c*(1 - r)*m, built by substitution, reads back as (c - c*r)*m), so that a rerun that reads the
     kept refit computes what this run did."""
-    from ..engine import expressions
+    from ...engine import expressions
     from .templates import kept_symbols
 
     symbols = {s.name: s for s in kept_symbols(target)}
@@ -133,7 +134,7 @@ def refitted_box_anchors(target, f, log) -> tuple[list[dict], dict]:
     import sympy as sp
 
     from .formulas import _error_key, _polished, measure_box
-    from .parametric_targets import parameter_values
+    from ..targets import parameter_values
 
     values = None if target.parameter is None else np.sort(np.concatenate(parameter_values(target.parameter)))
     key = _error_key(target)

@@ -32,12 +32,12 @@ import math
 import textwrap
 from pathlib import Path
 
-from ..engine import escape
+from ...engine import escape
 from . import rendered_report
-from .executed import GAP
-from .formulas import DROP_RULE
-from .shader_export import (GLSL_FLOAT16, TYPES, arguments_of, domain_text, exported, function_name,  # noqa: F401
-                            function_names, member_functions, shader_sources, shader_text)
+from ..measures.executed import GAP
+from ..search.formulas import DROP_RULE
+from .shader_export import (arguments_of, domain_text, exported, function_name, function_names,  # noqa: F401
+                            GLSL_FLOAT16, member_functions, shader_sources, shader_text, TYPES)
 
 COLUMNS = ("architecture", "kind", "name", "family", "expression", "cycles", "cycles_predicted", "max_abs_error",
            "max_rel_error", "on_front", "source", "range", "parameter_per")
@@ -88,7 +88,7 @@ def _rungs_text(rungs) -> str:
 
 
 def _parametric_coverage(results) -> list[str]:
-    """The coverage lines of a parametric target (`parametric`)."""
+    """The coverage lines of a parametric target (`engines.several_variables`)."""
     t, c = results["target"], results["coverage"]
     lines = []
     if t.get("parameter"):
@@ -186,8 +186,8 @@ def no_verdict_text(results) -> str:
 
 def report(results) -> str:
     """report.md: every number from `results` (results.json's fields)."""
-    from ..isa.architectures import ARCHITECTURES
-    from ..isa.machine_code import backend
+    from ...isa.architectures import ARCHITECTURES
+    from ...isa.machine_code import backend
 
     t, c = results["target"], results["coverage"]
     error = results["error"]
@@ -217,7 +217,7 @@ def report(results) -> str:
              + f"; {c['seconds']} s. Not searched: min, max and saturate, and forms above complexity "
              f"{c['max_complexity']}."]
     if results.get("plan", {}).get("searches"):
-        from ..symbolic import budgets
+        from ...symbolic import budgets
 
         lines += [f"- The plan: {escape.markdown(budgets.plan_text(results['plan']))}."]
     lines += [f"- Time: {results['seconds']} s measured"
@@ -327,8 +327,8 @@ def figure(path: Path, results) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from ..isa.architectures import vendor_groups
-    from ..isa.machine_code import backend
+    from ...isa.architectures import vendor_groups
+    from ...isa.machine_code import backend
 
     error = results["error"]
     floor = results["rounding_floor"]
@@ -396,8 +396,8 @@ def figure(path: Path, results) -> None:
 
 def write(out: Path, results, log=print) -> list[Path]:
     """Every file of the module docstring into `out`, published whole."""
-    from ..engine.cache import digest
-    from ..engine.publishing import publish
+    from ...engine.cache import digest
+    from ...engine.publishing import publish
 
     from . import derive_page
 
@@ -417,7 +417,7 @@ def write(out: Path, results, log=print) -> list[Path]:
             (tmp / name).write_text(text)
         return f"{len(results['rows'])} rows"
 
-    from ..engine.web_page import assets_digest
+    from ...engine.web_page import assets_digest
 
     publish(out, digest("derive", json.dumps(results_json(results), sort_keys=True), assets_digest()), lambda s: None,
             write_all)

@@ -10,11 +10,11 @@ import time
 
 import numpy as np
 
-from .forms import Form
+from ..forms import Form
 from .anchor_refits import refitted_box_anchors
 from .formulas import formula_expressions, material_forms, measure_box
-from .parametric_targets import (
-    _middle, AXIS_POINTS, is_symmetric, mesh, PARAMETER_VALUES, PIXEL_SHARE, SEARCH_AXIS_POINTS)
+from .settings import PIXEL_SHARE
+from ..targets import AXIS_POINTS, is_symmetric, mesh, middle, PARAMETER_VALUES, SEARCH_AXIS_POINTS
 from .templates import _loss, constant_symbols, family_templates, grammar_templates, kept_symbols
 
 
@@ -64,7 +64,7 @@ def _kept_file(search: Search, part: str):
     import hashlib
     import json
 
-    from ..engine import paths
+    from ...engine import paths
     from . import grammar_search
 
     text = json.dumps([grammar_search.code_version(), *search.key(part)])
@@ -111,7 +111,7 @@ def _in_worker(search: Search, part: str, xla_cache: str | None) -> tuple[list[d
     """A part computed in a worker process (its compiled XLA programs kept in the run's folder
     `xla_cache`, if any): (records, coverage, the lines it logged)."""
     if xla_cache:
-        from ..optics.numerics import use_compilation_cache
+        from ...optics.numerics import use_compilation_cache
         use_compilation_cache(xla_cache)
     lines: list[str] = []
     found, coverage = search.compute(part, search.target.numpy(), lines.append)
@@ -122,7 +122,7 @@ def worker_count(parts: int) -> int:
     """Worker processes for `parts` parts to compute: one per core, at most one per part; 0 (all
     computed in this process) where that is one, or where this process may not start children (a
     Dask worker)."""
-    from ..engine import workers
+    from ...engine import workers
 
     count = min(parts, workers.cores())
     return count if count > 1 and workers.may_start_processes() else 0
@@ -136,7 +136,7 @@ def searched(searches: list[Search], functions: list, logs: list, log) -> list[t
     from concurrent.futures import wait
     from concurrent.futures.process import BrokenProcessPool
 
-    from ..engine import faults, workers
+    from ...engine import faults, workers
 
     parts = {(i, part): _read_kept(s, part, logs[i]) for i, s in enumerate(searches) for part in s.parts()}
     missing = [key for key, value in parts.items() if value is None]
@@ -253,7 +253,7 @@ def _family_search(target, f, log, formula_complexity: int = 0) -> tuple[list[di
 def _grammar_search(target, f, budget, max_complexity: int, log, formula_complexity: int = 0) -> tuple[list[dict], dict]:
     """The grammar's templates fitted (steps 1 to 3) and the pixel search (step 4), by the plans
     `budget` gives the searches "templates" and "pixel search"."""
-    from ..symbolic import grammar, ladder
+    from ...symbolic import grammar, ladder
 
     symbols = target.symbols()
     found: list[dict] = []
@@ -267,7 +267,7 @@ def _grammar_search(target, f, budget, max_complexity: int, log, formula_complex
         dropped: list[dict] = []
         found += _records(material_forms(templates, target, f, log, formula_complexity, dropped), target)
         coverage["templates"].update(count=len(templates), seconds=round(time.perf_counter() - started, 1),
-                                     at=_middle(target.parameter), dropped=dropped)
+                                     at=middle(target.parameter), dropped=dropped)
     # the pixel search: the grammar in the variables and the parameter together
     x = mesh(target, SEARCH_AXIS_POINTS)
     y = f(*x)

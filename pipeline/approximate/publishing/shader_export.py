@@ -6,9 +6,9 @@ every front's members (`shader_sources`)."""
 
 from __future__ import annotations
 
-from ..engine import escape
-from .forms import glsl, hlsl, python
-from .targets import parse
+from ...engine import escape
+from ..forms import glsl, hlsl, python
+from ..targets import parse
 
 TYPES = {None: ("float", "float"), "fp32": ("float", "float"), "fp16": ("float16_t", "half")}    # (GLSL, HLSL)
 GLSL_FLOAT16 = "#extension GL_EXT_shader_explicit_arithmetic_types_float16 : require"
@@ -28,8 +28,8 @@ def shader_text(expr, arguments: str, language: str, precision: str | None = Non
     or in its symbols' own names where `arguments` names several (comma-separated); with
     `precision`, its numbers the format's values (`forms.in_format`), in fp16 GLSL each a float16_t
     and HLSL each a half, so that the arithmetic stays in 16 bits."""
-    from . import forms
-    from ..isa.shaders import LITERAL, half_literals
+    from .. import forms
+    from ...isa.shaders import LITERAL, half_literals
 
     if "," not in arguments:
         text = {"glsl": glsl, "hlsl": hlsl, "python": python}[language](expr, arguments.strip(), precision)

@@ -11,7 +11,7 @@ import json
 import os
 from pathlib import Path
 
-from ..engine import expressions
+from ...engine import expressions
 
 
 class Unusable(Exception):

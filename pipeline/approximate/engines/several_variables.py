@@ -1,8 +1,8 @@
 """`derive` for targets of several variables and a per-material parameter: the height-correlated
-Smith-GGX visibility V(NoV, NoL; alpha) (`registry`), or any `ParametricTarget` of up to three
-variables and parameter (in Python: `pipeline.derive(ParametricTarget(...))`).
+Smith-GGX visibility V(NoV, NoL; alpha) (`targets.registry`), or any `targets.Target` of up to
+three variables and parameter (in Python: `pipeline.derive(Target(...))`).
 
-A target (`ParametricTarget`) has variables computed per pixel (NoV, NoL), each with its range, and
+A target of this shape has variables computed per pixel (NoV, NoL), each with its range, and
 at most one parameter with its range (alpha, roughness, n), which a material sets, or a texture per
 pixel. Its error is the largest over the whole box, variables and parameter
 (`optics.brdf.largest_error`: a grid, refined where the error peaks).
@@ -41,51 +41,27 @@ pixel. Its error is the largest over the whole box, variables and parameter
    architecture and per `parameter_per`; the anchors, which engines evaluate with the parameter per
    pixel, are pixel rows, held against the pixel front (`fronts.verdict`).
 
-The parts, each in its module (their names importable from here as well): the target, its box and
-the settings they share (`parametric_targets`); the registered targets and a user's file or table
-(`parametric_registry`); step 1 (`templates`); step 2 (`per_value`); step 3, the box's measure and the
-anchors' refits (`formulas`); the search kept between runs (`parametric_search`). Here: the costs,
-the execution, `derive` and the pair's `derive_pair`.
+The parts, each in its room: the target and its box (`targets`); step 1 (`search.templates`); step
+2 (`search.per_value`); step 3, the box's measure (`search.formulas`); the anchors' refits
+(`search.anchor_refits`); the search kept between runs (`search.box_search`). Here: the costs, the
+execution and `derive`; a pair's (`pairs.derive_pair`) beside it.
 """
 
 from __future__ import annotations
 
 import dataclasses
 import functools
-import itertools
 import time
 
 import numpy as np
 
-from .forms import Form, free_numbers
-from .targets import DeriveError
+from ..forms import Form
+from ..targets import DeriveError
 
-# the parametric engine's parts (module docstring), their names here as before
-from .parametric_targets import (  # noqa: F401
-    _chebyshev, _lower_end, _mesh, _middle, _numpy_of, _place,
-    _unit_box, Axis, AXIS_POINTS, check, check_pair, CHECK_POINTS,
-    EXCHANGES, is_symmetric, MAX_AXES, MAX_CONSTANTS, MAX_FORMULA_COMPLEXITY, MEASURE_GRID,
-    mesh, PAIR_PARTS, PairTarget, parameter_values, PARAMETER_VALUES, ParametricTarget,
-    PIXEL_SHARE, PRUNE, PUSH_CONSTANTS, SEARCH_AXIS_POINTS, SEARCH_TEMPLATES, SYMMETRY,
-    Table, variables_at, weight_of, with_range)
-from .parametric_registry import (  # noqa: F401
-    _LazyTable, AXIS_KEYS, COS_N_LEVEL, cos_n_target, ENV_BRDF_ANCHORS, ENV_BRDF_BOX,
-    ENV_BRDF_POINTS, env_brdf_table, env_brdf_targets, from_csv, from_file, pairs,
-    registry)
-from .templates import (  # noqa: F401
-    _loss, _monomials, BASES, constant_symbols, family_templates, grammar_templates,
-    kept_symbols, OUTERS, sympy_functions, Template)
-from .per_value import (  # noqa: F401
-    _linear_start, fit_per_value, Model, PerValue)
-from .formulas import (  # noqa: F401
-    _cheapest, _constant_error, _error_key, _polished, _start_coefficients, corrected,
-    Fitted, formula_expressions, formula_name, FORMULA_OPERATIONS, formula_variants, KINDS,
-    material_forms, measure_box, minimax_on_box, minimax_on_box_parts, polish_formulas, POWERS,
-    TAGS)
-from .anchor_refits import refitted_box_anchors  # noqa: F401
-from .parametric_search import (  # noqa: F401
-    _family_search, _grammar_search, _records, _scaled,
-    _searched, _text, Search, searched)
+from ..search.box_search import _searched, _text
+from ..search.formulas import _constant_error, _error_key, measure_box
+from ..search.settings import MAX_FORMULA_COMPLEXITY
+from ..targets import MEASURE_GRID, numpy_function, place, Target, unit_box
 
 
 # ---- costs --------------------------------------------------------------------------------------
@@ -98,13 +74,13 @@ def glsl_text(expr, precision: str | None = None) -> str:
     the costs and the execution print each form, and sympy's printing takes milliseconds."""
     import re
 
-    from .forms import _GLSL, printed
+    from ..forms import _GLSL, printed
 
     text = printed(_GLSL(), expr, precision)
     return re.sub(r"\b(c\d+)\b", r"float16_t(\1)", text) if precision == "fp16" else text
 
 
-def compile_forms(forms: dict, target: ParametricTarget, architectures, precision: str = "fp32") -> tuple[dict, dict]:
+def compile_forms(forms: dict, target: Target, architectures, precision: str = "fp32") -> tuple[dict, dict]:
     """({architecture: {name: cycles}}, {what: why not}) of `forms` ({name: (sympy, parameter_per)}),
     by `isa.machine_code.form_cycles`: a material form reads the variables, a pixel form the parameter
     too (each only those its expression holds). Both are net of the shader that reads and writes the
@@ -113,7 +89,7 @@ def compile_forms(forms: dict, target: ParametricTarget, architectures, precisio
     that read behind its own latency would cost less per pixel than per material (pow(t, n): 6
     cycles against 12 on RDNA3, both shaders 16). In fp16 the form computes in float16 (explicit
     16-bit types, `shaders.form_shader`)."""
-    from ..isa.machine_code import form_cycles
+    from ...isa.machine_code import form_cycles
 
     names = list(target.names)
     variables = names[:len(target.variables)]
@@ -137,27 +113,27 @@ def execution_points(target, peaks=()) -> list[np.ndarray]:
     """Where a form of `target` is executed (`executed_box`), one array per axis (`target.names`'
     order): the box's measuring grid (`MEASURE_GRID` per axis of the unit box, placed in the box),
     then each peak (a point of the unit box)."""
-    from ..optics import brdf
+    from ...optics import brdf
 
-    lo, hi = _unit_box(target)
+    lo, hi = unit_box(target)
     axes = [brdf.axis_grid(a, b, **MEASURE_GRID) for a, b in zip(lo, hi)]
     columns = [g.ravel() for g in np.meshgrid(*axes, indexing="ij")]
     extra = [np.asarray(p, dtype=np.float64) for p in peaks if p is not None and np.all(np.isfinite(p))]
     if extra:
         columns = [np.concatenate([c, [p[i] for p in extra]]) for i, c in enumerate(columns)]
-    return _place(target, columns)
+    return place(target, columns)
 
 
-def error_peaks(expression, target: ParametricTarget, f) -> list[np.ndarray]:
+def error_peaks(expression, target: Target, f) -> list[np.ndarray]:
     """Where a form's float64 error in the target's measure peaks on the unit box (`brdf.largest_error`,
     as `measure_box` finds it)."""
-    from ..optics import brdf
+    from ...optics import brdf
 
-    approx, exact = _numpy_of(expression, target.symbols()), f
+    approx, exact = numpy_function(expression, target.symbols()), f
     if any(a.lo_of for a in target.variables):
-        approx = (lambda g: lambda *s: g(*_place(target, s)))(approx)
-        exact = lambda *s: f(*_place(target, s))        # noqa: E731
-    lo, hi = _unit_box(target)
+        approx = (lambda g: lambda *s: g(*place(target, s)))(approx)
+        exact = lambda *s: f(*place(target, s))        # noqa: E731
+    lo, hi = unit_box(target)
     if target.metric == "rel" and target.floor > 0:
         value, where = brdf.largest(lambda *s: (approx(*s) - exact(*s)) / np.maximum(np.abs(exact(*s)), target.floor),
                                     lo, hi, **MEASURE_GRID)
@@ -171,8 +147,8 @@ def _executed(everything, per_of, record, target, f, real, cycles, architectures
     """Every form executed in float32 (`executed_box`) at the box's grid and where the float64 error
     of each member of a float64 front, each anchor and the target itself peaks: dict(measured={name:
     its executed errors, NaN where not executed}, how, inputs, not_executed, peaks, seconds)."""
-    from . import executed_box
-    from .fronts import front
+    from ..measures import executed_box
+    from ..measures.fronts import front
 
     started = time.perf_counter()
     provisional = set()
@@ -201,14 +177,14 @@ def _executed(everything, per_of, record, target, f, real, cycles, architectures
                 peaks=len(peaks), seconds=round(time.perf_counter() - started, 1))
 
 
-def _checked(target: ParametricTarget, gpu, budget, max_cycles, max_complexity: int,
+def _checked(target: Target, gpu, budget, max_cycles, max_complexity: int,
              formula_complexity: int) -> list[str]:
-    """The architectures of `gpu` (`engine.checked_options`), once the target and the options are
-    checked (DeriveError naming what is wrong)."""
-    from . import engine
+    """The architectures of `gpu` (`options.checked_options`), once the options are checked
+    (DeriveError naming what is wrong; the target was checked where it was read,
+    `targets.reading.check`)."""
+    from .options import checked_options
 
-    check(target)
-    architectures = engine.checked_options(gpu, budget, max_cycles, max_complexity)
+    architectures = checked_options(gpu, budget, max_cycles, max_complexity)
     if not (isinstance(formula_complexity, int) and 0 <= formula_complexity <= MAX_FORMULA_COMPLEXITY):
         raise DeriveError(f"--formula-complexity {formula_complexity}: give an integer in [0, {MAX_FORMULA_COMPLEXITY}]")
     if formula_complexity and target.parameter is None:
@@ -216,12 +192,12 @@ def _checked(target: ParametricTarget, gpu, budget, max_cycles, max_complexity: 
     return architectures
 
 
-def _headline(target: ParametricTarget, architectures) -> str:
+def _headline(target: Target, architectures) -> str:
     return (f"{target.name}: {target.expression} for {', '.join(a.text() for a in target.axes)}, error {target.metric}; "
             f"{len(architectures)} architecture{'s' * (len(architectures) > 1)}")
 
 
-def derive(target: ParametricTarget, gpu=None, budget=None, max_cycles: float | None = None,
+def derive(target: Target, gpu=None, budget=None, max_cycles: float | None = None,
            max_complexity: int = 12, log=print, formula_complexity: int = 0, precision: str = "fp32",
            search: tuple[list[dict], dict] | None = None) -> dict:
     """The derivation of the module docstring for `target` on the architectures `gpu` (names;
@@ -229,8 +205,8 @@ def derive(target: ParametricTarget, gpu=None, budget=None, max_cycles: float | 
     templates also corrected by the symbolic regression (`corrected`); `search`: the search's
     (records, coverage) where it was computed beforehand (`derive_pair`: both parts' at once).
     Returns the results (results.json's content) with the rows of front.csv. `budget`: the searches'
-    plans (a `symbolic.budgets.Budget`; default `engine.DEFAULT_SECONDS`)."""
-    from .fronts import front, rounding_floor, verdict
+    plans (a `symbolic.budgets.Budget`; default `options.DEFAULT_SECONDS`)."""
+    from ..measures.fronts import front, rounding_floor, verdict
 
     budget = _budget(budget)
     architectures = _checked(target, gpu, budget, max_cycles, max_complexity, formula_complexity)
@@ -305,7 +281,7 @@ def derive(target: ParametricTarget, gpu=None, budget=None, max_cycles: float | 
     return dict(target=dict(name=target.name, expression=target.expression, variable=target.variable,
                             variables=[dataclasses.asdict(a) for a in target.variables],
                             parameter=dataclasses.asdict(target.parameter) if target.parameter else None,
-                            domain=target.domain, metric=target.metric, floor=target.floor,
+                            domain=[[a.lo, a.hi] for a in target.axes], metric=target.metric, floor=target.floor,
                             description=target.description,
                             anchors=[dict(name=a.name, expression=a.expression, source=a.source) for a in target.anchors]),
                 architectures=architectures, missing=missing, coverage=coverage,
@@ -318,164 +294,9 @@ def derive(target: ParametricTarget, gpu=None, budget=None, max_cycles: float | 
                 members=members, forms={m.name: m for m in everything})
 
 
-def _renumbered(expr, offset: int):
-    """expr with its push constants c0, c1, ... renamed c(offset), c(offset + 1), ..."""
-    import sympy as sp
-
-    symbols = {s for s in expr.free_symbols if s.name[:1] == "c" and s.name[1:].isdigit()}
-    return expr.xreplace({s: sp.Symbol(f"c{int(s.name[1:]) + offset}", real=True) for s in symbols})
-
-
-def refitted_pair_anchors(target: PairTarget, log) -> list[dict]:
-    """Each anchor's two parts with their decimal numbers refitted together by minimax on the box
-    (`minimax_on_box_parts`: a number both parts hold stays one number, as the anchor shares it), where
-    that lowers the pair's error: [{name, scale, bias (sympy), errors: {scale, bias}}]."""
-    import sympy as sp
-
-    scale, bias = target.scale, target.bias
-    key = _error_key(scale)
-    values = np.sort(np.concatenate(parameter_values(scale.parameter)))
-    fs = (scale.numpy(), bias.numpy())
-    b_anchors = bias.anchor_expressions()
-    out = []
-    for name, a_expr in scale.anchor_expressions().items():
-        if name not in b_anchors:
-            continue
-        exprs = (a_expr, b_anchors[name])
-        free, q, numbers = free_numbers(*exprs)
-        if not numbers:
-            continue
-        models = [Model(e, t.symbols(), q) for e, t in zip(free, (scale, bias))]
-        a, _ = minimax_on_box_parts([(m, m.jacobian, t, g) for m, t, g in zip(models, (scale, bias), fs)],
-                                    [float(v) for v in numbers], values)
-        refit = [e.xreplace({qi: sp.Float(float(ai), 17) for qi, ai in zip(q, a)}) for e in free]
-        before = max(measure_box(e, t, g)[key] for e, t, g in zip(exprs, (scale, bias), fs))
-        errors = {part: measure_box(e, t, g) for part, e, t, g in zip(PAIR_PARTS, refit, (scale, bias), fs)}
-        after = max(e[key] for e in errors.values())
-        if np.isfinite(after) and after < before * (1 - 1e-6):
-            log(f"{name} refitted (both parts together): error {before:.3g} -> {after:.3g}")
-            out.append(dict(name=f"{name}_refitted", scale=refit[0], bias=refit[1], errors=errors))
-    return out
-
-
 def _budget(budget):
-    from ..symbolic import budgets
-    from . import engine
+    from ...symbolic import budgets
 
-    return budgets.Budget(engine.DEFAULT_SECONDS) if budget is None else budget
+    from .options import DEFAULT_SECONDS
 
-
-def derive_pair(target: PairTarget, gpu=None, budget=None, max_cycles: float | None = None,
-                max_complexity: int = 12, log=print, formula_complexity: int = 0) -> dict:
-    """Each of the pair's targets derived (`derive`, the whole `budget` each: its searches' plans
-    named by the part, `budgets.Budget.within`), then per architecture
-    and per `parameter_per` every pair of their front members (and each anchor's two parts)
-    compiled as one shader computing F0 A + B (F0 a push constant): the shared subexpressions of
-    the two count once, as the compiler makes them. A pair's error is the larger of its two (each
-    also in its own column); the fronts and verdicts are read off as for one output."""
-    import sympy as sp
-
-    from .fronts import front, verdict
-
-    check_pair(target)
-    budget = _budget(budget)
-    started = time.perf_counter()
-    pair_targets = (target.scale, target.bias)
-    for t in pair_targets:
-        architectures = _checked(t, gpu, budget, max_cycles, max_complexity, formula_complexity)
-    for part, t in zip(PAIR_PARTS, pair_targets):
-        log(f"{part}: {_headline(t, architectures)}")
-    # both parts' searches at once (in worker processes where there are cores), then each part derived
-    logs = [lambda s, part=part: log(f"  {part}: {s}") for part in PAIR_PARTS]
-    searches = searched([Search(t, budget.within(part), max_complexity, formula_complexity)
-                         for part, t in zip(PAIR_PARTS, pair_targets)],
-                        [t.numpy() for t in pair_targets], logs, log)
-    parts = {}
-    for part, t, search in zip(PAIR_PARTS, pair_targets, searches):
-        log(f"{part} ({t.name}):")
-        parts[part] = derive(t, gpu, budget.within(part), max_cycles, max_complexity, log=lambda s: log("  " + s),
-                             formula_complexity=formula_complexity, search=search)
-    scale, bias = parts["scale"], parts["bias"]
-    architectures = scale["architectures"]
-    F0 = sp.Symbol("F0", real=True)
-    error_key = scale["error"]
-    forms, per_of, members, errors = {}, {}, {}, {}
-
-    def pair(a_name, b_name, per, kind):
-        a_form, b_form = scale["forms"][a_name], bias["forms"][b_name]
-        offset = len(scale["members"][a_name].get("constants", []))
-        expr = F0 * a_form.expression + _renumbered(b_form.expression, offset)
-        name = a_name if kind == "anchor" else f"{a_name} + {b_name}"
-        forms[name] = Form(name, kind, "pair" if kind == "found" else kind, expr,
-                           f"scale: {a_form.source}; bias: {b_form.source}" if kind == "found" else a_form.source)
-        per_of[name] = (expr, per)
-        ea, eb = scale["members"][a_name], bias["members"][b_name]
-        errors[name] = {key: max(ea[key], eb[key]) for key in ("max_abs_error", "max_rel_error")} | {
-            f"{key}_{part}": e[key] for key in ("max_abs_error", "max_rel_error") for part, e in (("scale", ea), ("bias", eb))}
-        members[name] = dict(kind=kind, family=forms[name].family, source=forms[name].source, converged=True,
-                             expression=f"A = {ea['expression']}; B = {eb['expression']}", **errors[name],
-                             parameter_per=per, constants=ea.get("constants", []) + eb.get("constants", []),
-                             parts=[a_name, b_name])
-
-    for a in architectures:
-        for per in ("pixel", "material"):
-            for a_name, b_name in itertools.product(scale["fronts_by_parameter"][a][per],
-                                                    bias["fronts_by_parameter"][a][per]):
-                if f"{a_name} + {b_name}" not in forms:
-                    pair(a_name, b_name, per, "found")
-    for anchor in target.scale.anchors:
-        if anchor.name in bias["members"]:
-            pair(anchor.name, anchor.name, "pixel", "anchor")
-    for r in refitted_pair_anchors(target, log):
-        name, expr = r["name"], F0 * r["scale"] + r["bias"]
-        forms[name] = Form(name, "found", "anchor_refit", expr,
-                           f"{name.removesuffix('_refitted')}'s A and B, their numbers refitted together by minimax")
-        per_of[name] = (expr, "pixel")
-        ea, eb = r["errors"]["scale"], r["errors"]["bias"]
-        errors[name] = {key: max(ea[key], eb[key]) for key in ("max_abs_error", "max_rel_error")} | {
-            f"{key}_{part}": e[key] for key in ("max_abs_error", "max_rel_error") for part, e in (("scale", ea), ("bias", eb))}
-        members[name] = dict(kind="found", family="anchor_refit", source=forms[name].source, converged=True,
-                             expression=f"A = {sp.sstr(sp.N(r['scale'], 9))}; B = {sp.sstr(sp.N(r['bias'], 9))}",
-                             **errors[name], parameter_per="pixel", constants=[], parts=[])
-    log(f"pairs: {len(forms)} compiled for {len(architectures)} architectures (F0 A + B)")
-    cycles, missing = compile_forms(per_of, target.scale, architectures)
-    constant = max(scale["constant_error"], bias["constant_error"])
-    floor = max(scale["rounding_floor"], bias["rounding_floor"])
-    rows, fronts, by_parameter, verdicts = [], {}, {}, {}
-    for a in architectures:
-        by_name = cycles.get(a, {})
-        by_parameter[a] = {}
-        for per in ("pixel", "material"):
-            candidates = [dict(name=n, cycles=by_name[n], **errors[n]) for n, m in forms.items()
-                          if m.kind == "found" and per_of[n][1] == per and n in by_name
-                          and (max_cycles is None or by_name[n] <= max_cycles) and errors[n][error_key] < constant]
-            by_parameter[a][per] = [r["name"] for r in front(candidates, error_key, floor)]
-        fronts[a] = by_parameter[a]["pixel"] + [n for n in by_parameter[a]["material"] if n not in by_parameter[a]["pixel"]]
-        for n, m in forms.items():
-            if n not in by_name or (m.kind == "found" and n not in fronts[a]):
-                continue
-            rows.append(dict(architecture=a, kind=m.kind, name=n, family=m.family, expression=members[n]["expression"],
-                             cycles=by_name[n], cycles_predicted=None, **errors[n], on_front=n in fronts[a],
-                             source=m.source, range=target.scale.range_text(), parameter_per=per_of[n][1]))
-        pixel_front = [r for r in rows if r["architecture"] == a and r["name"] in by_parameter[a]["pixel"]]
-        verdicts[a] = {n: dict(cycles=by_name[n], error=errors[n][error_key],
-                               **verdict(by_name[n], errors[n][error_key], pixel_front, error_key, floor))
-                       for n, m in forms.items() if m.kind == "anchor" and n in by_name}
-    kept = {n for fr in fronts.values() for n in fr} | {n for n, m in forms.items() if m.kind == "anchor"}
-    elapsed = time.perf_counter() - started
-    log(f"done in {elapsed:.0f} s")
-    t = scale["target"]
-    return dict(target=t | dict(name=target.name, expression=f"(A, B) = ({target.scale.name}, {target.bias.name})",
-                                description=target.description, variable=", ".join(target.scale.names) + ", F0"),
-                architectures=architectures, missing=missing | scale["missing"] | bias["missing"],
-                coverage=dict(scale=scale["coverage"], bias=bias["coverage"], pairs=len(forms)),
-                families=sorted(set(scale["families"]) | set(bias["families"])), family_members=[],
-                fronts=fronts, fronts_by_parameter=by_parameter, verdicts=verdicts, rows=rows, error=error_key,
-                constant_error=constant, rounding_floor=floor, cost_tables={}, seconds=round(elapsed, 1),
-                estimated_seconds=None, members={n: members[n] for n in forms if n in kept},
-                forms=forms, parts=dict(scale=publish_part(scale), bias=publish_part(bias)))
-
-
-def publish_part(results: dict) -> dict:
-    """A pair's part as results.json keeps it: its fronts, verdicts and coverage."""
-    return {k: results[k] for k in ("fronts_by_parameter", "verdicts", "coverage", "seconds")}
+    return budgets.Budget(DEFAULT_SECONDS) if budget is None else budget

@@ -1,6 +1,6 @@
-"""The parametric engine's templates: forms in the variables with free constants, from the families
+"""The templates of the engine of several variables: forms in the variables with free constants, from the families
 (polynomials and their reciprocals and exp2s, in symmetric monomials where the target is symmetric)
-and from the grammar's search at the parameter's middle value (`parametric`'s step 1)."""
+and from the grammar's search at the parameter's middle value (`engines.several_variables`' step 1)."""
 
 from __future__ import annotations
 
@@ -9,8 +9,8 @@ import itertools
 
 import numpy as np
 
-from .parametric_targets import (
-    _middle, MAX_CONSTANTS, ParametricTarget, PUSH_CONSTANTS, SEARCH_AXIS_POINTS, SEARCH_TEMPLATES, variables_at)
+from .settings import MAX_CONSTANTS, PUSH_CONSTANTS, SEARCH_TEMPLATES
+from ..targets import middle, SEARCH_AXIS_POINTS, Target, variables_at
 
 
 # ---- templates ----------------------------------------------------------------------------------
@@ -71,7 +71,7 @@ BASES = {1: (("degree1", 1, False), ("degree2", 2, False), ("degree3", 3, False)
 OUTERS = {"identity": "polynomial", "reciprocal": "reciprocal_polynomial", "exp2": "exp2_polynomial"}
 
 
-def family_templates(target: ParametricTarget, symmetric: bool, positive: bool = False) -> list[Template]:
+def family_templates(target: Target, symmetric: bool, positive: bool = False) -> list[Template]:
     """The linear families of the module docstring, step 1 (exp2 of a polynomial where the target is
     `positive` on the box)."""
     import sympy as sp
@@ -101,13 +101,13 @@ def family_templates(target: ParametricTarget, symmetric: bool, positive: bool =
     return out
 
 
-def grammar_templates(target: ParametricTarget, f, budget, max_complexity: int, log) -> tuple[list, dict]:
+def grammar_templates(target: Target, f, budget, max_complexity: int, log) -> tuple[list, dict]:
     """The grammar's forms in the variables at the parameter's middle value (the ladder's front, the
     SEARCH_TEMPLATES most accurate) by the plan `budget` (a `symbolic.budgets.Budget`) gives the
     search "templates", as templates; and the search's coverage, its plan among it."""
-    from ..symbolic import grammar, ladder
+    from ...symbolic import grammar, ladder
 
-    value = _middle(target.parameter)
+    value = middle(target.parameter)
     x = variables_at(target, SEARCH_AXIS_POINTS, value)
     y = f(*x, value)
     loss = _loss(target)

@@ -17,7 +17,7 @@ import numpy as np
 import sympy as sp
 
 from . import minimax
-from .forms import Form
+from ..forms import Form
 
 POLYNOMIAL_DEGREES = 7
 SQRT_DEGREES = 5

@@ -11,10 +11,9 @@ import time
 import numpy as np
 
 from . import minimax
-from .forms import free_numbers
-from .parametric_targets import (
-    _numpy_of, _place, _unit_box, AXIS_POINTS, EXCHANGES, MAX_CONSTANTS, MEASURE_GRID, mesh,
-    PARAMETER_VALUES, ParametricTarget, PRUNE, weight_of)
+from ..forms import free_numbers
+from .settings import EXCHANGES, MAX_CONSTANTS, PRUNE
+from ..targets import AXIS_POINTS, MEASURE_GRID, mesh, numpy_function, PARAMETER_VALUES, place, Target, unit_box, weight_of
 from .per_value import Dropped, fit_per_value, Model, PerValue
 from .templates import constant_symbols, sympy_functions, Template
 
@@ -119,7 +118,7 @@ def _cheapest(per_value: PerValue, count: int) -> tuple:
     return tuple(kinds)
 
 
-def polish_formulas(template: Template, per_value: PerValue, kinds, target: ParametricTarget, f, zero=None):
+def polish_formulas(template: Template, per_value: PerValue, kinds, target: Target, f, zero=None):
     """Step 3: (coefficients (count, len(POWERS)), error over the box) of the template's constants as
     the formulas `kinds` (one of KINDS per constant) of the parameter; the coefficients marked in
     `zero` (a boolean array of their shape) held at 0. A template may read the parameter itself
@@ -170,11 +169,11 @@ def minimax_on_box_parts(parts, a0, values) -> tuple[np.ndarray, float]:
     """`minimax_on_box` for several outputs sharing their constants (a pair's A and B): `parts` are
     (model, jacobian, target, f) on one box; the error is the largest of the parts', each part's
     worst point added to every part's points."""
-    from ..optics import brdf
+    from ...optics import brdf
 
     target = parts[0][2]
     points = mesh(target, AXIS_POINTS, values)
-    lo, hi = _unit_box(target)
+    lo, hi = unit_box(target)
     a = np.asarray(a0, dtype=np.float64)
     best = None
     for _ in range(EXCHANGES + 1):
@@ -184,7 +183,7 @@ def minimax_on_box_parts(parts, a0, values) -> tuple[np.ndarray, float]:
         model = lambda c, x: np.concatenate([m(c, x) for m, *_ in parts])       # noqa: E731
         jacobian = lambda c, x: np.concatenate([j(c, x) for _, j, *_ in parts])  # noqa: E731
         a, on_points = minimax.slp_points(model, jacobian, a, y, weight, points)
-        measured = [brdf.largest_error(lambda *s, m=m: m(a, _place(t, s)), lambda *s, t=t, g=g: g(*_place(t, s)), lo, hi,
+        measured = [brdf.largest_error(lambda *s, m=m: m(a, place(t, s)), lambda *s, t=t, g=g: g(*place(t, s)), lo, hi,
                                        relative=t.metric == "rel", **MEASURE_GRID) for m, _, t, g in parts]
         e = max(err for err, _ in measured)
         if best is None or e < best[1]:
@@ -192,21 +191,21 @@ def minimax_on_box_parts(parts, a0, values) -> tuple[np.ndarray, float]:
         if not np.isfinite(e) or e <= on_points * (1 + 1e-9):
             break
         for _, where in measured:
-            where = _place(target, [np.atleast_1d(w) for w in where])
+            where = place(target, [np.atleast_1d(w) for w in where])
             points = [np.r_[p, w] for p, w in zip(points, where)]
     return best
 
 
-def measure_box(expression, target: ParametricTarget, f) -> dict:
+def measure_box(expression, target: Target, f) -> dict:
     """{max_abs_error, max_rel_error} of a sympy expression in the axes over the whole box."""
-    from ..optics import brdf
+    from ...optics import brdf
 
     exact = f
-    approx = _numpy_of(expression, target.symbols())
-    if any(a.lo_of for a in target.variables):          # (measured on the unit box: `_place`)
-        approx = (lambda g: lambda *s: g(*_place(target, s)))(approx)
-        f = lambda *s: exact(*_place(target, s))        # noqa: E731
-    lo, hi = _unit_box(target)
+    approx = numpy_function(expression, target.symbols())
+    if any(a.lo_of for a in target.variables):          # (measured on the unit box: `place`)
+        approx = (lambda g: lambda *s: g(*place(target, s)))(approx)
+        f = lambda *s: exact(*place(target, s))        # noqa: E731
+    lo, hi = unit_box(target)
     out = {}
     for key, relative in (("max_abs_error", False), ("max_rel_error", True)):
         if relative and target.floor > 0:
@@ -233,7 +232,7 @@ def material_forms(templates, target, f, log, formula_complexity: int = 0,
     symbols = target.symbols()
     parameter = symbols[-1]
     uniforms = [sp.Symbol(f"c{i}", real=True) for i in range(MAX_CONSTANTS)]
-    from .fronts import rounding_floor
+    from ..measures.fronts import rounding_floor
 
     constant = _constant_error(target, f)
     floor = rounding_floor(target, constant)
@@ -310,7 +309,7 @@ def corrected(line: Fitted, target, f, complexity: int, log) -> Fitted | None:
     where no level does."""
     import sympy as sp
 
-    from ..symbolic import grammar, search
+    from ...symbolic import grammar, search
 
     parameter = target.symbols()[-1]
     values = line.per_value.values
@@ -369,6 +368,6 @@ def _error_key(target) -> str:
 
 def _constant_error(target, f) -> float:
     """The error of the best constant over the measuring grid (a form worth a cycle beats it)."""
-    from .measure import best_constant_error
+    from ..measures.measure import best_constant_error
 
     return best_constant_error(f(*mesh(target, 17)), target.metric, target.floor)

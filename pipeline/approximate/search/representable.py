@@ -20,9 +20,9 @@ import itertools
 import numpy as np
 import sympy as sp
 
-from . import measure
-from .executed import from_ordinals, ordinals
-from .forms import FORMATS, DIGITS, free_numbers, gpu_form
+from ..measures import measure
+from ..measures.executed import from_ordinals, ordinals
+from ..forms import DIGITS, FORMATS, free_numbers, gpu_form
 
 RADIUS = 3
 ROUNDS = 16
@@ -59,7 +59,7 @@ def choose(expression, target, f, precision: str) -> tuple[object, dict]:
         return free.xreplace({qi: sp.Float(float(ci), DIGITS) for qi, ci in zip(q, c)})
 
     def whole(c) -> float:
-        from .targets import numpy_function
+        from ..targets import numpy_function
 
         return measure.max_error(numpy_function(form_of(c), target.symbol()), f, lo, hi, floor)[key]
 

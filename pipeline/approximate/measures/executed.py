@@ -26,7 +26,7 @@ import math
 
 import numpy as np
 
-from .targets import PRECISIONS, numpy_function
+from ..targets import numpy_function, PRECISIONS
 # The format's unit: its spacing at 1 (an error below it of the target's range, or relative, is rounding).
 UNIT = {"fp32": 2.0 ** -23, "fp16": 2.0 ** -10}
 DTYPES = {"fp32": np.float32, "fp16": np.float16}
@@ -150,7 +150,7 @@ def measure(bodies: dict[str, str], target, precision: str, extrema=(), log=prin
     docstring): dict(errors={name: {max_abs_error, max_rel_error, x_abs, x_rel} or None where it was
     not executed}, not_executed={name: why}, how=lavapipe's or the emulation's name, inputs=how many,
     truth=how it was checked)."""
-    from ..isa import execution
+    from ...isa import execution
 
     lo, hi = target.domain
     x = inputs(lo, hi, precision, extrema)
@@ -196,8 +196,8 @@ def gap_cause(expression, body: str, target, precision: str, executed_error: flo
     cancellation)."""
     import re
 
-    from ..isa import execution
-    from .forms import in_format
+    from ...isa import execution
+    from ..forms import in_format
     from .measure import max_error
 
     lo, hi = target.domain

@@ -28,7 +28,7 @@ import time
 
 import numpy as np
 
-from ..optics.roles import ROLES
+from ...optics.roles import ROLES
 
 STATISTIC = "flip_max"          # what the rule and the FLIP front read
 MATCH = 0.01                    # within this share the FLIPs of two forms count as equal (as the verdicts' 1 %)
@@ -44,24 +44,16 @@ def role_of(target):
 
 def _inner(target):
     """A pair's first part (both have the same axes), else the target."""
-    from .parametric import PairTarget
-
-    return target.scale if isinstance(target, PairTarget) else target
+    return target.parts[0] if target.parts else target
 
 
 def _axes(target) -> list[tuple[float, float]]:
     """The target's variables' and parameter's ranges, in order."""
-    from .parametric import ParametricTarget
-
-    inner = _inner(target)
-    return [(a.lo, a.hi) for a in inner.axes] if isinstance(inner, ParametricTarget) else [tuple(inner.domain)]
+    return [(a.lo, a.hi) for a in _inner(target).axes]
 
 
 def _symbols_of(target) -> list:
-    from .parametric import ParametricTarget
-
-    inner = _inner(target)
-    return inner.symbols() if isinstance(inner, ParametricTarget) else [inner.symbol()]
+    return _inner(target).symbols()
 
 
 def roughness_range(target, role) -> tuple[float, float]:
@@ -78,7 +70,7 @@ def roughness_range(target, role) -> tuple[float, float]:
 
 def scene_of(target, size: int | None = None):
     """The material balls' scene for the target's role (its roughness span)."""
-    from ..optics import material_balls as balls
+    from ...optics import material_balls as balls
 
     return balls.Scene(balls.roughness_grid(*roughness_range(target, role_of(target))), size or balls.SIZE)
 
@@ -87,7 +79,7 @@ def _inputs(target, role, scene, dtype) -> list:
     """The role's inputs at the scene's pixels, clamped to the target's box (a lobe's NoH to [0, 1]:
     its zone is where it is measured, the lobe is drawn everywhere), in `dtype`: one array per
     variable, then the parameter (shapes broadcasting to (LIGHTS, P), or (P,) for env_brdf)."""
-    from ..optics import material_balls as balls
+    from ...optics import material_balls as balls
 
     g = balls.geometry(scene)
     source = {"VoH": g["VoH"], "NoV": g["NoV"], "NoL": g["NoL"], "NoH": g["NoH"], "alpha": g["alpha"],
@@ -101,7 +93,7 @@ def _inputs(target, role, scene, dtype) -> list:
 
 def _in_role(role, value, scene):
     """A term's values as the factor it replaces (`material_balls.exact_terms`' key, its array)."""
-    from ..optics import material_balls as balls
+    from ...optics import material_balls as balls
 
     value = np.asarray(value, dtype=np.float64)
     if role.name == "fresnel":
@@ -117,7 +109,7 @@ def _in_role(role, value, scene):
 
 def exact_factor(target, role, scene):
     """(key, values) of the target's exact function in its role, float64."""
-    from ..optics import material_balls as balls
+    from ...optics import material_balls as balls
 
     inputs = _inputs(target, role, scene, np.float64)
     if role.name == "env_brdf":
@@ -131,7 +123,7 @@ def exact_factor(target, role, scene):
 def form_factor(expr, target, role, scene, dtype):
     """(key, values) of a form's expression (sympy, its constants already substituted) in the role,
     computed in `dtype` from inputs in `dtype`."""
-    from ..optics import material_balls as balls
+    from ...optics import material_balls as balls
 
     import sympy as sp
 
@@ -158,9 +150,9 @@ def _statistics(fmap, inside) -> dict:
 
 
 def table_env_brdf():
-    """env_brdf(NoV, roughness) -> (A, B): the split-sum tables (`parametric.env_brdf_table`), their
+    """env_brdf(NoV, roughness) -> (A, B): the split-sum tables (`targets.env_brdf_table`), their
     inputs clamped to the tables' box."""
-    from .parametric import env_brdf_table
+    from ..targets import env_brdf_table
 
     A, B = env_brdf_table()
     (nov_lo, nov_hi), (r_lo, r_hi) = ((min(a[0], a[-1]), max(a[0], a[-1])) for a in A.axes)
@@ -176,8 +168,8 @@ def compare_images(scene, base: dict, exact: tuple, factors: dict) -> dict:
     values), then with each of `factors` ({name: (key, values)}) in its place: the displayed images,
     the FLIP maps against the exact one, their statistics over the spheres, and the rule's threshold
     (the FLIP of the exact image raised one display level)."""
-    from ..optics import material_balls as balls
-    from ..optics.images import flip_map
+    from ...optics import material_balls as balls
+    from ...optics.images import flip_map
 
     key, value = exact
     reference = balls.display(balls.shade(scene, base | {key: value}))
@@ -195,7 +187,7 @@ def compare_images(scene, base: dict, exact: tuple, factors: dict) -> dict:
 def render(target, forms: dict, precision: str = "fp32", size: int | None = None, log=print) -> dict:
     """The exact term's image and each form's ({name: sympy expression, constants substituted}), its
     FLIP map and statistics, and the rule's threshold (module docstring)."""
-    from ..optics import material_balls as balls
+    from ...optics import material_balls as balls
 
     role = role_of(target)
     scene = scene_of(target, size)
@@ -217,8 +209,8 @@ def forms_of(results) -> dict:
     form's constants replaced by their formulas in the parameter."""
     import sympy as sp
 
-    from .forms import in_format
-    from .targets import parse
+    from ..forms import in_format
+    from ..targets import parse
 
     precision = results.get("precision") or "fp32"
     parameter = (results["target"].get("parameter") or {}).get("name")
@@ -305,7 +297,7 @@ def compare(results: dict, target, size: int | None = None, log=print) -> None:
     """Adds the rendered comparison to a derive run's results (in place): flip_mean, flip_p99 and
     flip_max on each row and member, `rendered` (results.json's object) and `renders` (the images,
     for the figure; not in results.json). A target without a role gets `rendered` saying so."""
-    from ..optics import material_balls as balls
+    from ...optics import material_balls as balls
 
     role = role_of(target)
     if role is None:

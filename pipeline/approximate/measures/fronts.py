@@ -1,5 +1,5 @@
-"""The front and the verdict, shared by `pipeline derive`'s engines (one variable: `engine`; several:
-`parametric`) and the lobe search: the best constant's error (what a form must beat), the format's
+"""The front and the verdict, shared by `pipeline derive`'s engines (`engines`: one variable, several,
+a pair) and the lobe search: the best constant's error (what a form must beat), the format's
 rounding (errors below it are equal), the forms no cheaper form beats, and an anchor's place.
 """
 

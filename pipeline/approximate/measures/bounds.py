@@ -17,9 +17,9 @@ import math
 import numpy as np
 import sympy as sp
 
-from ..isa import special_functions
+from ...isa import special_functions
 from . import measure
-from .forms import gpu_form
+from ..forms import gpu_form
 
 LN2 = math.log(2.0)
 

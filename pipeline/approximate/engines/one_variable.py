@@ -25,13 +25,13 @@ import time
 
 import numpy as np
 
-from . import anchor_refits, bounds, executed, families, grammar_search, representable
-from .forms import Form, glsl, predicted_cycles
-from .fronts import constant_error, front, rounding_floor, verdict
-from .targets import DeriveError, check
+from ..forms import Form, glsl, predicted_cycles
+from ..measures import bounds, executed
+from ..measures.fronts import constant_error, front, rounding_floor, verdict
+from ..search import anchor_refits, families, grammar_search, representable
+from ..targets import DeriveError
+from .options import checked_options, DEFAULT_SECONDS, MAX_COMPLEXITY
 
-DEFAULT_SECONDS = 60.0
-MAX_COMPLEXITY = 12
 CALIBRATION = 200               # forms compiled per architecture to fit its cost table
 # Times measured on this 2-core machine, for the time a run announces: the families' fits (about 10 s
 # per target), the forms measured, polished and their constants chosen (3.4 s for schlick on three
@@ -42,28 +42,13 @@ START_SECONDS = 6.0
 EXECUTE_SECONDS = {"fp32": 6.0, "fp16": 2.0}     # every form executed (58 forms, 5 M inputs in fp32: 4.8 to 6.5 s)
 
 
-def available_architectures() -> list[str]:
-    """Every architecture whose compiler runs here."""
-    from ..isa.architectures import ARCHITECTURES, CompilerMissing
-    from ..isa.machine_code import backend
-
-    out = []
-    for name in ARCHITECTURES:
-        try:
-            backend(name).check()
-        except (CompilerMissing, OSError, RuntimeError):
-            continue
-        out.append(name)
-    return out
-
-
 def _compile(forms: list[Form], architectures, log, precision: str = "fp32") -> tuple[dict, dict]:
     """({architecture: {form name: cycles}}, {what: why not}) of every form, by `derive`'s one
     costing (`isa.machine_code.form_cycles`: a shader reading t, net of the shader writing it, in
     `precision`, its numbers the format's); the exact target per vendor, left out where a vendor's
     lowering lacks one of its functions."""
-    from ..isa.architectures import ARCHITECTURES, vendor_groups
-    from ..isa.machine_code import form_cycles
+    from ...isa.architectures import ARCHITECTURES, vendor_groups
+    from ...isa.machine_code import form_cycles
 
     plain = {m.name: (f"return {glsl(m.expression, 't', precision)};", ["t"]) for m in forms if m.kind != "exact"}
     cycles, missing, _ = (form_cycles(plain, ["t"], architectures, precision) if plain
@@ -88,32 +73,6 @@ def _compile(forms: list[Form], architectures, log, precision: str = "fp32") -> 
             for a, values in found.items():
                 cycles[a].update(values)
     return cycles, missing
-
-
-def checked_options(gpu, budget, max_cycles: float | None, max_complexity: int) -> list[str]:
-    """The architectures `gpu` names (default every one whose compiler runs here), the other options
-    (`budget`, a `symbolic.budgets.Budget`) checked. Raises DeriveError naming a bad one,
-    CompilerMissing where no compiler runs."""
-    seconds = budget.seconds
-    from ..isa.architectures import ARCHITECTURES
-    from ..isa.machine_code import CompilerMissing
-    from ..symbolic import regress
-
-    if budget.recorded is None and not (math.isfinite(seconds) and 5 <= seconds <= 3600):
-        raise DeriveError(f"--seconds {seconds:g}: give a number in [5, 3600]")
-    if max_cycles is not None and not (math.isfinite(max_cycles) and max_cycles > 0):
-        raise DeriveError(f"--max-cycles {max_cycles:g}: give a number > 0")
-    if not 1 <= max_complexity <= regress.MAX_COMPLEXITY:
-        raise DeriveError(f"--max-complexity {max_complexity}: give an integer in [1, {regress.MAX_COMPLEXITY}]")
-    if gpu is None:
-        architectures = available_architectures()
-        if not architectures:
-            raise CompilerMissing("no GPU compiler runs here (make installs Mesa's RADV, NVIDIA's ptxas, Intel's ocloc)")
-        return architectures
-    unknown = [a for a in gpu if a not in ARCHITECTURES]
-    if unknown or not gpu:
-        raise DeriveError(f"--gpu {unknown[0] if unknown else ''!r}: give architectures among {', '.join(ARCHITECTURES)}")
-    return list(dict.fromkeys(gpu))
 
 
 CHOSEN = " (constants chosen)"       # the name of a form's variant whose constants were chosen in the format
@@ -152,13 +111,12 @@ def derive(target, gpu=None, budget=None, max_cycles: float | None = None,
     `precision` (fp32 or fp16, `executed`), the search's work planned by `budget` (a
     `symbolic.budgets.Budget`; default DEFAULT_SECONDS). Returns the results (`results.json`'s
     content) with the forms' rows."""
-    from ..isa.machine_code import estimate_seconds
-    from ..symbolic import budgets, gpu_costs, grammar, ladder
-    from ..symbolic.grammar import TEN
+    from ...isa.machine_code import estimate_seconds
+    from ...symbolic import budgets, gpu_costs, grammar, ladder
+    from ...symbolic.grammar import TEN
 
     budget = budgets.Budget(DEFAULT_SECONDS) if budget is None else budget
 
-    check(target)
     try:
         executed.check_precision(precision)
     except executed.ExecutedError as e:
@@ -317,7 +275,7 @@ def derive(target, gpu=None, budget=None, max_cycles: float | None = None,
 def bound_columns(rows: list[dict], forms_by_name: dict, target, f, precision: str, error_key: str) -> None:
     """Each row's `max_error_bound` (`bounds`): its executed error plus its special functions'
     documented accuracy on the row's architecture, propagated to first order."""
-    from ..isa.architectures import ARCHITECTURES
+    from ...isa.architectures import ARCHITECTURES
 
     x = bounds.grid(target)
     scale = bounds.scale_of(target, f, x)
@@ -332,8 +290,8 @@ def bound_columns(rows: list[dict], forms_by_name: dict, target, f, precision: s
 def special_functions(rows: list[dict], forms_by_name: dict, precision: str) -> dict:
     """{architecture: [{function, accuracy, source, mesa}]} of every special function a row of that
     architecture calls (`isa.special_functions`)."""
-    from ..isa import special_functions
-    from ..isa.architectures import ARCHITECTURES
+    from ...isa import special_functions
+    from ...isa.architectures import ARCHITECTURES
 
     out: dict = {}
     used = {name: bounds.functions_used(m.expression) for name, m in forms_by_name.items()

@@ -9,7 +9,7 @@ import textwrap
 
 import numpy as np
 
-from ..engine import escape
+from ...engine import escape
 
 SHOWN = 6                       # the FLIP front's members in renders.png (cheapest first, evenly chosen)
 
@@ -135,8 +135,8 @@ def figure_front(path, results) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from ..isa.architectures import vendor_groups
-    from ..isa.machine_code import backend
+    from ...isa.architectures import vendor_groups
+    from ...isa.machine_code import backend
 
     r = results["rendered"]
     shown = [names[0] for _, names in vendor_groups(results["architectures"])]

@@ -1,9 +1,9 @@
-"""The error of a target of several variables (a `parametric` target) as its forms' shaders execute:
+"""The error of a target of several variables (`engines.several_variables`) as its forms' shaders execute:
 each form's GLSL (the text that is costed) run by lavapipe (`isa.execution`) in float32 or float16,
 one invocation per point, reading the variables and the parameter as inputs, against the target in
 float64 at the same points (the inputs rounded to the format first, as a shader receives them).
 
-The points are the caller's (`parametric.execution_points`: the box's measuring grid and where each
+The points are the caller's (`engines.several_variables.execution_points`: the box's measuring grid and where each
 form's float64 error peaks). A material member's constants c0, c1, ... are what the CPU computes
 once per material: its formulas (as `derive_twin.py` prints them) in float64 at each point's
 parameter, rounded to the format (float32 push constants, converted to float16 where the form
@@ -27,8 +27,8 @@ def measure(bodies: dict, names, columns, exact, floor: float = 0.0, precision: 
     why}, how, inputs); the relative error's divisor max(|f|, floor)."""
     import sympy as sp
 
-    from ..isa import execution
-    from .targets import parse
+    from ...isa import execution
+    from ..targets import parse
 
     names = list(names)
     dtype = np.float16 if precision == "fp16" else np.float32

@@ -45,14 +45,14 @@ def _listings(results, names: list[str]) -> tuple[dict, dict]:
     """({name: {architecture: listing}}, {name: {architecture: cycles}}) of the forms' shaders as
     `pipeline derive` costed them, on every architecture of the run (the compilations are kept:
     this compiles nothing new); empty where no back end runs here."""
-    from ..isa import machine_code
-    from .forms import glsl as glsl_of
+    from ...isa import machine_code
+    from ..forms import glsl as glsl_of
 
     target = results["target"]
     precision = results.get("precision") or "fp32"
     architectures = list(results["architectures"])
     if target.get("variables"):
-        from .parametric import glsl_text
+        from ..engines.several_variables import glsl_text
 
         axes = [a["name"] for a in target["variables"]] + ([target["parameter"]["name"]] if target.get("parameter") else [])
         variables = axes[:len(target["variables"])]
@@ -74,7 +74,7 @@ def _listings(results, names: list[str]) -> tuple[dict, dict]:
                 bodies[name] = (f"return {glsl_of(results['forms'][name].expression, 't', precision)};", ["t"])
             except Exception:
                 continue
-    from ..isa.architectures import vendor_groups
+    from ...isa.architectures import vendor_groups
 
     out: dict = {}
     cycles: dict = {}
@@ -105,9 +105,9 @@ def _listings(results, names: list[str]) -> tuple[dict, dict]:
 def _one_variable_curves(results, names: list[str]) -> tuple[dict, dict]:
     """(curves, how): each form's signed error (or relative error) at CURVE_POINTS inputs of the
     domain, executed as the run executed (lavapipe, else the per-operation emulation)."""
-    from ..isa import execution
-    from .forms import glsl as glsl_of
-    from .targets import numpy_function
+    from ...isa import execution
+    from ..forms import glsl as glsl_of
+    from ..targets import numpy_function
 
     target = results["target"]
     precision = results.get("precision") or "fp32"
@@ -157,15 +157,14 @@ def _one_variable_curves(results, names: list[str]) -> tuple[dict, dict]:
 def _several_variable_curves(results, names: list[str]) -> dict:
     """Each form's signed error (relative where the metric is) in float64 over a HEAT_POINTS grid of
     the first two variables at HEAT_VALUES values of the parameter (the form's constants as executed)."""
-    from .forms import in_format
-    from .parametric import registry
-    from .targets import parse
+    from ..forms import in_format
+    from ..targets import parse, several_variable_targets
 
     target = results["target"]
     axes = target["variables"] + ([target["parameter"]] if target.get("parameter") else [])
     if len(axes) < 3:
         return {}
-    registered = registry().get(target["name"])
+    registered = several_variable_targets().get(target["name"])
     names_of = [a["name"] for a in axes]
     grid = [np.linspace(a["lo"], a["hi"], HEAT_POINTS) for a in axes[:2]]
     values = np.linspace(axes[2]["lo"], axes[2]["hi"], HEAT_VALUES)
@@ -241,7 +240,7 @@ def _sphere(results) -> dict | None:
     """What the live lit sphere needs for a target with a role (`rendered`) that is not a pair: the
     role, the target's variable and parameter names in the role's order with their box (the inputs
     clamped to it, as the renders clamp them), and the spheres' roughness span."""
-    from ..optics.roles import ROLES
+    from ...optics.roles import ROLES
 
     rendered = results.get("rendered") or {}
     role = ROLES.get(rendered.get("role") or "")
@@ -265,9 +264,9 @@ def _glsl_float(value: float) -> str:
 
 def data(results) -> dict:
     """The page's data (module docstring); every number from `results`."""
-    from ..isa.architectures import ARCHITECTURES, VENDORS
-    from ..isa.machine_code import backend
-    from ..symbolic.budgets import plan_text
+    from ...isa.architectures import ARCHITECTURES, VENDORS
+    from ...isa.machine_code import backend
+    from ...symbolic.budgets import plan_text
 
     target = results["target"]
     precision = results.get("precision") or "fp32"
@@ -284,8 +283,8 @@ def data(results) -> dict:
         arguments = [a.strip() for a in publish.arguments_of(results, n).split(",")]
         call = None
         if results["members"].get(n, {}).get("parameter_per") == "material":
-            from .forms import _GLSL, printed
-            from .targets import parse
+            from ..forms import _GLSL, printed
+            from ..targets import parse
 
             parameter = target["parameter"]["name"]
             constants = [f"({printed(_GLSL(), parse(c, (parameter,)), precision)})"
@@ -356,13 +355,12 @@ def rerun_command(results) -> str:
     """The command that reruns the run: its registered target by name, an expression's by --expr and
     --var (and --name where the run was named otherwise), its architectures and its precision; where
     it recorded its plans, its largest complexity and `--plan results.json` (the same front again)."""
-    from .parametric import pairs, registry
-    from .targets import registry as one_variable
+    from ..targets import registry
 
     target = results["target"]
     precision = results.get("precision") or "fp32"
     command = ["pipeline", "derive"]
-    if target["name"] in one_variable() | registry() | pairs():
+    if target["name"] in registry():
         command += ["--target", target["name"]]
     elif not target.get("variables"):         # (an expression's: the same target as --expr)
         command += ["--expr", shlex.quote(target["expression"]),
@@ -372,7 +370,7 @@ def rerun_command(results) -> str:
     command += ["--gpu", ",".join(results["architectures"])]
     if precision != "fp32":
         command += ["--precision", precision]
-    from .engine import MAX_COMPLEXITY
+    from ..engines.options import MAX_COMPLEXITY
 
     plans = list(((results.get("plan") or {}).get("searches") or {}).values())
     if plans:
@@ -405,7 +403,7 @@ def _rendered(results, folder) -> dict | None:
 
 def write(path, results) -> None:
     """report.html at `path` (after renders.png beside it, which it embeds)."""
-    from ..engine import web_page
+    from ...engine import web_page
 
     page = data(results) | dict(rendered=_rendered(results, path.parent))
     path.write_text(web_page.page(page["title"], page))

@@ -1,0 +1,29 @@
+"""The engines of `derive`, one per shape of target (`targets.Target.shape`): a function of one
+variable (`one_variable`), of several variables and a material parameter (`several_variables`), a
+pair of outputs computed together (`pairs`); the options they share (`options`). `derive` hands a
+checked target to its engine."""
+
+from ..targets import DeriveError, ONE_VARIABLE, PAIR, Target
+from .options import available_architectures, checked_options, DEFAULT_SECONDS, MAX_COMPLEXITY  # noqa: F401
+
+
+def derive(target: Target, gpu, budget, max_cycles, max_complexity: int, formula_complexity: int = 0,
+           precision: str | None = None, log=print) -> dict:
+    """The results of the engine that derives a checked `target`'s shape (`Target.shape`), every form
+    costed and executed in `precision` (default the target's). Raises DeriveError for an option the
+    shape does not take."""
+    from . import one_variable, pairs, several_variables
+
+    precision = precision or target.precision
+    if target.shape == PAIR:
+        if precision != "fp32":
+            raise DeriveError(f"{target.name}: --precision {precision}: a pair of outputs is executed and costed in "
+                              "float32 only")
+        return pairs.derive_pair(target, gpu, budget, max_cycles, max_complexity, log=log,
+                                 formula_complexity=formula_complexity)
+    if target.shape == ONE_VARIABLE:
+        if formula_complexity:
+            raise DeriveError(f"{target.name} has no parameter: --formula-complexity applies to targets with one")
+        return one_variable.derive(target, gpu, budget, max_cycles, max_complexity, log=log, precision=precision)
+    return several_variables.derive(target, gpu, budget, max_cycles, max_complexity, log=log,
+                                    formula_complexity=formula_complexity, precision=precision)
