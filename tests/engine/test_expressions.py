@@ -126,7 +126,7 @@ def registry_texts() -> list[tuple[str, tuple]]:
     from pipeline.optics import lobe_families
 
     out = []
-    for t in targets.registry().values():
+    for t in targets.one_variable_targets().values():
         out += [(t.expression, (t.variable,))] + [(a.expression, (t.variable,)) for a in t.anchors]
     for t in list(targets.several_variable_targets().values()) + [p for pair in targets.pairs().values()
                                                       for p in (pair.scale, pair.bias)]:
