@@ -191,6 +191,8 @@ def _derive(args) -> int:
     target = api.resolve(args.target, args.expr, args.var, args.metric, args.floor, args.table, args.x, args.parameter,
                          args.y, args.parameter_range, args.name)
     out = Path(args.out) if args.out else paths.OUTPUTS / "derive" / escape.folder_name(target.name)
+    if out.exists() and not out.is_dir():
+        raise DeriveError(f"--out {out}: a file, not a folder: give an output folder (the file is left as it is)")
     use_compilation_cache(paths.XLA_CACHE or paths.CACHE / XLA)
     try:
         found = api.derive(target, gpu=args.gpu, seconds=args.seconds, max_cycles=args.max_cycles,

@@ -47,12 +47,16 @@ def free_numbers(*exprs) -> tuple[list, list, list]:
 
 def gpu_form(expr):
     """expr with exp(a) written exp2(a log2 e) (the factor folded into a's numbers), evaluated to
-    numbers of 17 digits."""
+    numbers of 17 digits, pi and E among them wherever they stand (sympy's N leaves pi x inside a
+    function as it is, which a shader language has no name for)."""
     log2e = sp.Float(1 / math.log(2), DIGITS)
+    expr = expr.xreplace({s: sp.Float(s.evalf(DIGITS), DIGITS) for s in expr.atoms(sp.NumberSymbol)})
     # (the exponent held unevaluated: sympy would split 2^(a + b) into 2^b 2^a)
     expr = expr.replace(sp.exp, lambda a: sp.Pow(sp.Integer(2), sp.UnevaluatedExpr(sp.expand_mul(a * log2e)),
                                                  evaluate=False))
-    return sp.N(expr, DIGITS)
+    expr = sp.N(expr, DIGITS)
+    # (N leaves a number inside a function of the variable as it is: log(2) in sin(log(x) / log(2)))
+    return expr.replace(lambda e: e.is_number and not e.is_Number and not e.is_Atom, lambda e: sp.N(e, DIGITS))
 
 
 FORMATS = {"fp32": np.float32, "fp16": np.float16}
@@ -160,12 +164,81 @@ class _Powers:
         return self._min_max(expr, "min")
 
 
-class _GLSL(_Powers, GLSLPrinter):
+class NoShaderForm(ValueError):
+    """A function the shader language has no form of (one line naming it)."""
+
+
+class _Functions:
+    """What every shader printer does with a function: its own name where the language has it
+    (`NATIVE`), a rewrite in others (`REWRITTEN`), else NoShaderForm naming it."""
+
+    language = "GLSL"
+    NATIVE = ("sinh", "cosh", "tanh", "asinh", "acosh", "atanh")
+    REWRITTEN: dict = {}
+
+    def _print_Function(self, expr):
+        name = type(expr).__name__
+        if name in self.REWRITTEN:
+            return self._print(self.REWRITTEN[name](*expr.args))
+        if name in self.NATIVE:
+            return f"{name}({', '.join(self._print(a) for a in expr.args)})"
+        return super()._print_Function(expr)
+
+    def _print_sinh(self, expr):
+        return self._print_Function(expr)
+
+    _print_cosh = _print_tanh = _print_asinh = _print_acosh = _print_atanh = _print_sinh
+
+    def _print(self, expr, **kwargs):
+        from sympy.printing.codeprinter import PrintMethodNotImplementedError
+
+        try:
+            return super()._print(expr, **kwargs)
+        except PrintMethodNotImplementedError:
+            if expr in (sp.zoo, sp.nan):
+                raise NoShaderForm(f"{expr} has no number: a constant of it does not evaluate (1/0, gamma(0))") from None
+            name = type(expr).__name__
+            raise NoShaderForm(f"{name} has no {self.language} form (no function of the language computes it)") \
+                from None
+
+
+def not_printed(error: Exception) -> str:
+    """Why a form has no shader text, in one line: the function the language lacks (NoShaderForm), or
+    the printer's failure."""
+    return str(error) if isinstance(error, NoShaderForm) else f"no GLSL form ({type(error).__name__}: {error})"
+
+
+class _GLSL(_Functions, _Powers, GLSLPrinter):
     pass
 
 
-class _HLSL(_Powers, C99CodePrinter):
+class _HLSL(_Functions, _Powers, C99CodePrinter):
+    language = "HLSL"
+
+    def __init__(self, settings=None):
+        super().__init__(settings)
+        self.math_macros = {}           # (C's M_LN2, M_PI: HLSL has none)
     rsqrt = "rsqrt({})"
+    NATIVE = ("sinh", "cosh", "tanh")
+    # (HLSL has no inverse hyperbolic functions: their logarithms)
+    REWRITTEN = {"asinh": lambda x: sp.log(x + sp.sqrt(x * x + 1)), "acosh": lambda x: sp.log(x + sp.sqrt(x * x - 1)),
+                 "atanh": lambda x: sp.log((1 + x) / (1 - x)) / 2, "sec": lambda x: 1 / sp.cos(x),
+                 "csc": lambda x: 1 / sp.sin(x), "cot": lambda x: 1 / sp.tan(x), "acot": lambda x: sp.atan(1 / x),
+                 "Heaviside": lambda x, at_zero=sp.Rational(1, 2): sp.Piecewise((0, x < 0), (at_zero, sp.Eq(x, 0)), (1, True))}
+
+    def _print_Abs(self, expr):
+        return f"abs({self._print(expr.args[0])})"
+
+    # the C99 functions HLSL has too (C99's erf, tgamma, lgamma, ... it has not)
+    INTRINSICS = ("sin", "cos", "tan", "asin", "acos", "atan", "atan2", "exp", "log", "sqrt", "floor", "ceiling")
+
+    def _print_Function(self, expr):
+        name = type(expr).__name__
+        if name not in self.INTRINSICS and name not in self.NATIVE and name not in self.REWRITTEN:
+            raise NoShaderForm(f"{name} has no {self.language} form (no function of the language computes it)")
+        return super()._print_Function(expr)
+
+    _print_gamma = _print_loggamma = _print_Function     # (C99 prints them as tgamma, lgamma)
 
 
 class _Python(_Powers, PythonCodePrinter):
@@ -193,7 +266,13 @@ def printed(printer, expr, precision: str | None = None) -> str:
     """`expr` in its symbols' own names by one of the printers (`_GLSL`, `_HLSL`, `_Python`), its
     numbers in `precision`'s format where given (`in_format`)."""
     printer.precision = precision
-    return printer.doprint(gpu_form(expr) if precision is None else in_format(expr, precision))
+    try:
+        numbered = gpu_form(expr) if precision is None else in_format(expr, precision)
+    except (ValueError, ArithmeticError) as e:      # (a constant part outside its function's domain: erfinv(3))
+        raise NoShaderForm(f"{sp.sstr(expr)[:80]} has no number: a constant of it does not evaluate ({e})") from None
+    if numbered.has(sp.I):
+        raise NoShaderForm(f"{sp.sstr(expr)[:80]} has no number: a constant of it is complex (asin(3), log(-2))")
+    return printer.doprint(numbered)
 
 
 def _printed(printer, expr, variable: str, precision: str | None) -> str:

@@ -8,6 +8,7 @@ the cause and the remedy.
 
 from __future__ import annotations
 
+import contextlib
 import errno
 import os
 import signal
@@ -113,6 +114,27 @@ def describe(e: OSError) -> str:
     if e.errno in (errno.ENOTDIR, errno.EEXIST, errno.EISDIR):
         return f"a path is a file where a folder is needed, or the reverse{where}: move it aside and rerun"
     return f"{e.strerror or e}{where}"
+
+
+@contextlib.contextmanager
+def writing(shown: Path):
+    """Writing one file, which a message names as `shown` (where it lands, not the temporary folder
+    it is written in): an OSError raised meanwhile is raised again naming it, with its cause where
+    the writer gave none (a short write: "N requested and M written", as numpy says it) read off the
+    device (no room left: ENOSPC) or the process's file-size limit (EFBIG)."""
+    try:
+        yield
+    except OSError as e:
+        code = e.errno
+        if code is None:
+            import resource
+            import shutil
+
+            folder = next((p for p in Path(shown).parents if p.exists()), Path("."))
+            limit = resource.getrlimit(resource.RLIMIT_FSIZE)[0]
+            code = (errno.ENOSPC if shutil.disk_usage(folder).free < 1 << 20 else
+                    errno.EFBIG if limit != resource.RLIM_INFINITY else None)
+        raise OSError(code, e.strerror or str(e), str(shown)) from None
 
 
 def check_folder(path: Path, what: str) -> None:

@@ -7,6 +7,7 @@ one left.
 from __future__ import annotations
 
 import contextlib
+import errno
 import fcntl
 import os
 import shutil
@@ -57,6 +58,9 @@ def publish(out_dir: Path, stamp_key: str, log, write: Callable[[Path], str], lo
     Holds `output_lock(out_dir)` meanwhile (`locked`: the caller holds it already); any hidden
     `.<name>.*` folder found under the lock was left by a killed run, and is removed.
     """
+    if out_dir.exists() and not out_dir.is_dir():
+        raise NotADirectoryError(errno.ENOTDIR, "a file, not a folder: give an output folder (the file is left as it is)",
+                                 str(out_dir))
     with contextlib.nullcontext() if locked else output_lock(out_dir, log):
         for stale in out_dir.parent.glob(f".{out_dir.name}.*"):
             if stale.is_dir():

@@ -96,6 +96,51 @@ def test_bad_input_is_one_line_and_exit_2(argv, message, capsys):
     assert message in err and len(err.splitlines()) == 1
 
 
+def test_an_out_that_is_a_file_is_refused_and_the_file_left_as_it_was(tmp_path, capsys):
+    """`derive --out FILE` where FILE exists: exit 2, one line, the file's bytes as they were, nothing
+    beside it (no hidden `.FILE.old`); the Python API's `write` refuses it too (publish)."""
+    from pipeline.cli import main
+    from pipeline.engine.publishing import publish
+
+    path = tmp_path / "notes.txt"
+    path.write_bytes(b"mine\n")
+    assert main(["derive", "--expr", "x*x", "--out", str(path)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "a file, not a folder" in err and str(path) in err and len(err.splitlines()) == 1
+    with pytest.raises(NotADirectoryError, match="notes.txt"):
+        publish(path, "key", lambda s: None, lambda tmp: "nothing")
+    assert path.read_bytes() == b"mine\n" and sorted(p.name for p in tmp_path.iterdir()) == ["notes.txt"]
+
+
+def test_a_short_write_names_the_file_and_its_cause(tmp_path, monkeypatch):
+    """A writer that stops short with numpy's words ("N requested and M written", no errno): the
+    error names the file where it lands and the cause read off the device (no room: ENOSPC) or the
+    file-size limit (EFBIG); `faults.describe` says it in one line."""
+    import errno
+    import resource
+    import shutil
+
+    from pipeline.engine import faults
+
+    def short():
+        raise OSError("5254432 requested and 51168 written")
+
+    shown = tmp_path / "run" / "report.html"
+    monkeypatch.setattr(shutil, "disk_usage", lambda path: shutil._ntuple_diskusage(100, 100, 0))
+    with pytest.raises(OSError) as full:
+        with faults.writing(shown):
+            short()
+    assert full.value.errno == errno.ENOSPC and full.value.filename == str(shown)
+    assert faults.describe(full.value).startswith(f"no space left on the device ({shown})")
+    monkeypatch.setattr(shutil, "disk_usage", lambda path: shutil._ntuple_diskusage(1 << 40, 0, 1 << 40))
+    monkeypatch.setattr(resource, "getrlimit", lambda which: (1 << 20, resource.RLIM_INFINITY))
+    with pytest.raises(OSError) as limited:
+        with faults.writing(shown):
+            short()
+    assert limited.value.errno == errno.EFBIG and "size limit" in faults.describe(limited.value)
+    assert len(faults.describe(limited.value).splitlines()) == 1
+
+
 # A target file's text that must stay text in every output (`engine.escape`): the registered schlick,
 # named and described by a colleague who writes HTML, Markdown and mathtext into them
 HOSTILE_NAME = "</script><script>alert(1)</script>"

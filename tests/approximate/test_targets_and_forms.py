@@ -193,6 +193,69 @@ def test_a_form_printed_compiles_and_its_twin_is_its_value(tmp_path):
         assert done.returncode == 0, done.stdout + done.stderr
 
 
+def _random_expression(rng, functions: dict, depth: int) -> str:
+    """A random text of the parser's whole whitelist: its functions at their arities, + - * / **,
+    numbers, x, pi and E."""
+    if depth == 0 or rng.random() < 0.25:
+        return str(rng.choice(["x", "pi", "E", "0.5", "3", "1.25", "(1 - x)", "(x + 2)"]))
+    kind = rng.integers(3)
+    if kind == 0:
+        name = str(rng.choice(sorted(functions)))
+        _, fewest, most = functions[name]
+        count = fewest if most is None or most == fewest else int(rng.integers(fewest, most + 1))
+        return f"{name}({', '.join(_random_expression(rng, functions, depth - 1) for _ in range(count))})"
+    if kind == 1:
+        op = str(rng.choice(["+", "-", "*", "/"]))
+        return f"({_random_expression(rng, functions, depth - 1)} {op} {_random_expression(rng, functions, depth - 1)})"
+    return f"{_random_expression(rng, functions, depth - 1)}**{rng.choice(['2', '0.5', '-1', '3', 'x'])}"
+
+
+def test_every_expression_the_parser_reads_prints_a_form_that_compiles_or_names_what_is_missing(tmp_path):
+    """400 random expressions over the parser's whole whitelist (pi and E inside terms, as
+    0.5 (cos(pi x + pi) + 2 x - 1) holds them): each printed in GLSL and in HLSL compiles (glslang,
+    one shader of them all per language), or its printer raises NoShaderForm naming a function the
+    language lacks (the special functions: erf, gamma, the Bessel functions, ...), or a constant part
+    that has no number (erfinv(3)), in one line."""
+    from pipeline.engine import expressions
+
+    validator = _validator()
+    if validator is None:
+        pytest.skip("glslangValidator not found: the printed forms were not compiled")
+    functions = expressions._functions()
+    rng = np.random.default_rng(3)
+    printed = {"glsl": [], "hlsl": []}
+    missing = set()
+    for _ in range(400):
+        text = _random_expression(rng, functions, 3)
+        try:
+            expr = targets.parse(text)
+        except DeriveError:
+            continue
+        for language, printer in (("glsl", forms.glsl), ("hlsl", forms.hlsl)):
+            try:
+                printed[language].append(printer(expr))
+            except forms.NoShaderForm as e:
+                assert len(str(e).splitlines()) == 1
+                if "has no number" not in str(e):      # (erfinv(3), asin(3), 1/0: no real number at all)
+                    assert f"no {language.upper()} form" in str(e)
+                    missing.add(str(e).split()[0])
+    assert len(printed["glsl"]) >= 100 and len(printed["hlsl"]) >= 100
+    assert missing and missing <= {"erf", "erfc", "erfinv", "erfcinv", "gamma", "loggamma", "polygamma", "Ei", "Si",
+                                   "Ci", "li", "elliptic_k", "elliptic_e", "beta", "besselj", "bessely", "besseli",
+                                   "besselk", "uppergamma", "lowergamma"}, missing
+    glsl = "".join(f"float f{i}(float x) {{ return {text}; }}\n" for i, text in enumerate(printed["glsl"]))
+    hlsl = "".join(f"float f{i}(float x) {{ return {text}; }}\n" for i, text in enumerate(printed["hlsl"]))
+    calls = {language: " + ".join(f"f{i}(x_in)" for i in range(len(printed[language]))) for language in printed}
+    (tmp_path / "a.frag").write_text("#version 450\nlayout(location = 0) in float x_in;\n"
+                                     "layout(location = 0) out vec4 color;\n" + glsl
+                                     + f"void main() {{ color = vec4({calls['glsl']}); }}\n")
+    (tmp_path / "a.hlsl").write_text(hlsl + f"float4 main(float x_in : TEXCOORD0) : SV_Target "
+                                            f"{{ return {calls['hlsl']}; }}\n")
+    for args in ([str(tmp_path / "a.frag")], ["-D", "-e", "main", "-S", "frag", str(tmp_path / "a.hlsl")]):
+        done = subprocess.run([validator, "-V", "-o", str(tmp_path / "out.spv"), *args], capture_output=True, text=True)
+        assert done.returncode == 0, (done.stdout + done.stderr)[:2000]
+
+
 def test_the_best_constant_s_error_is_its_closed_form():
     """abs: half the range; rel: (max - min) / (max + min) of |f|, the floor raising the least; 1 where f
     changes sign (no constant has a relative error below 1 there)."""

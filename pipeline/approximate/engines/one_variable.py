@@ -25,7 +25,7 @@ import time
 
 import numpy as np
 
-from ..forms import Form, glsl, predicted_cycles
+from ..forms import Form, glsl, not_printed, predicted_cycles
 from ..measures import bounds, executed
 from ..measures.fronts import constant_error, front, rounding_floor, verdict
 from ..search import anchor_refits, families, grammar_search, representable
@@ -60,7 +60,7 @@ def _compile(forms: list[Form], architectures, log, precision: str = "fp32") -> 
         try:
             text = glsl(m.expression, "t", precision)
         except Exception as e:          # a function sympy's GLSL printer does not know
-            missing["exact"] = f"{m.expression} has no GLSL form ({type(e).__name__})"
+            missing["exact"] = f"{m.expression}: {not_printed(e)}"
             continue
         for vendor, names in vendor_groups(list(architectures)):
             try:
@@ -84,13 +84,13 @@ def _executed(forms: list[Form], target, precision: str, real: dict, log, chosen
     format, `representable.choose`}) as that variant too: dict(measured={name: its executed errors;
     NaN where it was not executed; a chosen variant under name + CHOSEN}, and how it was executed:
     how, inputs, truth, not_executed)."""
-    bodies, not_printed = {}, {}
+    bodies, unprinted = {}, {}
     variants = [(m.name, m.expression) for m in forms] + [(name + CHOSEN, e) for name, e in (chosen or {}).items()]
     for name, expression in variants:
         try:
             bodies[name] = glsl(expression, target.variable, precision)
         except Exception as e:          # (a function sympy's GLSL printer does not know)
-            not_printed[name] = f"{name}: no GLSL form ({type(e).__name__})"
+            unprinted[name] = f"{name}: {not_printed(e)}"
     extrema = sorted({r[k] for r in real.values() for k in ("x_abs", "x_rel")})
     started = time.perf_counter()
     log(f"executing {len(bodies)} forms in {precision} over the domain")
@@ -101,7 +101,7 @@ def _executed(forms: list[Form], target, precision: str, real: dict, log, chosen
     return dict(measured={name: e for name, e in measured.items() if not name.endswith(CHOSEN)},
                 errors_chosen={name.removesuffix(CHOSEN): e for name, e in measured.items() if name.endswith(CHOSEN)},
                 how=run["how"], inputs=run["inputs"], truth=run["truth"],
-                not_executed=run["not_executed"] | not_printed, seconds=round(time.perf_counter() - started, 1))
+                not_executed=run["not_executed"] | unprinted, seconds=round(time.perf_counter() - started, 1))
 
 
 def derive(target, gpu=None, budget=None, max_cycles: float | None = None,

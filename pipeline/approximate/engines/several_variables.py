@@ -55,7 +55,7 @@ import time
 
 import numpy as np
 
-from ..forms import Form
+from ..forms import Form, not_printed
 from ..targets import DeriveError
 
 from ..search.box_search import _searched, _text
@@ -98,7 +98,7 @@ def compile_forms(forms: dict, target: Target, architectures, precision: str = "
         try:
             text = glsl_text(expr, precision)
         except Exception as e:          # a function the GLSL printer does not know
-            missing[name] = f"no GLSL form ({type(e).__name__})"
+            missing[name] = not_printed(e)
             continue
         read = {s.name for s in expr.free_symbols}
         used = [n for n in (names if per == "pixel" else variables) if n in read] or names[:1]
@@ -161,19 +161,19 @@ def _executed(everything, per_of, record, target, f, real, cycles, architectures
             provisional |= {r["name"] for r in front(rows, error_key, floor)}
     peaks = [where for m in everything if (m.name in provisional and per_of[m.name][1] == "pixel") or m.kind != "found"
              for where in error_peaks(m.expression, target, f)]
-    bodies, not_printed = {}, {}
+    bodies, unprinted = {}, {}
     for m in everything:
         try:
             bodies[m.name] = (glsl_text(m.expression, precision), record[m.name]["formulas"]["constants"]
                               if per_of[m.name][1] == "material" else None)
         except Exception as e:          # (a function the GLSL printer does not know)
-            not_printed[m.name] = f"{m.name}: no GLSL form ({type(e).__name__})"
+            unprinted[m.name] = f"{m.name}: {not_printed(e)}"
     log(f"executing {len(bodies)} forms in {precision} over the box")
     run = executed_box.measure(bodies, target.names, execution_points(target, peaks), target.numpy(),
                                target.floor if target.metric == "rel" else 0.0, precision)
     measured = {m.name: run["errors"].get(m.name) or executed_box.nan_errors() for m in everything}
     log(f"executed on {run['inputs']} points by {run['how']} in {time.perf_counter() - started:.1f} s")
-    return dict(measured=measured, how=run["how"], inputs=run["inputs"], not_executed=run["not_executed"] | not_printed,
+    return dict(measured=measured, how=run["how"], inputs=run["inputs"], not_executed=run["not_executed"] | unprinted,
                 peaks=len(peaks), seconds=round(time.perf_counter() - started, 1))
 
 

@@ -396,6 +396,7 @@ def figure(path: Path, results) -> None:
 
 def write(out: Path, results, log=print) -> list[Path]:
     """Every file of the module docstring into `out`, published whole."""
+    from ...engine import faults
     from ...engine.cache import digest
     from ...engine.publishing import publish
 
@@ -405,16 +406,17 @@ def write(out: Path, results, log=print) -> list[Path]:
              "derive_twin.py"] + (["renders.png", "rendered_front.png"] if results.get("renders") else [])
 
     def write_all(tmp: Path) -> str:
-        write_csv(tmp / "front.csv", results["rows"])
-        (tmp / "results.json").write_text(json.dumps(results_json(results), indent=1))
-        (tmp / "report.md").write_text(report(results))
-        figure(tmp / "front.png", results)
+        writers = [("front.csv", lambda p: write_csv(p, results["rows"])),
+                   ("results.json", lambda p: p.write_text(json.dumps(results_json(results), indent=1))),
+                   ("report.md", lambda p: p.write_text(report(results))), ("front.png", lambda p: figure(p, results))]
         if results.get("renders"):
-            rendered_report.figure_renders(tmp / "renders.png", results)
-            rendered_report.figure_front(tmp / "rendered_front.png", results)
-        derive_page.write(tmp / "report.html", results)     # (after renders.png, which it embeds)
-        for name, text in shader_sources(results).items():
-            (tmp / name).write_text(text)
+            writers += [("renders.png", lambda p: rendered_report.figure_renders(p, results)),
+                        ("rendered_front.png", lambda p: rendered_report.figure_front(p, results))]
+        writers.append(("report.html", lambda p: derive_page.write(p, results)))    # (after renders.png, which it embeds)
+        writers += [(name, lambda p, text=text: p.write_text(text)) for name, text in shader_sources(results).items()]
+        for name, write_file in writers:
+            with faults.writing(out / name):
+                write_file(tmp / name)
         return f"{len(results['rows'])} rows"
 
     from ...engine.web_page import assets_digest
