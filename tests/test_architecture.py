@@ -1,5 +1,5 @@
-"""The house: `pipeline/` is wings in folders (engine, optics, isa, mitsuba, symbolic, approximate, stages,
-publish, from the lowest layer up) under `cli.py` and `runner.py`; `approximate` (`pipeline derive`'s fits,
+"""The house: `pipeline/` is wings in folders (engine, optics, isa, mitsuba, symbolic, shaders, approximate,
+stages, publish, from the lowest layer up) under `cli.py` and `runner.py`; `approximate` (`pipeline derive`'s fits,
 costs and fronts) sits below the stages, which use its fronts; imports go down the layers only, never across wings of one layer, never in a
 cycle; no stage imports another stage; every module name is unique."""
 
@@ -12,8 +12,8 @@ import pipeline
 
 PACKAGE = Path(pipeline.__file__).parent
 # Layer of each wing: a module may import its own wing and the layers below it.
-LAYER = {"engine": 0, "optics": 1, "isa": 2, "mitsuba": 2, "symbolic": 3, "approximate": 4, "stages": 5, "publish": 5,
-         "": 6}
+LAYER = {"engine": 0, "optics": 1, "isa": 2, "mitsuba": 2, "symbolic": 3, "shaders": 3, "approximate": 4, "stages": 5,
+         "publish": 5, "": 6}
 
 
 def modules() -> dict[str, Path]:

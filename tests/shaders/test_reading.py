@@ -1,0 +1,129 @@
+"""A shader file's functions read as the compiler means them (`pipeline.shaders`): found by
+tree-sitter's grammar (inside an include guard, overloads, the `// derive:` line above), compiled in
+a harness that includes the file unchanged, optimized by spirv-opt and read back into sympy; each
+expression against the function's own mathematics written apart in numpy; the refusals with their
+reasons; the same function in GLSL and in HLSL the same expression."""
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+import sympy as sp
+
+from pipeline.shaders import definitions, harness
+from pipeline.shaders.definitions import ShaderError
+
+HERE = Path(__file__).parent
+GLSL = HERE / "engine_style.glsl"
+HLSL = HERE / "engine_style.hlsl"
+
+
+def read_all(path: Path, options: harness.Options | None = None) -> dict:
+    language, found = definitions.read(path)
+    options = options or harness.Options(language)
+    text = harness.preprocessed(path, options)
+    return {(d.name, len(d.parameters)): harness.read_function(text, d, options, path) for d in found}
+
+
+@pytest.fixture(scope="module")
+def glsl():
+    return read_all(GLSL)
+
+
+def test_the_functions_of_a_file_are_found_with_their_lines_and_annotations():
+    language, found = definitions.read(GLSL)
+    assert language == "glsl" and definitions.language_of(HLSL) == "hlsl"
+    assert [d.name for d in found] == ["pow5", "F_Schlick", "F_Schlick_pow5", "V_SmithGGXCorrelated", "srgb_decode",
+                                       "srgb_encode", "acos_fast", "saturate_", "saturate_", "F_Schlick3", "sum_loop",
+                                       "write_out", "four"]
+    by_name = {d.name: d for d in found}
+    lines = GLSL.read_text().splitlines()
+    for d in found:         # (each definition's line is its signature's)
+        assert lines[d.line - 1].startswith(d.signature.splitlines()[0])
+    assert by_name["F_Schlick"].annotation == "VoH=0:1 role=fresnel"
+    assert by_name["acos_fast"].annotation == "x=0:1 exact=acos(x)"
+    assert by_name["pow5"].annotation is None
+    assert by_name["write_out"].parameters[1] == definitions.Parameter("y", "float", ("out",))
+    source = GLSL.read_bytes()
+    for d in found:         # (the spans: the body is the braces' text, inside the definition's)
+        assert source[d.body_start:d.body_start + 1] == b"{" and source[d.body_end - 1:d.body_end] == b"}"
+        assert d.start < d.body_start < d.body_end == d.end
+
+
+def _points(lo, hi, count=257):
+    return np.linspace(lo, hi, count)
+
+
+def test_each_function_reads_as_its_mathematics_written_apart(glsl):
+    """The expression (float32 constants as the shader holds them) against the function's formula
+    in numpy float64 with the source's decimal constants: within 1e-6 relative, the float32 rounding
+    of a few constants (2^-24 each), away from a branch's threshold (which rounds too)."""
+    def close(key, exact, *ranges):
+        reading = glsl[key]
+        assert reading.refused is None, reading.refused
+        symbols = [sp.Symbol(p.name, real=True) for p in reading.definition.parameters]
+        f = sp.lambdify(symbols, reading.expression, "numpy")
+        grids = np.meshgrid(*(_points(*r, 17 if len(ranges) > 1 else 257) for r in ranges), indexing="ij")
+        np.testing.assert_allclose(f(*grids), exact(*grids), rtol=1e-6)
+
+    close(("pow5", 1), lambda x: x ** 5, (0, 2))
+    close(("F_Schlick", 1), lambda v: (1 - v) ** 5, (0, 1))
+    close(("F_Schlick_pow5", 1), lambda v: (1 - v) ** 5, (0, 1))
+
+    def visibility(nov, nol, r):
+        a2 = r * r
+        return 0.5 / (nol * np.sqrt(nov * nov * (1 - a2) + a2) + nov * np.sqrt(nol * nol * (1 - a2) + a2))
+
+    close(("V_SmithGGXCorrelated", 3), visibility, (1e-4, 1), (1e-4, 1), (0.045, 1))
+    decode = lambda c: np.where(c <= 0.04045, c / 12.92, ((c + 0.055) / 1.055) ** 2.4)    # noqa: E731
+    close(("srgb_decode", 1), decode, (0.0, 0.04), )
+    close(("srgb_decode", 1), decode, (0.041, 1.0))
+    encode = lambda c: np.where(c < 0.0031308, 12.92 * c, 1.055 * c ** (1 / 2.4) - 0.055)  # noqa: E731
+    close(("srgb_encode", 1), encode, (0.0, 0.0031))
+    close(("srgb_encode", 1), encode, (0.0032, 1.0))
+    close(("acos_fast", 1), lambda x: (-0.156583 * x + np.pi / 2) * np.sqrt(1 - x), (0, 1))
+    close(("saturate_", 1), lambda x: np.clip(x, 0, 1), (-1, 2))
+    close(("saturate_", 2), lambda x, y: np.clip(x * y, 0, 1), (-1, 2), (-1, 2))
+    # a branch is a Piecewise: the ternary's and the early return's
+    assert isinstance(glsl[("srgb_decode", 1)].expression, sp.Piecewise)
+    assert isinstance(glsl[("srgb_encode", 1)].expression, sp.Piecewise)
+
+
+def test_what_is_not_read_is_refused_with_its_reason(glsl):
+    refused = {key[0]: r.refused for key, r in glsl.items() if r.refused is not None}
+    assert refused == {"F_Schlick3": "a result of type vec3 (a scalar float is read)",
+                       "sum_loop": "a loop left after optimization",
+                       "write_out": "an out or inout parameter (y)",
+                       "four": "4 arguments; at most 3 free scalars are derived"}
+
+
+def test_the_same_function_in_hlsl_is_the_same_expression(glsl):
+    hlsl = read_all(HLSL)
+    for key in (("srgb_decode", 1), ("acos_fast", 1), ("V_SmithGGXCorrelated", 3)):
+        assert hlsl[key].expression == glsl[key].expression, key
+    assert hlsl[("F_Schlick3", 2)].refused == "a result of type float3 (a scalar float is read)"
+
+
+def test_includes_and_defines_are_the_compiler_s(tmp_path):
+    """-I finds an include outside the file's folder; -D NAME=VALUE sets a macro the file reads."""
+    (tmp_path / "lib").mkdir()
+    (tmp_path / "lib" / "scale.glsl").write_text("float scaled(float x) { return x * SCALE; }\n")
+    path = tmp_path / "user.glsl"
+    path.write_text('#include "scale.glsl"\nfloat twice(float x) { return scaled(x) + OFFSET; }\n')
+    read = read_all(path, harness.Options("glsl", (str(tmp_path / "lib"),), ("SCALE=2.0", "OFFSET=0.5")))
+    x = sp.Symbol("x", real=True)
+    assert sp.simplify(read[("twice", 1)].expression - (2 * x + sp.Rational(1, 2))) == 0
+    with pytest.raises(ShaderError, match=r"user\.glsl does not compile: .*scale\.glsl"):
+        harness.preprocessed(path, harness.Options("glsl"))
+
+
+def test_a_file_that_does_not_compile_is_one_line_with_its_file_and_line(tmp_path):
+    path = tmp_path / "bad.glsl"
+    path.write_text("float ok(float x) { return x; }\nfloat bad(float x) { return x + ; }\n")
+    language, found = definitions.read(path)
+    options = harness.Options(language)
+    text = harness.preprocessed(path, options)
+    with pytest.raises(ShaderError, match=r"bad\.glsl.*:2:"):
+        harness.read_function(text, found[0], options, path)
+    with pytest.raises(ShaderError, match="no such file"):
+        definitions.read(tmp_path / "none.glsl")
