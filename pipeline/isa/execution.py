@@ -38,7 +38,7 @@ LOCAL_SIZE = 64
 MAX_GROUPS = 65535          # work groups per dimension (Vulkan's minimum maxComputeWorkGroupCount)
 TIMEOUT = 120.0             # seconds of one form in the child process (compile, dispatch, read back)
 _SHADER = """#version 450
-{extensions}layout(local_size_x = {local}) in;
+{extensions}{prelude}layout(local_size_x = {local}) in;
 {buffers}
 layout(std430, binding = {out}) writeonly buffer Outputs {{ {t} ys[]; }};
 {t} form({arguments})
@@ -65,9 +65,10 @@ def available() -> str | None:
     return None if found.found else found.missing
 
 
-def shader_source(body: str, precision: str = "fp32", variable="x") -> str:
+def shader_source(body: str, precision: str = "fp32", variable="x", prelude: str = "") -> str:
     """The compute shader of a form's GLSL expression `body` in `variable` (a name, or several names:
-    one input buffer each, in that order) (module docstring)."""
+    one input buffer each, in that order) (module docstring), with `prelude` (GLSL declarations the
+    body calls: a shader file's functions, its `#extension` lines first) above the form."""
     if precision not in PRECISIONS:
         raise ValueError(f"precision {precision!r}: give one of {', '.join(PRECISIONS)}")
     t, _ = PRECISIONS[precision]
@@ -80,7 +81,8 @@ def shader_source(body: str, precision: str = "fp32", variable="x") -> str:
         body = half_literals(body)
     buffers = "\n".join(f"layout(std430, binding = {b}) readonly buffer Input{b} {{ {t} in{b}[]; }};"
                          for b in range(len(names)))
-    return _SHADER.format(extensions=extensions, local=LOCAL_SIZE, t=t, buffers=buffers, out=len(names),
+    return _SHADER.format(extensions=extensions, prelude=prelude and prelude.rstrip("\n") + "\n", local=LOCAL_SIZE,
+                          t=t, buffers=buffers, out=len(names),
                           arguments=", ".join(f"{t} {n}" for n in names), body=body,
                           values=", ".join(f"in{b}[i]" for b in range(len(names))))
 
@@ -122,21 +124,24 @@ def errors(values, inputs, truth, floor: float = 0.0, denominator=None) -> dict:
 
 
 def execute_forms(bodies: dict[str, str], inputs, precision: str = "fp32", variable: str = "x", truth=None,
-                  floor: float = 0.0, timeout: float = TIMEOUT) -> dict:
+                  floor: float = 0.0, timeout: float = TIMEOUT, optimized: bool = False) -> dict:
     """Every form of `bodies` ({name: GLSL expression in `variable`, or in the names of `inputs` where
-    it is a dict of equal-length arrays}) executed by lavapipe at `inputs` (rounded to the format),
+    it is a dict of equal-length arrays; or (prelude, expression), `shader_source`'s}) executed by
+    lavapipe at `inputs` (rounded to the format),
     all in one child process: {name: its values (the format, the shape of the inputs)}, or with
     `truth` (float64 at the inputs) {name: `errors` of its values (at the first variable)}, or an
     ExecutionError (one line naming the form) where it did not compile or the driver failed. A child
     that crashes or passes its time (`timeout` per form) is run again with each unfinished form alone,
     so that one form's failure is that form's only."""
-    (out,) = execute_sets([(bodies, inputs, truth, floor)], precision, variable, timeout)
+    (out,) = execute_sets([(bodies, inputs, truth, floor)], precision, variable, timeout, optimized)
     return out
 
 
-def execute_sets(sets, precision: str = "fp32", variable: str = "x", timeout: float = TIMEOUT) -> list[dict]:
+def execute_sets(sets, precision: str = "fp32", variable: str = "x", timeout: float = TIMEOUT,
+                 optimized: bool = False) -> list[dict]:
     """`execute_forms` of several sets [(bodies, inputs, truth, floor), ...], each with its own inputs,
-    in one child process: a list of its results, one dict per set."""
+    in one child process: a list of its results, one dict per set. `optimized`: each shader's SPIR-V
+    passed through `spirv-opt -O` first, as an application that optimizes its shaders ships them."""
     from ..optics import glslang
 
     if precision not in PRECISIONS:
@@ -162,14 +167,21 @@ def execute_sets(sets, precision: str = "fp32", variable: str = "x", timeout: fl
             described.append(dict(inputs=len(arrays), truth=truth is not None, floor=floor,
                                   shape=list(np.shape(next(iter(named.values()))))))
             for name, body in bodies.items():
+                prelude, body = body if isinstance(body, tuple) else ("", body)
                 try:
-                    code = glslang.spirv(shader_source(body, precision, list(named)), stage="comp")
+                    code = glslang.spirv(shader_source(body, precision, list(named), prelude), stage="comp")
                 except glslang.GlslError as e:
                     first = next((line for line in str(e).splitlines() if "ERROR" in line), str(e).strip())
                     outs[j][name] = ExecutionError(f"{name}: the shader does not compile: {first}")
                     continue
                 stem = f"set{j}_form{len(jobs)}"
                 (folder / f"{stem}.spv").write_bytes(code)
+                if optimized:
+                    try:
+                        _optimize(folder / f"{stem}.spv")
+                    except RuntimeError as e:
+                        outs[j][name] = ExecutionError(f"{name}: {e}")
+                        continue
                 jobs.append((j, name, stem))
 
         def run(indices: list[int]) -> str | None:
@@ -206,6 +218,15 @@ def execute_sets(sets, precision: str = "fp32", variable: str = "x", timeout: fl
             else:
                 outs[j][name] = np.load(result(k)).reshape(described[j]["shape"])
     return [{name: out[name] for name in bodies} for out, (bodies, *_) in zip(outs, sets)]
+
+
+def _optimize(path: Path) -> None:
+    """The SPIR-V file at `path` replaced by its `spirv-opt -O` (RuntimeError with the tool's message)."""
+    from ..optics import spirv
+
+    done = spirv.run_tool([spirv.tool("spirv-opt"), "-O", str(path), "-o", str(path)])
+    if done.returncode != 0:
+        raise RuntimeError(f"spirv-opt failed on {path.name}: {done.stderr.strip()}")
 
 
 def emulate(body: str, inputs, precision: str = "fp32", variable: str = "x") -> np.ndarray:

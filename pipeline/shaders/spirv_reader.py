@@ -79,6 +79,14 @@ def _instructions(disassembly: str) -> list[tuple[str | None, str, list[str]]]:
 def read(disassembly: str, arguments: list[str]) -> sp.Expr:
     """The value `main` stores to its output, as a sympy expression in the real symbols `arguments`
     (the input at Location i is argument i). Raises Refused naming what the reader does not take."""
+    return read_both(disassembly, arguments)[0]
+
+
+def read_both(disassembly: str, arguments: list[str]) -> tuple[sp.Expr, str]:
+    """(`read`'s expression, the same reading transliterated into the GLSL body of a function of
+    a0, a1, ...: one statement per SPIR-V operation, in the optimized shader's order, with its own
+    GLSL function, constant and branch condition, so that it computes what the shader computes to
+    the last bit: what the round trip executes beside the user's function, `checked`)."""
     instructions = _instructions(disassembly)
     symbols = [sp.Symbol(a, real=True) for a in arguments]
     types, storage, locations, constants = {}, {}, {}, {}
@@ -112,6 +120,7 @@ def read(disassembly: str, arguments: list[str]) -> sp.Expr:
         if opcode in DISCARD:
             raise Refused("discard")
     blocks, order = _blocks(body)
+    code = _Transliteration(constants)
     values: dict = dict(constants)
     reach: dict[str, object] = {order[0]: sp.true}
     edges: dict[tuple[str, str], object] = {}
@@ -119,6 +128,7 @@ def read(disassembly: str, arguments: list[str]) -> sp.Expr:
     for label in order:
         if label not in reach:
             reach[label] = sp.Or(*(sp.And(reach[p], c) for (p, b), c in edges.items() if b == label))
+        code.enter(label)
         for result, opcode, rest in blocks[label]:
             if opcode in ("OpLabel", "OpSelectionMerge", "OpReturn", "OpUnreachable", "OpNop", "OpLine",
                           "OpNoLine"):
@@ -130,37 +140,135 @@ def read(disassembly: str, arguments: list[str]) -> sp.Expr:
                 if locations[pointer] >= len(symbols):
                     raise Refused(f"an input at location {locations[pointer]} beyond the arguments")
                 values[result] = symbols[locations[pointer]]
+                code.names[result] = f"a{locations[pointer]}"
             elif opcode == "OpStore":
                 if storage.get(rest[0]) != "Output":
                     raise Refused("a store other than the result (an out or inout parameter, a global)")
                 stored.append((label, _value(values, rest[1])))
+                code.stored = code.use(rest[1])
             elif opcode == "OpBranch":
                 edges[(label, rest[0])] = sp.true
+                code.edge(label, rest[0], "true")
             elif opcode == "OpBranchConditional":
                 condition = _value(values, rest[0])
                 if rest[1] == rest[2]:
                     edges[(label, rest[1])] = sp.true
+                    code.edge(label, rest[1], "true")
                 else:
                     edges[(label, rest[1])] = condition
                     edges[(label, rest[2])] = sp.Not(condition)
+                    code.edge(label, rest[1], code.use(rest[0]))
+                    code.edge(label, rest[2], f"!{code.use(rest[0])}")
             elif opcode == "OpSwitch":
                 selector = values.get(rest[0])
                 if not isinstance(selector, sp.Integer):
                     raise Refused("a switch on a value of the arguments")
                 cases = dict(zip(rest[2::2], rest[3::2]))
                 edges[(label, cases.get(str(int(selector)), rest[1]))] = sp.true
+                code.edge(label, cases.get(str(int(selector)), rest[1]), "true")
             elif opcode == "OpPhi":
                 pieces = [(_value(values, v), sp.And(reach[p], edges.get((p, label), sp.false)))
                           for v, p in zip(rest[1::2], rest[2::2]) if p in reach]
                 values[result] = _piecewise(pieces)
+                code.phi(result, [(v, p) for v, p in zip(rest[1::2], rest[2::2]) if p in reach], label)
             else:
                 values[result] = _operation(opcode, rest, values)
+                code.operation(result, opcode, rest, values[result])
     if len(stored) != 1:
         raise Refused("the result is written more than once" if stored else "no result is written")
     value = stored[0][1]
     if isinstance(value, tuple):
         raise Refused("a vector result")
-    return value
+    return value, code.text()
+
+
+GLSL_FUNCTIONS = {
+    "FAbs": "abs", "FSign": "sign", "Floor": "floor", "Ceil": "ceil", "Fract": "fract", "Sqrt": "sqrt",
+    "InverseSqrt": "inversesqrt", "Exp": "exp", "Exp2": "exp2", "Log": "log", "Log2": "log2", "Pow": "pow",
+    "Sin": "sin", "Cos": "cos", "Tan": "tan", "Asin": "asin", "Acos": "acos", "Atan": "atan", "Atan2": "atan",
+    "Sinh": "sinh", "Cosh": "cosh", "Tanh": "tanh", "FMin": "min", "FMax": "max", "NMin": "min", "NMax": "max",
+    "FClamp": "clamp", "NClamp": "clamp", "FMix": "mix", "Step": "step", "SmoothStep": "smoothstep", "Fma": "fma",
+}
+GLSL_COMPARISONS = {"LessThan": "<", "LessThanEqual": "<=", "GreaterThan": ">", "GreaterThanEqual": ">=",
+                    "Equal": "==", "NotEqual": "!="}
+UNORDERED = {"LessThan": ">=", "LessThanEqual": ">", "GreaterThan": "<=", "GreaterThanEqual": "<", "Equal": "!="}
+GLSL_ARITHMETIC = {"OpFAdd": "+", "OpFSub": "-", "OpFMul": "*", "OpFDiv": "/"}
+
+
+class _Transliteration:
+    """The optimized shader's `main` as GLSL statements (`read_both`): a float or bool local per
+    SPIR-V value, a bool per block that holds where the block is reached, a phi a chain of `?:` over
+    its incoming edges' conditions."""
+
+    def __init__(self, constants: dict):
+        self.names: dict[str, str] = {}
+        self.constants = constants
+        self.lines: list[str] = []
+        self.edges: dict[tuple[str, str], str] = {}
+        self.stored: str | None = None
+        self.count = 0
+
+    def use(self, name: str) -> str:
+        if name in self.names:
+            return self.names[name]
+        value = self.constants.get(name)
+        if value is sp.true or value is sp.false:
+            return "true" if value is sp.true else "false"
+        if isinstance(value, sp.Float):
+            text = format(float(value), ".9g")
+            return text if any(c in text for c in ".eEn") else text + ".0"
+        raise Refused(f"a value the transliteration does not know ({name})")
+
+    def _local(self, result: str, kind: str, text: str) -> None:
+        self.count += 1
+        self.names[result] = f"v{self.count}"
+        self.lines.append(f"{kind} v{self.count} = {text};")
+
+    def enter(self, label: str) -> None:
+        incoming = [f"({self.names[f'reach{p}']} && {c})" for (p, b), c in self.edges.items() if b == label]
+        self.lines.append(f"bool r{len(self.lines)} = {' || '.join(incoming) or 'true'};")
+        self.names[f"reach{label}"] = f"r{len(self.lines) - 1}"
+
+    def edge(self, source: str, target: str, condition: str) -> None:
+        self.edges[(source, target)] = condition
+
+    def phi(self, result: str, incoming: list[tuple[str, str]], label: str) -> None:
+        pieces = [(self.use(v), f"({self.names[f'reach{p}']} && {self.edges.get((p, label), 'false')})")
+                  for v, p in incoming]
+        text = pieces[-1][0]
+        for value, condition in reversed(pieces[:-1]):
+            text = f"({condition} ? {value} : {text})"
+        self._local(result, "float", text)
+
+    def operation(self, result: str, opcode: str, rest: list[str], value) -> None:
+        if isinstance(value, tuple):
+            raise Refused("a vector operation")
+        args = [self.use(a) for a in rest[1:]] if opcode != "OpExtInst" else [self.use(a) for a in rest[3:]]
+        comparison = re.fullmatch(r"OpF(Ord|Unord)(\w+)", opcode)
+        if opcode in GLSL_ARITHMETIC:
+            self._local(result, "float", f"({args[0]} {GLSL_ARITHMETIC[opcode]} {args[1]})")
+        elif opcode == "OpFNegate":
+            self._local(result, "float", f"(-{args[0]})")
+        elif opcode == "OpExtInst":
+            self._local(result, "float", f"{GLSL_FUNCTIONS[rest[2]]}({', '.join(args)})")
+        elif comparison:
+            kind = comparison.group(2)
+            text = (f"({args[0]} {GLSL_COMPARISONS[kind]} {args[1]})" if comparison.group(1) == "Ord" or kind == "NotEqual"
+                    else f"!({args[0]} {UNORDERED[kind]} {args[1]})")
+            if comparison.group(1) == "Ord" and kind == "NotEqual":
+                text = f"(({args[0]} < {args[1]}) || ({args[0]} > {args[1]}))"
+            self._local(result, "bool", text)
+        elif opcode in ("OpLogicalAnd", "OpLogicalOr"):
+            self._local(result, "bool", f"({args[0]} {'&&' if opcode == 'OpLogicalAnd' else '||'} {args[1]})")
+        elif opcode == "OpLogicalNot":
+            self._local(result, "bool", f"(!{args[0]})")
+        elif opcode == "OpSelect":
+            self._local(result, "float", f"({args[0]} ? {args[1]} : {args[2]})")
+        else:
+            raise Refused(f"an operation the transliteration does not know ({opcode})")
+
+    def text(self) -> str:
+        return "\n".join(self.lines + [f"return {self.stored};"])
 
 
 def _main(instructions) -> list:

@@ -4,6 +4,7 @@ a harness that includes the file unchanged, optimized by spirv-opt and read back
 expression against the function's own mathematics written apart in numpy; the refusals with their
 reasons; the same function in GLSL and in HLSL the same expression."""
 
+import dataclasses
 from pathlib import Path
 
 import numpy as np
@@ -127,3 +128,92 @@ def test_a_file_that_does_not_compile_is_one_line_with_its_file_and_line(tmp_pat
         harness.read_function(text, found[0], options, path)
     with pytest.raises(ShaderError, match="no such file"):
         definitions.read(tmp_path / "none.glsl")
+
+
+RANGES = {"pow5": [(0, 2)], "F_Schlick": [(0, 1)], "F_Schlick_pow5": [(0, 1)],
+          "V_SmithGGXCorrelated": [(1e-4, 1), (1e-4, 1), (0.045, 1)], "srgb_decode": [(0, 1)], "srgb_encode": [(0, 1)],
+          "acos_fast": [(0, 1)]}
+
+
+def _round_trips(path=GLSL, ranges=RANGES):
+    from pipeline.shaders import round_trip, spirv_reader
+
+    language, found = definitions.read(path)
+    options = harness.Options(language)
+    text = harness.preprocessed(path, options)
+    out = {}
+    for d in found:
+        if d.name in ranges:
+            expression, transliteration = spirv_reader.read_both(harness.disassembly(text, d, options, path),
+                                                                 [p.name for p in d.parameters])
+            out[d.name] = round_trip.round_trip(text, d, expression, transliteration, ranges[d.name], language)
+    return out
+
+
+def test_every_reading_executes_as_the_function_to_the_last_bit():
+    """On lavapipe (both shaders through spirv-opt -O, as the reading was): the transliteration and the
+    function agree in every bit at 2^16 inputs or more (the branches' both sides among them), and the
+    sympy expression in float64 agrees to float32's rounding (drift below 1)."""
+    from pipeline.isa import execution
+
+    if execution.available() is not None:
+        pytest.skip(f"lavapipe cannot run here: {execution.available()}")
+    checks = _round_trips()
+    assert {name: (c.how, c.ulps, c.mismatch) for name, c in checks.items()} == {
+        name: ("lavapipe", 0, None) for name in RANGES}
+    assert all(c.inputs >= 1 << 16 and c.drift < 1 for c in checks.values())
+
+
+def test_a_misreading_is_caught_by_the_round_trip(monkeypatch):
+    """A planted misreading of pow (the transliteration's max for pow; the expression's exponent 1 %
+    off) is a mismatch of one line naming the function and an input."""
+    from pipeline.isa import execution
+    from pipeline.shaders import spirv_reader
+
+    if execution.available() is not None:
+        pytest.skip(f"lavapipe cannot run here: {execution.available()}")
+    monkeypatch.setitem(spirv_reader.GLSL_FUNCTIONS, "Pow", "max")
+    check = _round_trips(ranges={"F_Schlick": [(0, 1)]})["F_Schlick"]
+    assert check.mismatch.startswith("F_Schlick: its reading computes") and "the reader misread it" in check.mismatch
+    monkeypatch.setitem(spirv_reader.GLSL_FUNCTIONS, "Pow", "pow")
+    monkeypatch.setitem(spirv_reader.FUNCTIONS, "Pow", lambda x, y: x ** (y * 1.01))
+    check = _round_trips(ranges={"F_Schlick": [(0, 1)]})["F_Schlick"]
+    assert check.ulps == 0 and check.drift > 1 and "the expression misreads it" in check.mismatch
+
+
+def test_the_inputs_cover_the_box_with_at_least_2_to_the_16():
+    from pipeline.shaders.round_trip import grid
+
+    for ranges in ([(0, 1)], [(0, 1), (2, 3)], [(0, 1), (2, 3), (-1, 0)]):
+        points = grid(ranges)
+        assert points[0].size >= 1 << 16 and all(p.dtype == np.float32 for p in points)
+        assert [(float(p.min()), float(p.max())) for p in points] == [(float(np.float32(lo)), float(np.float32(hi)))
+                                                                      for lo, hi in ranges]
+
+
+def test_the_author_s_intent_is_read_from_the_line_above_or_the_command_line():
+    """`// derive:` pairs: each argument's range, the parameter, the metric, max_error, exact (a
+    value with spaces in quotes); the command line's where the comment is silent; a function with no
+    range for an argument is one line showing the line to write; a bad pair names itself."""
+    from pipeline.shaders import intent as intents
+
+    found = {d.name: d for d in definitions.read(GLSL)[1]}
+    visibility = intents.intent(found["V_SmithGGXCorrelated"], GLSL)
+    assert visibility == intents.Intent({"NoV": (1e-4, 1.0), "NoL": (1e-4, 1.0), "roughness": (0.045, 1.0)},
+                                        "roughness", "rel", 0.0, 0.25)
+    assert intents.intent(found["acos_fast"], GLSL).exact == "acos(x)"
+    assert intents.intent(found["F_Schlick"], GLSL).role == "fresnel"
+    # the command line where the comment says nothing; the comment wins where both speak
+    pow5 = intents.intent(found["pow5"], GLSL, intents.parse("x=0:2 metric=rel max_error=1e-3", "--var"))
+    assert (pow5.ranges, pow5.metric, pow5.max_error) == ({"x": (0.0, 2.0)}, "rel", 1e-3)
+    assert intents.intent(found["F_Schlick"], GLSL, {"VoH": (0.5, 1.0)}).ranges == {"VoH": (0.0, 1.0)}
+    with pytest.raises(ShaderError) as none:
+        intents.intent(found["srgb_decode"], GLSL)
+    assert str(none.value) == (f"{GLSL}:{found['srgb_decode'].line}: srgb_decode has no range for c: write "
+                               "`// derive: c=LO:HI` on the line above it, or give --var c=LO:HI")
+    for text, message in (('x=1:0', "give LO < HI"), ("x=0:1 metric=max", "metric=max"), ("x=0", "give x=LO:HI"),
+                          ("x=0:1 max_error=0", "max_error=0"), ("x=0:1 y=0:1", "has no argument 'y'"),
+                          ("x=0:1 parameter=a", "parameter=a"), ('x=0:1 exact="acos(x', "No closing quotation"),
+                          ("x=0:1 x=0:2", "x given twice"), ("x", "give KEY=VALUE")):
+        with pytest.raises(ShaderError, match=message):
+            intents.intent(dataclasses.replace(found["pow5"], annotation=text), GLSL)
