@@ -27,6 +27,7 @@ from .symbolic import grammar
 from .isa.architectures import ARCHITECTURES
 from .symbolic.regress import BUDGET_SECONDS, DEFAULT_OPERATIONS, MAX_COMPLEXITY, RegressError
 from .approximate.targets import DeriveError
+from .shaders.definitions import ShaderError
 
 
 def _print_checks(outcome) -> None:
@@ -178,6 +179,16 @@ def _regress(args) -> int:
 
 
 def _derive(args) -> int:
+    if args.shader is not None:
+        return _derive_shader(args)
+    shader_only = [f for f, v in (("--function", args.function), ("--lang", args.lang), ("-I", args.include),
+                                  ("-D", args.define), ("--max-error", args.max_error), ("--exact", args.exact),
+                                  ("--keep-reference", args.keep_reference or None)) if v is not None]
+    if shader_only:
+        raise DeriveError(f"{shader_only[0]} goes with --shader")
+    if args.var is not None and len(args.var) > 1:
+        raise DeriveError("--var: give one with --expr (several go with --shader)")
+    args.var = args.var[0] if args.var else "x=0:1"
     from .approximate import api
     from .approximate.publishing import derive_files as publish
     from .engine import escape
@@ -327,6 +338,39 @@ def main(argv: list[str] | None = None) -> int:
     return faults.EXIT_ENVIRONMENT
 
 
+def _derive_shader(args) -> int:
+    """`derive --shader FILE`: every function derived (`approximate.api.derive_shader`), the run's
+    files written; exit 2 where no function could be read."""
+    from .approximate import api
+    from .approximate.engines import shader_file
+    from .engine import escape
+    from .engine.cache import XLA
+    from .optics.numerics import use_compilation_cache
+
+    given = [f for f, v in (("--target", args.target), ("--expr", args.expr), ("--table", args.table)) if v is not None]
+    if given:
+        raise DeriveError(f"--shader and {given[0]}: give one of them")
+    path = Path(args.shader)
+    out = Path(args.out) if args.out else paths.OUTPUTS / "derive" / escape.folder_name(path.stem)
+    if out.exists() and not out.is_dir():
+        raise DeriveError(f"--out {out}: a file, not a folder: give an output folder (the file is left as it is)")
+    use_compilation_cache(paths.XLA_CACHE or paths.CACHE / XLA)
+    found = api.derive_shader(path, args.function, lang=args.lang, include=args.include or (), define=args.define or (),
+                              var=args.var, parameter=args.parameter, metric=args.metric, floor=args.floor,
+                              max_error=args.max_error, exact=args.exact, gpu=args.gpu, seconds=args.seconds,
+                              max_complexity=args.max_complexity, precision=args.precision,
+                              keep_reference=args.keep_reference)
+    if all(o.status == shader_file.REFUSED for o in found.outcomes):
+        raise DeriveError(f"{path}: no function could be derived: "
+                          + "; ".join(f"{o.name}: {o.reason}" for o in found.outcomes))
+    written = found.write(out)
+    for o in found.outcomes:
+        print(f"{o.name}: {o.status}" + (f" ({o.replacement}: {o.expression})" if o.replacement else "")
+              + (f": {o.reason}" if o.reason else ""))
+    print(f"wrote {', '.join(str(p) for p in written)}")
+    return faults.EXIT_DONE
+
+
 def _plan_arguments(parser, written: str) -> None:
     parser.add_argument("--plan", default=None, metavar="FILE",
                         help=f"run exactly the plan of an earlier run (its {written}, or a plan file): the same front "
@@ -420,7 +464,9 @@ def build_parser() -> argparse.ArgumentParser:
                      help="a registered target (schlick, acos, cos_n20, cos_n, smith_ggx_visibility, env_brdf, "
                           "env_brdf_scale, env_brdf_bias) or a TOML file")
     der.add_argument("--expr", default=None, metavar="EXPR", help="the target as an expression (sympy), e.g. 'atan(x)'")
-    der.add_argument("--var", default="x=0:1", metavar="NAME=LO:HI", help="with --expr: its variable and domain")
+    der.add_argument("--var", default=None, action="append", metavar="NAME=LO:HI",
+                     help="with --expr: its variable and domain (default x=0:1); with --shader: an argument's range, "
+                          "once per argument, where a function's `// derive:` line gives none")
     der.add_argument("--name", default=None, metavar="NAME",
                      help="the run's name: its titles, its functions' names, its default folder (default the "
                           "target's name, or the expression)")
@@ -428,7 +474,8 @@ def build_parser() -> argparse.ArgumentParser:
                      help="the target as values on a full grid (a header, a row per point), interpolated by cubic splines")
     der.add_argument("--x", default=None, metavar="NAME[,NAME]", help="with --table: the variables' columns (per pixel)")
     der.add_argument("--parameter", default=None, metavar="NAME",
-                     help="with --table: the parameter's column (per material: its constants become formulas of it)")
+                     help="with --table: the parameter's column (per material: its constants become formulas of it); "
+                          "with --shader: the argument that is a material parameter (NAME or NAME=LO:HI)")
     der.add_argument("--y", default=None, metavar="NAME", help="with --table: the value's column (default the one left)")
     der.add_argument("--range", default=None, metavar="LO:HI", dest="parameter_range",
                      help="the parameter's range, replacing the target's (e.g. cos_n's n, split as the lobe search "
@@ -453,6 +500,25 @@ def build_parser() -> argparse.ArgumentParser:
     der.add_argument("--max-complexity", type=int, default=12, metavar="K",
                      help="the grammar's largest complexity (default 12)")
     der.add_argument("--out", default=None, metavar="DIR", help="output folder (default outputs/derive/<target>)")
+    der.add_argument("--shader", default=None, metavar="FILE",
+                     help="the functions of a GLSL or HLSL file as targets, each read as its compiler means it; "
+                          "writes functions.csv, report.md and shader.patch (the file itself is never written)")
+    der.add_argument("--function", default=None, metavar="NAME[,NAME...]",
+                     help="with --shader: the functions to derive (default every one)")
+    der.add_argument("--lang", default=None, choices=("glsl", "hlsl"),
+                     help="with --shader: the file's language (default HLSL for .hlsl, .hlsli, .fx, .fxh; else GLSL)")
+    der.add_argument("-I", dest="include", action="append", default=None, metavar="DIR",
+                     help="with --shader: a folder #include searches, as a shader compiler takes it")
+    der.add_argument("-D", dest="define", action="append", default=None, metavar="NAME[=VALUE]",
+                     help="with --shader: a macro defined, as a shader compiler takes it")
+    der.add_argument("--max-error", type=float, default=None, metavar="E",
+                     help="with --shader: the largest error a replacement may have as executed (default the "
+                          "function's own as shipped: only rewrites no less accurate)")
+    der.add_argument("--exact", default=None, metavar="EXPR",
+                     help="with --shader: what the functions approximate, in their arguments (e.g. 'acos(x)'); "
+                          "default each function's own mathematics")
+    der.add_argument("--keep-reference", action="store_true",
+                     help="with --shader: the patch keeps each replaced function beside it as NAME_reference")
     cch = sub.add_parser("cache", help="show the cache's size per stage; --prune removes unused entries")
     cch.add_argument("--prune", action="store_true")
     cch.add_argument("--older-than", type=float, default=14.0, metavar="DAYS",
@@ -496,7 +562,7 @@ def _main(argv: list[str] | None) -> int:
             if args.dry_run:
                 return _explain(config, only)
             baseline_config = load_config(paths.PAPER_CONFIG)
-    except (ConfigError, RegressError, CompareError, DeriveError) as e:
+    except (ConfigError, RegressError, CompareError, DeriveError, ShaderError) as e:
         print(f"error: {e}", file=sys.stderr)
         return faults.EXIT_BAD_INPUT
     # Both folders are checked before anything is computed.

@@ -131,3 +131,70 @@ def derive(target=None, *, expr: str | None = None, var: str = "x=0:1", table: s
     raw["plan"] = dict(seconds=budget.seconds, searches=budgets.plans_of(raw["coverage"]))
     rendered.compare(raw, chosen, log=log)
     return Derivation(chosen, raw)
+
+
+@dataclasses.dataclass
+class ShaderDerivation:
+    """What `derive_shader` found for a shader file: per function its `outcomes`
+    (`engines.shader_file.Outcome`: status, reason, replacement, rows), the file's `patch` (a unified
+    diff; empty where nothing was derived) and its functions.csv `rows`."""
+
+    path: Path
+    language: str
+    outcomes: list
+    keep_reference: bool = False
+
+    @property
+    def rows(self) -> list[dict]:
+        from .publishing import shader_outputs
+
+        return shader_outputs.function_rows(self.path, self.outcomes)
+
+    @property
+    def patch(self) -> str:
+        from .publishing import shader_outputs
+
+        return shader_outputs.patch_text(self.path, self.outcomes, self.keep_reference)
+
+    def write(self, out) -> list[Path]:
+        """functions.csv, shader.patch, report.md and each derived function's files, into `out`."""
+        from .publishing import shader_outputs
+
+        return shader_outputs.write(Path(out), self.path, self.outcomes, self.language, self.keep_reference,
+                                    log=lambda s: None)
+
+
+def derive_shader(path, function=None, *, lang: str | None = None, include=(), define=(), var=None,
+                  parameter: str | None = None, metric: str | None = None, floor: float | None = None,
+                  max_error: float | None = None, exact: str | None = None, gpu=None, seconds: float | None = None,
+                  max_complexity: int = engines.MAX_COMPLEXITY, precision: str | None = None,
+                  keep_reference: bool = False, log=print) -> ShaderDerivation:
+    """Every function of the GLSL or HLSL file `path` (or those `function` names: a list or one
+    comma-separated string) derived (`engines.shader_file`): `lang` (default by the file's suffix),
+    `include` folders and `define`d macros as a shader compiler takes them; `var` ("NAME=LO:HI" or a
+    list of them), `parameter` ("NAME" or "NAME=LO:HI"), `metric`, `floor`, `max_error`, `exact` where
+    a function's `// derive:` line gives none. Raises ShaderError (`shaders.definitions`) for a file
+    that does not compile or a named function it does not define, DeriveError for a bad setting."""
+    import shlex
+
+    from ..shaders import definitions, harness, intent as intents
+    from .engines import shader_file
+
+    path = Path(path)
+    language = definitions.language_of(path, lang)
+    options = harness.Options(language, tuple(str(d) for d in include), tuple(define))
+    words = [var] if isinstance(var, str) else list(var or [])
+    if parameter is not None:
+        name, _, rest = parameter.partition("=")
+        words += [f"parameter={name}"] + ([f"{name}={rest}"] if rest else [])
+    words += [f"{k}={v}" for k, v in (("metric", metric), ("floor", floor), ("max_error", max_error)) if v is not None]
+    if exact is not None:
+        words.append(shlex.quote(f"exact={exact}"))
+    command_line = intents.parse(" ".join(words), "the command line")
+    if isinstance(function, str):
+        function = [f.strip() for f in function.split(",") if f.strip()]
+    if isinstance(gpu, str):
+        gpu = [g.strip() for g in gpu.split(",") if g.strip()]
+    outcomes, _ = shader_file.derive_file(path, options, derive, function, command_line, gpu, seconds,
+                                          max_complexity, precision, log)
+    return ShaderDerivation(path, language, outcomes, keep_reference)

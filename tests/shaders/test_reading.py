@@ -217,3 +217,57 @@ def test_the_author_s_intent_is_read_from_the_line_above_or_the_command_line():
                           ("x=0:1 x=0:2", "x given twice"), ("x", "give KEY=VALUE")):
         with pytest.raises(ShaderError, match=message):
             intents.intent(dataclasses.replace(found["pow5"], annotation=text), GLSL)
+
+
+def test_a_patch_replaces_only_the_bodies_and_applies(tmp_path):
+    """Two bodies replaced (F_Schlick by squarings, acos_fast keeping its original as
+    acos_fast_reference): the diff applies by `git apply --check` and `patch -p1` (where installed),
+    the patched file has every other line and every signature as before, compiles, and reads back to
+    the new bodies; a diff of nothing changed is empty."""
+    import shutil
+    import subprocess
+
+    from pipeline.shaders import patch
+
+    work = tmp_path / "repo"
+    (work / "shaders").mkdir(parents=True)
+    for name in ("engine_style.glsl", "engine_constants.glsl"):
+        shutil.copy(HERE / name, work / "shaders" / name)
+    path = work / "shaders" / "engine_style.glsl"
+    before = path.read_bytes()
+    found = {d.name: d for d in definitions.read(path)[1]}
+    after = patch.replaced(before, {found["F_Schlick"]: "(1.0 - VoH) * (1.0 - VoH) * (1.0 - VoH) * (1.0 - VoH) * "
+                                                        "(1.0 - VoH)", found["acos_fast"]: "1.5707964 - x"},
+                           keep_reference=False)
+    diff = patch.unified_diff("shaders/engine_style.glsl", before, after)
+    assert patch.unified_diff("shaders/engine_style.glsl", before, before) == ""
+    (tmp_path / "shader.patch").write_text(diff)
+    if shutil.which("git"):
+        subprocess.run(["git", "init", "-q", str(work)], check=True)
+        done = subprocess.run(["git", "apply", "--check", str(tmp_path / "shader.patch")], cwd=work,
+                              capture_output=True, text=True)
+        assert done.returncode == 0, done.stderr
+    if shutil.which("patch"):
+        done = subprocess.run(["patch", "-p1", "--dry-run", "-i", str(tmp_path / "shader.patch")], cwd=work,
+                              capture_output=True, text=True)
+        assert done.returncode == 0, done.stdout + done.stderr
+    path.write_bytes(after)
+    patched = {d.name: d for d in definitions.read(path)[1]}
+    assert [d.signature for d in patched.values()] == [d.signature for d in found.values()]
+    changed = [line for line in difflib_lines(before, after) if line[0] in "+-"]
+    assert all("return" in line or line.strip() in ("-", "+", "-{", "+{", "-}", "+}") for line in changed), changed
+    read = read_all(path)
+    x, voh = sp.Symbol("x", real=True), sp.Symbol("VoH", real=True)
+    assert sp.simplify(read[("F_Schlick", 1)].expression - (1 - voh) ** 5) == 0
+    assert sp.simplify(read[("acos_fast", 1)].expression - (sp.Float(float(np.float32(1.5707964))) - x)) == 0
+    kept = patch.replaced(before, {found["acos_fast"]: "1.5707964 - x"}, keep_reference=True)
+    path.write_bytes(kept)
+    both = read_all(path)
+    assert both[("acos_fast_reference", 1)].expression == read_all(GLSL)[("acos_fast", 1)].expression
+
+
+def difflib_lines(before: bytes, after: bytes) -> list[str]:
+    import difflib
+
+    return [line for line in difflib.unified_diff(before.decode().splitlines(), after.decode().splitlines(),
+                                                  lineterm="", n=0) if not line.startswith(("---", "+++", "@@"))]

@@ -269,7 +269,7 @@ def derive(target, gpu=None, budget=None, max_cycles: float | None = None,
                                       **({"gap": causes[m.name]} if m.name in causes else {}),
                                       **({"constants": searches[m.name]} if m.name in searches else {}))
                          for m in everything if m.kind != "found" or any(m.name in fr for fr in fronts.values())},
-                forms=forms_by_name)
+                forms=forms_by_name, cycles=cycles)
 
 
 def bound_columns(rows: list[dict], forms_by_name: dict, target, f, precision: str, error_key: str) -> None:

@@ -166,7 +166,7 @@ def derive_pair(target: Target, gpu=None, budget=None, max_cycles: float | None 
                 fronts=fronts, fronts_by_parameter=by_parameter, verdicts=verdicts, rows=rows, error=error_key,
                 constant_error=constant, rounding_floor=floor, cost_tables={}, seconds=round(elapsed, 1),
                 estimated_seconds=None, members={n: members[n] for n in forms if n in kept},
-                forms=forms, parts=dict(scale=publish_part(scale), bias=publish_part(bias)))
+                forms=forms, parts=dict(scale=publish_part(scale), bias=publish_part(bias)), cycles=cycles)
 
 
 def publish_part(results: dict) -> dict:

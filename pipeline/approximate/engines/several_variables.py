@@ -291,7 +291,7 @@ def derive(target: Target, gpu=None, budget=None, max_cycles: float | None = Non
                 fronts_by_parameter=fronts, verdicts=verdicts, rows=rows, error=error_key, constant_error=constant,
                 rounding_floor=floor, precision=precision, execution=execution, cost_tables={},
                 seconds=round(elapsed, 1), estimated_seconds=None,
-                members=members, forms={m.name: m for m in everything})
+                members=members, forms={m.name: m for m in everything}, cycles=cycles)
 
 
 def _budget(budget):

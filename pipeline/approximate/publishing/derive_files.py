@@ -70,9 +70,10 @@ def _json_value(v):
 
 
 def results_json(results) -> dict:
-    """results.json's content: the results without the sympy forms (their text is in `members`) and
-    the rendered images (`rendered`: in renders.png)."""
-    return _json_value({k: v for k, v in results.items() if k not in ("forms", "renders")})
+    """results.json's content: the results without the sympy forms (their text is in `members`), the
+    rendered images (`rendered`: in renders.png) and every form's cycles (`cycles`: front.csv has the
+    front members' and the anchors')."""
+    return _json_value({k: v for k, v in results.items() if k not in ("forms", "renders", "cycles")})
 
 
 def _error_text(v) -> str:
@@ -396,31 +397,37 @@ def figure(path: Path, results) -> None:
 
 def write(out: Path, results, log=print) -> list[Path]:
     """Every file of the module docstring into `out`, published whole."""
-    from ...engine import faults
     from ...engine.cache import digest
     from ...engine.publishing import publish
-
-    from . import derive_page
-
-    names = ["front.csv", "results.json", "report.md", "report.html", "front.png", "derive.glsl", "derive.hlsl",
-             "derive_twin.py"] + (["renders.png", "rendered_front.png"] if results.get("renders") else [])
-
-    def write_all(tmp: Path) -> str:
-        writers = [("front.csv", lambda p: write_csv(p, results["rows"])),
-                   ("results.json", lambda p: p.write_text(json.dumps(results_json(results), indent=1))),
-                   ("report.md", lambda p: p.write_text(report(results))), ("front.png", lambda p: figure(p, results))]
-        if results.get("renders"):
-            writers += [("renders.png", lambda p: rendered_report.figure_renders(p, results)),
-                        ("rendered_front.png", lambda p: rendered_report.figure_front(p, results))]
-        writers.append(("report.html", lambda p: derive_page.write(p, results)))    # (after renders.png, which it embeds)
-        writers += [(name, lambda p, text=text: p.write_text(text)) for name, text in shader_sources(results).items()]
-        for name, write_file in writers:
-            with faults.writing(out / name):
-                write_file(tmp / name)
-        return f"{len(results['rows'])} rows"
-
     from ...engine.web_page import assets_digest
 
     publish(out, digest("derive", json.dumps(results_json(results), sort_keys=True), assets_digest()), lambda s: None,
-            write_all)
-    return [out / n for n in names]
+            lambda tmp: write_into(tmp, results, out))
+    return [out / n for n in file_names(results)]
+
+
+def file_names(results) -> list[str]:
+    return ["front.csv", "results.json", "report.md", "report.html", "front.png", "derive.glsl", "derive.hlsl",
+            "derive_twin.py"] + (["renders.png", "rendered_front.png"] if results.get("renders") else [])
+
+
+def write_into(folder: Path, results, shown: Path) -> str:
+    """Every file of the module docstring written into `folder` (a temporary folder being published
+    as `shown`, which an error names)."""
+    from ...engine import faults
+
+    from . import derive_page
+
+    folder.mkdir(parents=True, exist_ok=True)
+    writers = [("front.csv", lambda p: write_csv(p, results["rows"])),
+               ("results.json", lambda p: p.write_text(json.dumps(results_json(results), indent=1))),
+               ("report.md", lambda p: p.write_text(report(results))), ("front.png", lambda p: figure(p, results))]
+    if results.get("renders"):
+        writers += [("renders.png", lambda p: rendered_report.figure_renders(p, results)),
+                    ("rendered_front.png", lambda p: rendered_report.figure_front(p, results))]
+    writers.append(("report.html", lambda p: derive_page.write(p, results)))    # (after renders.png, which it embeds)
+    writers += [(name, lambda p, text=text: p.write_text(text)) for name, text in shader_sources(results).items()]
+    for name, write_file in writers:
+        with faults.writing(shown / name):
+            write_file(folder / name)
+    return f"{len(results['rows'])} rows"

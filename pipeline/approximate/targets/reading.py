@@ -1,6 +1,6 @@
 """Every source of a target read into the one `Target` and checked once (`read`): a registered name
 (`registered`), an expression with its variable and domain (`--expr EXPR --var NAME=LO:HI`), a TOML
-file, a table in a CSV file; the run's replacements (its name, metric, floor, the parameter's range)
+file, a table in a CSV file, a function of a shader file (`from_shader_function`); the run's replacements (its name, metric, floor, the parameter's range)
 applied before the one check (`check`), which says what is wrong in one line.
 
 A TOML file of one variable:
@@ -382,3 +382,37 @@ def _csv_target(path, variables, parameter: str | None, output: str | None, metr
     return Target(path.stem, f"{output} in {path.name}", tuple(axis[:len(variables)]), axis[-1] if parameter else None,
                   metric, floor, table=table,
                   description=f"the column {output} of {path.name}, interpolated by cubic splines")
+
+
+# ---- a function of a shader file ------------------------------------------------------------------
+
+SHIPPED = "as shipped"      # the anchor that is the function as its file writes it
+
+
+def from_shader_function(name: str, expression, arguments: list[str], ranges: dict, source: str,
+                         parameter: str | None = None, exact: str | None = None, metric: str = "abs",
+                         floor: float = 0.0, precision: str = "fp32", role: str = "") -> Target:
+    """The target of a shader function read as the compiler means it (`shaders.harness`: its sympy
+    `expression` in `arguments`), checked: its arguments the variables (`ranges`: {argument: (lo,
+    hi)}), the one named `parameter` the material parameter; the function as written its anchor
+    "as shipped" (from `source`, its file and line); the function approximated the `exact` expression
+    where the author names one (`exact=acos(x)`), else the function's own mathematics. Raises
+    DeriveError for a function derive does not take: a branch (an if or ?:; derive takes branch-free
+    functions), an exact expression that does not parse in the arguments."""
+    import sympy as sp
+
+    from ...engine import expressions
+
+    if expression.has(sp.Piecewise):
+        raise DeriveError(f"{name}: a branch (an if or ?:): derive takes branch-free functions")
+    symbols = {a: sp.Symbol(a, real=True) for a in arguments}
+    written = expressions.text(expression, symbols)
+    variables = tuple(Axis(a, *ranges[a]) for a in arguments if a != parameter)
+    axis = Axis(parameter, *ranges[parameter]) if parameter is not None else None
+    if exact is not None:
+        parse(exact, arguments, f"{name}'s exact")
+    return check(Target(name, exact or written, variables, axis, metric, floor,
+                        (Anchor(SHIPPED, written, source),),
+                        f"{name} of {source}" + (f", approximating {exact}" if exact else ", its own mathematics"),
+                        precision=precision, role=role))
+

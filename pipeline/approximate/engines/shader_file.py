@@ -1,0 +1,167 @@
+"""`derive --shader FILE`: every function of a GLSL or HLSL file read as the compiler means it
+(`shaders.harness`), checked against itself as it executes (`shaders.round_trip`), derived by the
+engine of its shape as a target whose anchor "as shipped" is the function as written
+(`targets.reading.from_shader_function`), and its replacement chosen by the rule (`replacement`).
+
+The rule: a replacement is a front member whose error as executed is within the budget (the
+author's `max_error`; without one, the function's own error as shipped, or the format's rounding
+floor where that is larger: only rewrites no less accurate), at no more cycles than the function as
+shipped on every architecture asked for, and better: fewer cycles on at least one, or more accurate
+than the function as shipped (its error below the shipped one's by more than `fronts.MATCH`, errors
+below the rounding floor counting as the floor: the verdict `beaten`); of those, the fewest cycles
+over the architectures (then the smallest error). Every function gets a status: `derived`, `none cheaper`
+(with the reason read off the fronts) or `refused` (with its reason in one line).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from pathlib import Path
+
+from ..targets import DeriveError
+from ..targets.reading import from_shader_function, SHIPPED
+
+DERIVED, NONE_CHEAPER, REFUSED = "derived", "none cheaper", "refused"
+
+
+@dataclasses.dataclass
+class Outcome:
+    """One function of the file: its status, reason, and (derived or none cheaper) its derivation's
+    results, the replacement's name, GLSL or HLSL expression and rows per architecture."""
+
+    name: str
+    line: int
+    status: str
+    reason: str = ""
+    results: dict | None = None
+    replacement: str | None = None
+    expression: str | None = None
+    rows: list = dataclasses.field(default_factory=list)
+    budget: float | None = None
+    metric: str = ""
+    definition: object = None
+    check: object = None
+
+
+def replacement(results: dict, max_error: float | None) -> tuple[str | None, str, float]:
+    """(the chosen member's name or None, the reason where none, the budget) by the module
+    docstring's rule, from a derivation's results (its members' executed errors, every form's cycles
+    per architecture, `cycles`)."""
+    key = results["error"]
+    members, cycles, architectures = results["members"], results["cycles"], results["architectures"]
+    from ..measures.fronts import MATCH
+
+    shipped = members[SHIPPED]
+    floor = results["rounding_floor"]
+    budget = max_error if max_error is not None else max(shipped[key], floor)
+    before = {a: cycles[a].get(SHIPPED) for a in architectures}
+    if any(c is None for c in before.values()):
+        missing = [a for a, c in before.items() if c is None]
+        return None, f"the function as shipped did not compile for {', '.join(missing)}", budget
+    eligible = []
+    for name, m in members.items():
+        if m["kind"] != "found" or not (math.isfinite(m[key]) and m[key] <= budget):
+            continue
+        if m.get("parameter_per") == "material":        # (its constants per material: not a function body)
+            continue
+        after = {a: cycles[a].get(name) for a in architectures}
+        if any(c is None for c in after.values()):
+            continue
+        cheaper = any(after[a] < before[a] for a in architectures)
+        more_accurate = max(m[key], floor) < max(shipped[key], floor) * (1 - MATCH)
+        if all(after[a] <= before[a] for a in architectures) and (cheaper or more_accurate):
+            eligible.append((sum(after.values()), m[key], name))
+    if eligible:
+        return min(eligible)[2], "", budget
+    within = [n for n, m in members.items() if m["kind"] == "found" and math.isfinite(m[key]) and m[key] <= budget]
+    least = {a: min((cycles[a][n] for n in within if n in cycles[a]), default=None) for a in architectures}
+    held = [f"{a}: {before[a]:g} cycles as shipped, the least within it {least[a]:g}" for a in architectures
+            if least[a] is not None and least[a] >= before[a]]
+    return None, (f"no form within the budget ({key} {budget:.3g}) is cheaper or more accurate at no more cycles on "
+                  "every architecture asked for"
+                  + (f" ({'; '.join(held)}: the compiler already computes it as cheaply)" if held else
+                     "" if within else ": none is within it")), budget
+
+
+def derive_file(path: Path, options, derive, functions: list[str] | None = None, command_line: dict | None = None,
+                gpu=None, seconds: float | None = None, max_complexity: int = 12, precision: str | None = None,
+                log=print) -> tuple[list[Outcome], str]:
+    """(every function's Outcome, the file's preprocessed text) of `path` compiled with `options`
+    (`shaders.harness.Options`), each target derived by `derive` (`api.derive`: a Derivation):
+    `functions` (names; default every function of the file), the command
+    line's ranges and settings (`shaders.intent.parse`'d) where a function's comment gives none.
+    Raises ShaderError for a file that does not compile, a named function it does not define, or a
+    file with no function."""
+    from ...shaders import definitions as shader_definitions
+    from ...shaders import harness, intent as intents, round_trip, spirv_reader
+
+    language, found = shader_definitions.read(path, options.language)
+    if not found:
+        raise shader_definitions.ShaderError(f"{path}: no function definition found (read as {language.upper()})")
+    names = [d.name for d in found]
+    unknown = [f for f in functions or [] if f not in names]
+    if unknown:
+        raise shader_definitions.ShaderError(f"--function {unknown[0]!r}: {path} defines {', '.join(dict.fromkeys(names))}")
+    chosen = [d for d in found if not functions or d.name in functions]
+    text = harness.preprocessed(path, options)
+    overloaded = {n for n in names if names.count(n) > 1}
+    outcomes = []
+    for d in chosen:
+        shown = f"{d.name}({', '.join(p.type for p in d.parameters)})" if d.name in overloaded else d.name
+        log(f"{shown} (line {d.line}):")
+        why = harness.refusal(d)
+        if why is None and d.name == "main":
+            why = "the file's entry point"
+        if why is not None:
+            outcomes.append(Outcome(shown, d.line, REFUSED, why, definition=d))
+            log(f"  refused: {why}")
+            continue
+        try:
+            expression, transliteration = spirv_reader.read_both(harness.disassembly(text, d, options, path),
+                                                                 [p.name for p in d.parameters])
+        except spirv_reader.Refused as e:
+            outcomes.append(Outcome(shown, d.line, REFUSED, str(e), definition=d))
+            log(f"  refused: {e}")
+            continue
+        try:
+            intent = intents.intent(d, path, command_line)
+        except shader_definitions.ShaderError as e:
+            outcomes.append(Outcome(shown, d.line, REFUSED, str(e), definition=d))
+            log(f"  refused: {e}")
+            continue
+        arguments = [p.name for p in d.parameters]
+        check = round_trip.round_trip(text, d, expression, transliteration, [intent.ranges[a] for a in arguments],
+                                      language)
+        log(f"  read: {expression}; executed beside it: {check.how}"
+            + (f", {check.inputs} inputs, to the last bit" if check.checked and check.mismatch is None else ""))
+        if check.mismatch is not None:
+            outcomes.append(Outcome(shown, d.line, REFUSED, check.mismatch, definition=d, check=check))
+            continue
+        try:
+            target = from_shader_function(d.name, expression, arguments, intent.ranges, f"{path.name}:{d.line}",
+                                          intent.parameter, intent.exact, intent.metric, intent.floor,
+                                          precision or intent.precision, intent.role)
+            found_forms = derive(target, gpu=gpu, seconds=seconds, max_complexity=max_complexity,
+                                     precision=precision, log=lambda s: log("  " + s))
+        except DeriveError as e:
+            outcomes.append(Outcome(shown, d.line, REFUSED, str(e), definition=d, check=check))
+            log(f"  refused: {e}")
+            continue
+        results = found_forms.raw
+        name, reason, budget = replacement(results, intent.max_error)
+        outcome = Outcome(shown, d.line, DERIVED if name else NONE_CHEAPER, reason, results, name,
+                          budget=budget, metric=results["error"], definition=d, check=check)
+        if name is not None:
+            printer = found_forms.hlsl if language == "hlsl" else found_forms.glsl
+            outcome.expression = printer(name)
+        key = results["error"]
+        for a in results["architectures"]:
+            after = name or SHIPPED
+            outcome.rows.append(dict(architecture=a, cycles_before=results["cycles"][a][SHIPPED],
+                                     cycles_after=results["cycles"][a][after],
+                                     error_before=results["members"][SHIPPED][key],
+                                     error_after=results["members"][after][key]))
+        log(f"  {outcome.status}" + (f": {name} ({outcome.expression})" if name else f": {reason}"))
+        outcomes.append(outcome)
+    return outcomes, text
