@@ -26,6 +26,10 @@ less than a time. Measured, each in a fresh cache and outputs folder:
   10 within 120 s, Schlick's rational over (t, n) to 10 exactly within 120 s; 1.5 GB; each within
   2x of the time it announced before its search);
 - `pipeline keys` and a run with a bad config (answered without importing JAX);
+- `pipeline derive --shader`: the tests' engine-style file of 13 functions read, each compiled,
+  extracted and executed beside itself (target 10 s), and the command on two of its one-variable
+  functions, three architectures, `--seconds 10`, cold (target 8 minutes) (BENCH_ONLY=shaders: the
+  floor and these alone);
 - `pipeline derive` on (1 - x)^5 and acos, three architectures, cold and kept, (1 - x)^5 in fp16 cold
   (BENCH_ONLY=derive_one: these alone), and on the Smith-GGX
   visibility and the environment BRDF cold (target 10 minutes) and with other architectures (BENCH_ONLY=derive: the
@@ -223,6 +227,32 @@ def derive_rows(py, several: bool = True, one_variable: bool = True) -> list:
     return rows
 
 
+SHADER_READ_SECONDS = 10.0      # a file of 12 functions read, compiled, extracted and checked
+SHADER_DERIVE_SECONDS = 480.0   # derive --shader on the tests' file's one-variable functions, cold
+
+
+def shader_rows(py) -> list:
+    """`pipeline derive --shader`'s parts: the tests' engine-style file (13 functions) read, each
+    function compiled, optimized, extracted and executed beside itself (`bench/shaders.py`; target
+    SHADER_READ_SECONDS), and the command on its one-variable functions with a range (acos_fast,
+    F_Schlick) on three architectures at --seconds 10, cold (target SHADER_DERIVE_SECONDS)."""
+    rows = []
+    _, out = timed([py, str(ROOT / "bench" / "shaders.py")], dict(os.environ))
+    count, read, checked, seconds = out.split()[-4:]
+    rows.append(("shader file read (13 functions)", float(seconds), None,
+                 f"{read} read, {checked} executed to the last bit; target <= {SHADER_READ_SECONDS:.0f} s "
+                 + ("ok" if float(seconds) <= SHADER_READ_SECONDS else "MISSED"),
+                 dict(target_seconds=SHADER_READ_SECONDS)))
+    with tempfile.TemporaryDirectory() as tmp:
+        seconds, _ = timed([py, "-m", "pipeline", "derive", "--shader", str(ROOT / "tests" / "shaders" / "engine_style.glsl"),
+                            "--function", "acos_fast,F_Schlick", "--gpu", DERIVE_ARCHITECTURES, "--seconds", "10",
+                            "--out", os.path.join(tmp, "out")], _cold_env(tmp, "shader"))
+    rows.append(("derive --shader, cold", seconds, None, f"acos_fast, F_Schlick; {DERIVE_ARCHITECTURES}; target <= "
+                 f"{SHADER_DERIVE_SECONDS:.0f} s " + ("ok" if seconds <= SHADER_DERIVE_SECONDS else "MISSED"),
+                 dict(target_seconds=SHADER_DERIVE_SECONDS)))
+    return rows
+
+
 RENDERED_SECONDS = 60.0         # what the rendered comparison may add to a derive run
 
 
@@ -305,9 +335,10 @@ def main() -> int:
     # BENCH_ONLY=tests: the floor and `make test` alone (the pipeline's timings take ~10 minutes more);
     # BENCH_ONLY=derive: the floor and `pipeline derive` alone (derive_parametric: its targets of two
     # variables and a parameter alone); BENCH_ONLY=regress: the floor and
-    # `pipeline regress`'s default engine alone; BENCH_ONLY=reproduce: a cold and a warm reproduce.
+    # `pipeline regress`'s default engine alone; BENCH_ONLY=reproduce: a cold and a warm reproduce;
+    # BENCH_ONLY=shaders: the floor and `derive --shader`'s rows alone.
     only = os.environ.get("BENCH_ONLY")
-    if only not in ("tests", "derive", "derive_one", "derive_parametric", "regress", "reproduce"):
+    if only not in ("tests", "derive", "derive_one", "derive_parametric", "regress", "reproduce", "shaders"):
         with tempfile.TemporaryDirectory() as tmp:
             env = _run_env(tmp)
             rows.append(cold_reproduce_row(py, env))
@@ -433,8 +464,10 @@ def main() -> int:
         rows += derive_rows(py, several=only != "derive_one", one_variable=only != "derive_parametric")
     if os.environ.get("BENCH_ONLY") == "regress":
         rows += regress_rows(py, dict(os.environ, JAX_ENABLE_X64="1", JAX_PLATFORMS="cpu"))
+    if only in (None, "shaders"):
+        rows += shader_rows(py)
     if os.environ.get("BENCH_TESTS", "1") != "0" and only not in ("derive", "derive_one", "derive_parametric", "regress",
-                                                                  "reproduce"):
+                                                                  "reproduce", "shaders"):
         # Twice, on one folder of compiled XLA programs and one of shaders' machine code
         # (`isa.machine_code`'s kept results): empty at first (a fresh clone, as CI runs it), then
         # holding what the first session compiled (`make test` keeps both between runs).
@@ -453,7 +486,7 @@ def main() -> int:
     except RuntimeError:
         pass
     throughput = [(label, lobe_throughput(device)) for label, device in devices
-                  if only not in ("derive", "derive_one", "derive_parametric", "regress")]
+                  if only not in ("derive", "derive_one", "derive_parametric", "regress", "shaders")]
 
     print(f"import floor ({FLOOR}): {floor:.2f} s\n")
     print(f"{'':<30} {'seconds':>8} {'x floor':>8}  {'target':>8}  note")

@@ -24,14 +24,23 @@ toolchains.prepare()
 from .engine.config import Config as Config, ConfigError as ConfigError, load_config as load_config  # noqa: E402
 
 
-def derive(target=None, **options):
+def derive(target=None, *, shader=None, function=None, **options):
     """`pipeline derive` in Python: the cheapest accurate forms of a function a shader approximates,
     ranked by compiled cycles per GPU architecture (`pipeline.approximate.api.derive`, which says the
     options: expr, var, gpu, metric, floor, seconds, max_cycles, max_complexity, log). Returns a
     `Derivation`: its `front` (rows), `rows`, `results`, `glsl(name)`, `hlsl(name)`, `twin(name)`,
-    `plot(path)`, `write(folder)` and `dataframe()` (with pandas)."""
-    from .approximate.api import derive as derive_forms
+    `plot(path)`, `write(folder)` and `dataframe()` (with pandas). With `shader` (a GLSL or HLSL
+    file's path; `function`, the functions to derive), every function of the file derived
+    (`pipeline.approximate.api.derive_shader`, which says its options): a `ShaderDerivation`, its
+    `rows` (functions.csv's), `patch` and `write(folder)`."""
+    from .approximate.api import derive as derive_forms, derive_shader
 
+    if shader is not None:
+        if target is not None:
+            raise ValueError("derive: give a target or shader=, not both")
+        return derive_shader(shader, function, **options)
+    if function is not None:
+        raise ValueError("derive: function= goes with shader=")
     return derive_forms(target, **options)
 
 

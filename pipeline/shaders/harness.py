@@ -9,7 +9,6 @@ through its HLSL front end), optimized by `spirv-opt -O` and read back (`spirv_r
 from __future__ import annotations
 
 import dataclasses
-import re
 import tempfile
 from pathlib import Path
 
@@ -126,13 +125,3 @@ def read_function(text: str, definition: Definition, options: Options, path: Pat
         return Reading(definition, read(disassembly(text, definition, options, path), names))
     except Refused as e:
         return Reading(definition, refused=str(e))
-
-
-def overloads(definitions: list[Definition]) -> dict[str, list[Definition]]:
-    """{name: its definitions}, an overloaded name's several."""
-    out: dict[str, list[Definition]] = {}
-    for d in definitions:
-        out.setdefault(d.name, []).append(d)
-    return out
-
-

@@ -102,7 +102,8 @@ def round_trip(text: str, definition: Definition, expression, transliteration: s
     finite = np.isfinite(function)
     scale = float(np.max(np.abs(function[finite]))) if finite.any() else 1.0
     allowed = RTOL * np.abs(function.astype(np.float64)) + ATOL * scale
-    drift_all = np.where(finite, np.abs(exact - function) / allowed, 0.0)
+    with np.errstate(all="ignore"):
+        drift_all = np.where(finite, np.abs(exact - function) / allowed, 0.0)
     drift_all = np.where(finite & ~np.isfinite(exact), np.inf, drift_all)
     drift = float(np.max(drift_all))
     if drift > 1:

@@ -52,7 +52,11 @@ def read(target=None, expr: str | None = None, var: str = "x=0:1", metric: str |
     the lobe search splits n into); `name` names the run (its titles, its functions' names; default
     the target's name, or an expression's own text). Checked once, after every replacement. Raises
     DeriveError."""
-    chosen = _source(target, expr, var, metric, floor, table, x, parameter, y)
+    if isinstance(var, (list, tuple)):         # (the command line's --var, which --shader takes several times)
+        if len(var) != 1:
+            raise DeriveError("--var: give one with --expr (several go with --shader)")
+        var = var[0]
+    chosen = _source(target, expr, var if var is not None else "x=0:1", metric, floor, table, x, parameter, y)
     if name is not None:
         if not name.strip():
             raise DeriveError("--name: give the run a name (it titles the outputs and names the functions)")
