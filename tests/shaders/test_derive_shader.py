@@ -97,3 +97,25 @@ def test_a_file_that_does_not_compile_is_exit_2_with_its_line(tmp_path, capsys):
     assert "bad.glsl" in err and ":3:" in err and len(err.splitlines()) == 1
     assert main(["derive", "--expr", "x", "--exact", "acos(x)"]) == 2
     assert "--exact goes with --shader" in capsys.readouterr().err
+
+
+def test_a_replacement_that_does_not_compile_is_refused_and_left_out_of_the_patch(tmp_path):
+    """`shader_file.compiled`: each replacement compiled in a copy of the patched file (its includes
+    found in the file's folder); a planted one that does not compile (an undeclared name) is refused
+    with the compiler's message, the other stays derived."""
+    from pipeline.approximate.engines import shader_file
+    from pipeline.approximate.publishing import shader_outputs
+
+    for name in ("engine_style.glsl", "engine_constants.glsl"):
+        shutil.copy(HERE / name, tmp_path / name)
+    path = tmp_path / "engine_style.glsl"
+    found = {d.name: d for d in definitions.read(path)[1]}
+    good = shader_file.Outcome("pow5", found["pow5"].line, shader_file.DERIVED, expression="x * x * x * x * x",
+                               definition=found["pow5"])
+    bad = shader_file.Outcome("acos_fast", found["acos_fast"].line, shader_file.DERIVED, expression="HALF_PI - y",
+                              definition=found["acos_fast"])
+    shader_file.compiled(path, harness.Options("glsl"), [good, bad], log=lambda s: None)
+    assert good.status == shader_file.DERIVED
+    assert bad.status == shader_file.REFUSED and "its replacement does not compile" in bad.reason and "'y'" in bad.reason
+    diff = shader_outputs.patch_text(path, [good, bad])
+    assert "x * x * x * x * x" in diff and "HALF_PI - y" not in diff

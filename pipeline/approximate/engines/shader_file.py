@@ -164,4 +164,30 @@ def derive_file(path: Path, options, derive, functions: list[str] | None = None,
                                      error_after=results["members"][after][key]))
         log(f"  {outcome.status}" + (f": {name} ({outcome.expression})" if name else f": {reason}"))
         outcomes.append(outcome)
+    compiled(path, options, outcomes, log)
     return outcomes, text
+
+
+def compiled(path: Path, options, outcomes: list[Outcome], log=print) -> None:
+    """Each replacement compiled in the file patched with it alone (a copy in a temporary folder, the
+    file's own folder searched for its includes): a replacement that does not compile is refused with
+    the compiler's message, and the patch leaves its function as it was."""
+    import tempfile
+
+    from ...shaders import definitions as shader_definitions
+    from ...shaders import harness, patch
+
+    source = Path(path).read_bytes()
+    checked = dataclasses.replace(options, include=(str(Path(path).resolve().parent),) + tuple(options.include))
+    for o in (o for o in outcomes if o.status == DERIVED):
+        with tempfile.TemporaryDirectory(prefix="patched_") as folder:
+            copy = Path(folder) / Path(path).name
+            copy.write_bytes(patch.replaced(source, {o.definition: o.expression}))
+            try:
+                text = harness.preprocessed(copy, checked)
+                twin = next(d for d in shader_definitions.definitions(copy.read_bytes(), options.language)
+                            if d.name == o.definition.name and d.types == o.definition.types)
+                harness.disassembly(text, twin, checked, copy)
+            except shader_definitions.ShaderError as e:
+                o.status, o.reason = REFUSED, f"its replacement does not compile: {str(e).replace(folder + '/', '')}"
+                log(f"{o.name}: {o.reason}")
