@@ -63,7 +63,10 @@ def prelude(text: str, language: str = "glsl") -> str:
 
 def round_trip(text: str, definition: Definition, expression, transliteration: str,
                ranges: list[tuple[float, float]], language: str = "glsl") -> RoundTrip:
-    """The module docstring's check of one function read from the file's preprocessed `text`."""
+    """The module docstring's check of one function read from the file's preprocessed `text` (a
+    function of vectors on broadcast arguments, its first lane: `harness.function_call`)."""
+    from .harness import function_call, width
+
     import sympy as sp
 
     from ..isa import execution
@@ -80,7 +83,8 @@ def round_trip(text: str, definition: Definition, expression, transliteration: s
     declarations = prelude(text) + f"\nfloat the_reading({arguments})\n{{\n{transliteration}\n}}\n"
     inputs = dict(zip(names, points))
     call = ", ".join(names)
-    outcome = execution.execute_forms({"function": (declarations, f"{definition.name}({call})"),
+    lane = width(definition.return_type) > 1
+    outcome = execution.execute_forms({"function": (declarations, function_call(definition, "glsl", lane)),
                                        "reading": (declarations, f"the_reading({call})")}, inputs, optimized=True)
     for name, values in outcome.items():
         if isinstance(values, Exception):

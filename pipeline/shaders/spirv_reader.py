@@ -82,14 +82,16 @@ def read(disassembly: str, arguments: list[str]) -> sp.Expr:
     return read_both(disassembly, arguments)[0]
 
 
-def read_both(disassembly: str, arguments: list[str]) -> tuple[sp.Expr, str]:
+def read_both(disassembly: str, arguments: list[str], transliterate: bool = True) -> tuple[sp.Expr, str]:
     """(`read`'s expression, the same reading transliterated into the GLSL body of a function of
     a0, a1, ...: one statement per SPIR-V operation, in the optimized shader's order, with its own
     GLSL function, constant and branch condition, so that it computes what the shader computes to
-    the last bit: what the round trip executes beside the user's function, `checked`)."""
+    the last bit: what the round trip executes beside the user's function, `checked`). Without
+    `transliterate` (a function of vectors: `lanes`), an argument of N lanes reads as N symbols
+    NAME__0, NAME__1, ..., a vector result as a tuple of its lanes, and the text is None."""
     instructions = _instructions(disassembly)
     symbols = [sp.Symbol(a, real=True) for a in arguments]
-    types, storage, locations, constants = {}, {}, {}, {}
+    types, storage, locations, constants, declared = {}, {}, {}, {}, {}
     for result, opcode, rest in instructions:
         if opcode == "OpDecorate" and len(rest) >= 3 and rest[1] == "Location":
             locations[rest[0]] = int(rest[2])
@@ -97,6 +99,7 @@ def read_both(disassembly: str, arguments: list[str]) -> tuple[sp.Expr, str]:
             types[result] = (opcode, rest)
         elif opcode == "OpVariable" and result:
             storage[result] = rest[1]
+            declared[result] = rest[0]
         elif opcode == "OpConstant" and result:
             kind = types.get(rest[0], ("", []))
             if kind[0] == "OpTypeFloat":
@@ -120,7 +123,7 @@ def read_both(disassembly: str, arguments: list[str]) -> tuple[sp.Expr, str]:
         if opcode in DISCARD:
             raise Refused("discard")
     blocks, order = _blocks(body)
-    code = _Transliteration(constants)
+    code = _Transliteration(constants) if transliterate else _Silent()
     values: dict = dict(constants)
     reach: dict[str, object] = {order[0]: sp.true}
     edges: dict[tuple[str, str], object] = {}
@@ -139,7 +142,15 @@ def read_both(disassembly: str, arguments: list[str]) -> tuple[sp.Expr, str]:
                     raise Refused(f"a read of something other than an argument ({pointer})")
                 if locations[pointer] >= len(symbols):
                     raise Refused(f"an input at location {locations[pointer]} beyond the arguments")
-                values[result] = symbols[locations[pointer]]
+                pointee = types.get(declared.get(pointer), ("", ["", ""]))[1][-1]
+                kind, operands = types.get(pointee, ("", []))
+                if kind == "OpTypeVector":
+                    if transliterate:
+                        raise Refused("a vector argument")
+                    name = symbols[locations[pointer]].name
+                    values[result] = tuple(sp.Symbol(f"{name}__{k}", real=True) for k in range(int(operands[1])))
+                else:
+                    values[result] = symbols[locations[pointer]]
                 code.names[result] = f"a{locations[pointer]}"
             elif opcode == "OpStore":
                 if storage.get(rest[0]) != "Output":
@@ -177,9 +188,44 @@ def read_both(disassembly: str, arguments: list[str]) -> tuple[sp.Expr, str]:
     if len(stored) != 1:
         raise Refused("the result is written more than once" if stored else "no result is written")
     value = stored[0][1]
-    if isinstance(value, tuple):
+    if isinstance(value, tuple) and transliterate:
         raise Refused("a vector result")
-    return value, code.text()
+    return value, code.text() if transliterate else None
+
+
+def lanes(disassembly: str, arguments: list[str], vectors: list[str]) -> sp.Expr:
+    """The one scalar function every lane of a vector result computes of its own lane of each vector
+    argument (`vectors`: their names) and of the scalar ones (a colour's Fresnel), in the arguments'
+    names. Raises Refused where a lane reads another lane or computes another function."""
+    value, _ = read_both(disassembly, arguments, transliterate=False)
+    if not isinstance(value, tuple):
+        raise Refused("a vector function whose result is not a vector")
+    plain = {a: sp.Symbol(a, real=True) for a in arguments}
+    out = []
+    for k, lane in enumerate(value):
+        own = {sp.Symbol(f"{a}__{k}", real=True): plain[a] for a in vectors}
+        scalar = lane.xreplace(own)
+        if not scalar.free_symbols <= set(plain.values()):
+            raise Refused("a vector result whose lanes are not one scalar function of their own lane (lane "
+                          f"{k} reads another lane)")
+        out.append(scalar)
+    if any(o != out[0] for o in out[1:]):
+        raise Refused("a vector result whose lanes are not one scalar function of their own lane")
+    return out[0]
+
+
+class _Silent:
+    """No transliteration (a reading of vectors)."""
+
+    def __init__(self):
+        self.names: dict = {}
+        self.stored = None
+
+    def use(self, name):
+        return name
+
+    def __getattr__(self, name):
+        return lambda *args, **kwargs: None
 
 
 GLSL_FUNCTIONS = {
@@ -208,10 +254,16 @@ class _Transliteration:
         self.stored: str | None = None
         self.count = 0
 
-    def use(self, name: str) -> str:
+    def use(self, name: str):
+        """A value's GLSL text, or a vector's list of its lanes' texts."""
         if name in self.names:
             return self.names[name]
         value = self.constants.get(name)
+        if isinstance(value, tuple):
+            return [self.use(v) if isinstance(v, str) else self._number(v) for v in value]
+        return self._number(value, name)
+
+    def _number(self, value, name: str = "") -> str:
         if value is sp.true or value is sp.false:
             return "true" if value is sp.true else "false"
         if isinstance(value, sp.Float):
@@ -235,15 +287,39 @@ class _Transliteration:
     def phi(self, result: str, incoming: list[tuple[str, str]], label: str) -> None:
         pieces = [(self.use(v), f"({self.names[f'reach{p}']} && {self.edges.get((p, label), 'false')})")
                   for v, p in incoming]
+        if any(isinstance(v, list) for v, _ in pieces):
+            raise Refused("a branch between vectors")
         text = pieces[-1][0]
         for value, condition in reversed(pieces[:-1]):
             text = f"({condition} ? {value} : {text})"
         self._local(result, "float", text)
 
     def operation(self, result: str, opcode: str, rest: list[str], value) -> None:
-        if isinstance(value, tuple):
-            raise Refused("a vector operation")
+        if opcode == "OpCompositeExtract":         # (a vector's lanes: one text each)
+            vector = self.use(rest[1])
+            self.names[result] = vector[int(rest[2])] if isinstance(vector, list) else vector
+            return
+        if opcode == "OpVectorShuffle":
+            both = list(self.use(rest[1])) + list(self.use(rest[2]))
+            self.names[result] = [both[int(i)] for i in rest[3:]]
+            return
         args = [self.use(a) for a in rest[1:]] if opcode != "OpExtInst" else [self.use(a) for a in rest[3:]]
+        if opcode == "OpCompositeConstruct":
+            self.names[result] = [lane for a in args for lane in (a if isinstance(a, list) else [a])]
+            return
+        if opcode == "OpVectorTimesScalar":
+            opcode, args = "OpFMul", args
+        if isinstance(value, tuple):                # (lane by lane: GLSL computes a vector's lanes apart)
+            names = []
+            for k in range(len(value)):
+                lane = [a[k] if isinstance(a, list) else a for a in args]
+                self._scalar(f"{result}[{k}]", opcode, rest, lane)
+                names.append(self.names.pop(f"{result}[{k}]"))
+            self.names[result] = names
+            return
+        self._scalar(result, opcode, rest, args)
+
+    def _scalar(self, result: str, opcode: str, rest: list[str], args: list[str]) -> None:
         comparison = re.fullmatch(r"OpF(Ord|Unord)(\w+)", opcode)
         if opcode in GLSL_ARITHMETIC:
             self._local(result, "float", f"({args[0]} {GLSL_ARITHMETIC[opcode]} {args[1]})")

@@ -48,6 +48,10 @@ vec3 F_Schlick3(vec3 f0, float VoH) {
     return f0 + (vec3(1.0) - f0) * pow(1.0 - VoH, 5.0);
 }
 
+vec3 swizzled(vec3 c) {
+    return c.zyx * vec3(1.0, 2.0, 3.0);
+}
+
 float sum_loop(float x) {
     float s = 0.0;
     for (int i = 0; i < int(x * 10.0); i++) { s += x; }

@@ -118,8 +118,7 @@ def derive_file(path: Path, options, derive, functions: list[str] | None = None,
             log(f"  refused: {why}")
             continue
         try:
-            expression, transliteration = spirv_reader.read_both(harness.disassembly(text, d, options, path),
-                                                                 [p.name for p in d.parameters])
+            expression, transliteration, lanes = harness.reading(text, d, options, path)
         except spirv_reader.Refused as e:
             outcomes.append(Outcome(shown, d.line, REFUSED, str(e), definition=d))
             log(f"  refused: {e}")
@@ -153,8 +152,8 @@ def derive_file(path: Path, options, derive, functions: list[str] | None = None,
         outcome = Outcome(shown, d.line, DERIVED if name else NONE_CHEAPER, reason, results, name,
                           budget=budget, metric=results["error"], definition=d, check=check)
         if name is not None:
-            printer = found_forms.hlsl if language == "hlsl" else found_forms.glsl
-            outcome.expression = printer(name)
+            outcome.expression = (found_forms.hlsl if language == "hlsl" else found_forms.glsl)(name) if lanes == 1 \
+                else _lanes_text(results["forms"][name].expression, d, lanes, language, results.get("precision"))
         key = results["error"]
         for a in results["architectures"]:
             after = name or SHIPPED
@@ -191,3 +190,20 @@ def compiled(path: Path, options, outcomes: list[Outcome], log=print) -> None:
             except shader_definitions.ShaderError as e:
                 o.status, o.reason = REFUSED, f"its replacement does not compile: {str(e).replace(folder + '/', '')}"
                 log(f"{o.name}: {o.reason}")
+
+
+def _lanes_text(expression, definition, lanes: int, language: str, precision: str | None) -> str:
+    """A vector function's replacement: its result's type built of the scalar form once per lane, each
+    vector argument read at that lane (f0.x, f0.y, ...)."""
+    import sympy as sp
+
+    from ...shaders.harness import width
+    from ..forms import _GLSL, _HLSL, printed
+
+    vectors = [p.name for p in definition.parameters if width(p.type) > 1]
+    texts = [printed(_HLSL() if language == "hlsl" else _GLSL(),
+                     expression.xreplace({sp.Symbol(a, real=True): sp.Symbol(f"{a}.{c}", real=True) for a in vectors}),
+                     precision) for c in "xyzw"[:lanes]]
+    kind = f"float{lanes}" if language == "hlsl" else f"vec{lanes}"
+    return f"{kind}({', '.join(texts)})"
+
