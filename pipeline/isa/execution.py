@@ -126,7 +126,8 @@ def errors(values, inputs, truth, floor: float = 0.0, denominator=None) -> dict:
 def execute_forms(bodies: dict[str, str], inputs, precision: str = "fp32", variable: str = "x", truth=None,
                   floor: float = 0.0, timeout: float = TIMEOUT, optimized: bool = False) -> dict:
     """Every form of `bodies` ({name: GLSL expression in `variable`, or in the names of `inputs` where
-    it is a dict of equal-length arrays; or (prelude, expression), `shader_source`'s}) executed by
+    it is a dict of equal-length arrays; or (prelude, expression), `shader_source`'s, or (prelude,
+    expression, "hlsl"), the same compute shader in HLSL, `prelude` an HLSL file's}) executed by
     lavapipe at `inputs` (rounded to the format),
     all in one child process: {name: its values (the format, the shape of the inputs)}, or with
     `truth` (float64 at the inputs) {name: `errors` of its values (at the first variable)}, or an
@@ -167,9 +168,10 @@ def execute_sets(sets, precision: str = "fp32", variable: str = "x", timeout: fl
             described.append(dict(inputs=len(arrays), truth=truth is not None, floor=floor,
                                   shape=list(np.shape(next(iter(named.values()))))))
             for name, body in bodies.items():
-                prelude, body = body if isinstance(body, tuple) else ("", body)
+                prelude, body, language = (body + ("glsl",))[:3] if isinstance(body, tuple) else ("", body, "glsl")
                 try:
-                    code = glslang.spirv(shader_source(body, precision, list(named), prelude), stage="comp")
+                    code = (glslang.spirv(shader_source(body, precision, list(named), prelude), stage="comp")
+                            if language == "glsl" else _hlsl_spirv(body, list(named), prelude, precision))
                 except glslang.GlslError as e:
                     first = next((line for line in str(e).splitlines() if "ERROR" in line), str(e).strip())
                     outs[j][name] = ExecutionError(f"{name}: the shader does not compile: {first}")
@@ -218,6 +220,44 @@ def execute_sets(sets, precision: str = "fp32", variable: str = "x", timeout: fl
             else:
                 outs[j][name] = np.load(result(k)).reshape(described[j]["shape"])
     return [{name: out[name] for name in bodies} for out, (bodies, *_) in zip(outs, sets)]
+
+
+_HLSL_SHADER = """{prelude}
+{buffers}
+[[vk::binding({out}, 0)]] RWStructuredBuffer<float> ys;
+float form({arguments})
+{{
+    return {body};
+}}
+[numthreads({local}, 1, 1)]
+void main(uint3 id : SV_DispatchThreadID)
+{{
+    ys[id.x] = form({values});
+}}
+"""
+
+
+def _hlsl_spirv(body: str, names: list[str], prelude: str, precision: str) -> bytes:
+    """The SPIR-V of `shader_source`'s compute shader written in HLSL (glslang's HLSL front end),
+    `prelude` an HLSL file's declarations: float32 only, inputs at most MAX_GROUPS * LOCAL_SIZE (one
+    row of work groups: the invocation's index its x). Raises glslang.GlslError with the
+    compiler's message."""
+    from ..optics import glslang, spirv
+
+    if precision != "fp32":
+        raise glslang.GlslError("an HLSL harness executes in float32 only")
+    source = _HLSL_SHADER.format(
+        prelude=prelude, out=len(names), local=LOCAL_SIZE, body=body,
+        buffers="\n".join(f"[[vk::binding({b}, 0)]] StructuredBuffer<float> in{b};" for b in range(len(names))),
+        arguments=", ".join(f"float {n}" for n in names), values=", ".join(f"in{b}[id.x]" for b in range(len(names))))
+    with tempfile.TemporaryDirectory(prefix="hlsl_") as folder:
+        path, out = Path(folder) / "form.hlsl", Path(folder) / "form.spv"
+        path.write_text(source)
+        done = spirv.run_tool([spirv.tool("glslangValidator"), "-D", "-V", "-S", "comp", "-e", "main", str(path),
+                               "-o", str(out)])
+        if done.returncode != 0:
+            raise glslang.GlslError(done.stdout + done.stderr)
+        return out.read_bytes()
 
 
 def _optimize(path: Path) -> None:

@@ -6,8 +6,8 @@ transliteration
 (`spirv_reader.read_both`: the optimized shader's operations, one statement each) must agree to the
 last bit; the reading's sympy expression, evaluated in float64 at the same float32 inputs, must then
 agree with them to float32's rounding (`RTOL` of the value, `ATOL` of the largest |value|). A
-mismatch is one line naming the function and the first input where it differs. HLSL's functions
-are not executed (lavapipe runs GLSL's compute harness): their check says so.
+mismatch is one line naming the function and the first input where it differs. An HLSL function
+runs in an HLSL compute harness (glslang's HLSL front end), its transliteration in GLSL's.
 """
 
 from __future__ import annotations
@@ -54,9 +54,10 @@ def grid(ranges: list[tuple[float, float]], count: int = INPUTS) -> list[np.ndar
 
 def prelude(text: str, language: str = "glsl") -> str:
     """The file's preprocessed text as the execution harness's declarations: its `#extension` lines
-    first, its `#version` and `#line` lines left out, its `main` renamed."""
+    first (GLSL), its `#version` and `#line` lines left out, its `main` renamed."""
     lines = text.splitlines()
-    extensions = [line for line in lines if line.startswith("#extension") and "include_directive" not in line]
+    extensions = [line for line in lines if line.startswith("#extension") and "include_directive" not in line
+                  and language == "glsl"]
     body = [line for line in lines if not line.startswith(("#version", "#extension", "#line"))]
     return "\n".join(extensions + [f"#define main {RENAMED_MAIN}"] + body + ["#undef main"])
 
@@ -73,19 +74,19 @@ def round_trip(text: str, definition: Definition, expression, transliteration: s
 
     points = grid(ranges)
     count = points[0].size
-    if language != "glsl":
-        return RoundTrip(f"not executed: lavapipe runs GLSL's compute harness, not {language.upper()}'s", count)
     why = execution.available()
     if why is not None:
         return RoundTrip(f"not executed: {why}", count)
     names = [f"a{i}" for i in range(len(points))]
     arguments = ", ".join(f"float {n}" for n in names)
-    declarations = prelude(text) + f"\nfloat the_reading({arguments})\n{{\n{transliteration}\n}}\n"
+    reading = f"float the_reading({arguments})\n{{\n{transliteration}\n}}\n"
     inputs = dict(zip(names, points))
     call = ", ".join(names)
     lane = width(definition.return_type) > 1
-    outcome = execution.execute_forms({"function": (declarations, function_call(definition, "glsl", lane)),
-                                       "reading": (declarations, f"the_reading({call})")}, inputs, optimized=True)
+    function = ((prelude(text) + "\n" + reading, function_call(definition, "glsl", lane)) if language == "glsl" else
+                (prelude(text, "hlsl"), function_call(definition, "hlsl", lane), "hlsl"))
+    outcome = execution.execute_forms({"function": function, "reading": (reading, f"the_reading({call})")}, inputs,
+                                      optimized=True)
     for name, values in outcome.items():
         if isinstance(values, Exception):
             return RoundTrip(f"not executed: {values}", count, mismatch=f"{definition.name}: {values}")

@@ -166,6 +166,19 @@ def test_every_reading_executes_as_the_function_to_the_last_bit():
     assert all(c.inputs >= 1 << 16 and c.drift < 1 for c in checks.values())
 
 
+def test_an_hlsl_function_executes_as_its_reading_to_the_last_bit():
+    """The HLSL twins run in an HLSL compute harness (glslang's HLSL front end), their readings'
+    transliterations in GLSL's: the same bits at 2^16 inputs or more."""
+    from pipeline.isa import execution
+
+    if execution.available() is not None:
+        pytest.skip(f"lavapipe cannot run here: {execution.available()}")
+    checks = _round_trips(HLSL, {name: RANGES[name] for name in ("srgb_decode", "acos_fast", "V_SmithGGXCorrelated",
+                                                                 "F_Schlick3")})
+    assert {name: (c.how, c.ulps, c.mismatch) for name, c in checks.items()} == {
+        name: ("lavapipe", 0, None) for name in ("srgb_decode", "acos_fast", "V_SmithGGXCorrelated", "F_Schlick3")}
+
+
 def test_a_misreading_is_caught_by_the_round_trip(monkeypatch):
     """A planted misreading of pow (the transliteration's max for pow; the expression's exponent 1 %
     off) is a mismatch of one line naming the function and an input."""
