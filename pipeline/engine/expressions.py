@@ -4,9 +4,11 @@ whitelist that builds the sympy tree directly. Nothing of the text is ever evalu
 
 Accepted: numbers (decimal, integer), the declared names (variables, the parameter), the constants
 `pi` and `E`, `+ - * / **` (and `^`, a power, as shaders and papers write it), unary minus and plus,
-parentheses, and calls of the functions of `FUNCTIONS` with their numbers of arguments. Everything
-else (attributes, subscripts, strings, lambdas, comprehensions, comparisons, keyword arguments,
-names not declared) is refused before anything is built: `ExpressionError`, one line naming the
+parentheses, calls of the functions of `FUNCTIONS` with their numbers of arguments, and a branch
+as Python writes a conditional, `a if x < c else b` (a Piecewise; its test one comparison < <= > >=,
+or `and`, `or`, `not` of them: a shader's ?: or if). Everything
+else (attributes, subscripts, strings, lambdas, comprehensions, a comparison outside a conditional,
+keyword arguments, names not declared) is refused before anything is built: `ExpressionError`, one line naming the
 offending token and its column.
 
 The work is bounded before sympy does it: a text of at most `MAX_LENGTH` characters, a tree at most
@@ -224,11 +226,35 @@ class _Reader:
             return self.arithmetic(node, self.chain, first, rest)
         if isinstance(node, ast.Call):
             return self.call(node, depth)
+        if isinstance(node, ast.IfExp):             # a if c else b: a branch, as a shader's ?: (a Piecewise)
+            import sympy as sp
+
+            condition = self.condition(node.test, depth + 1, node)
+            return sp.Piecewise((self.build(node.body, depth + 1), condition),
+                                (self.build(node.orelse, depth + 1), True))
         if isinstance(node, ast.Attribute):
             at = len(self.encoded[:node.end_col_offset].decode("utf-8", errors="ignore")) - len(node.attr)
             self.refuse(f"the attribute {'.' + node.attr!r}", column=at)
         kind = _KINDS.get(type(node), type(node).__name__)
         self.refuse(f"{kind} {_clip(self.segment(node))!r} is not allowed", node)
+
+    def condition(self, node, depth: int, branch):
+        """A conditional's test: one comparison (< <= > >=) of two expressions, or `and`, `or` and `not`
+        of such tests."""
+        import sympy as sp
+
+        if depth > MAX_DEPTH:
+            self.refuse(f"nested deeper than {MAX_DEPTH}", node)
+        if isinstance(node, ast.Compare) and len(node.ops) == 1 and type(node.ops[0]) in _comparisons():
+            return _comparisons()[type(node.ops[0])](self.build(node.left, depth + 1),
+                                                     self.build(node.comparators[0], depth + 1))
+        if isinstance(node, ast.BoolOp):
+            parts = [self.condition(v, depth + 1, branch) for v in node.values]
+            return sp.And(*parts) if isinstance(node.op, ast.And) else sp.Or(*parts)
+        if isinstance(node, ast.UnaryOp) and isinstance(node.op, ast.Not):
+            return sp.Not(self.condition(node.operand, depth + 1, branch))
+        self.refuse(f"a conditional whose test {_clip(self.segment(node))!r} is not one comparison (< <= > >=), "
+                    "or and, or, not of them", branch)
 
     def number(self, node):
         import sympy as sp
@@ -357,6 +383,14 @@ _KINDS = {ast.Attribute: "an attribute", ast.Subscript: "a subscript", ast.Lambd
           ast.YieldFrom: "yield", ast.Starred: "a starred expression", ast.Slice: "a slice"}
 
 
+@functools.cache
+def _comparisons() -> dict:
+    """A conditional's comparisons: Python's operator -> sympy's relation."""
+    import sympy as sp
+
+    return {ast.Lt: sp.StrictLessThan, ast.LtE: sp.LessThan, ast.Gt: sp.StrictGreaterThan, ast.GtE: sp.GreaterThan}
+
+
 def text(expr, symbols: dict | None = None) -> str:
     """An expression as text that `parse(text, ..., float64=True)` reads back to the same tree: sympy's
     printing (`sstr`), each Float as the shortest decimal of its float64 (a Float of another
@@ -376,6 +410,23 @@ def text(expr, symbols: dict | None = None) -> str:
                 return repr(value)
             digits = mlib_to_str(abs(f)._mpf_, repr_dps(f._prec))
             return f"{'-' if value < 0 else ''}Float({digits}, {f._prec})"
+
+        def _print_Piecewise(self, e):          # (a if c else b, as the reader takes a branch)
+            if e.args[-1].cond != sp.true:
+                raise ExpressionError("a branch with no otherwise case has no text")
+            out = self._print(e.args[-1].expr)
+            for piece in reversed(e.args[:-1]):
+                out = f"({self._print(piece.expr)} if {self._print(piece.cond)} else {out})"
+            return out
+
+        def _print_And(self, e):
+            return "(" + " and ".join(f"({self._print(a)})" for a in e.args) + ")"
+
+        def _print_Or(self, e):
+            return "(" + " or ".join(f"({self._print(a)})" for a in e.args) + ")"
+
+        def _print_Not(self, e):
+            return f"(not ({self._print(e.args[0])}))"
 
     printed = Exact().doprint(expr)
     if symbols is not None:

@@ -139,6 +139,23 @@ def registry_texts() -> list[tuple[str, tuple]]:
     return out
 
 
+def test_a_branch_reads_as_a_piecewise_and_prints_back():
+    """`a if x <= c else b` (a shader's ?: or if, as the shader reader writes it): a Piecewise, its
+    test one comparison or and, or, not of them; `text` prints it back to the same tree; a test that
+    is no comparison, a chained one, a comparison outside a conditional are refused."""
+    x = sp.Symbol("x", real=True)
+    decode = expressions.parse("x/12.92 if x <= 0.04045 else ((x + 0.055)/1.055)**2.4", ("x",))
+    assert decode == sp.Piecewise((x / sp.Float("12.92"), x <= sp.Float("0.04045")),
+                                  (((x + sp.Float("0.055")) / sp.Float("1.055")) ** sp.Float("2.4"), True))
+    nested = expressions.parse("1 if x > 0.1 and x < 0.5 else (2 if not x < 0.9 else 3)", ("x",))
+    for tree in (decode, nested):
+        assert sp.srepr(expressions.parse(expressions.text(tree, {"x": x}), ("x",), float64=True)) == sp.srepr(tree)
+    for text, message in (("x < 1", "a comparison"), ("x if x else 1", "a conditional whose test 'x'"),
+                          ("1 if 0 < x < 1 else 2", "is not one comparison"), ("1 if x == 0 else 2", "x == 0")):
+        with pytest.raises(ExpressionError, match=message):
+            expressions.parse(text, ("x",))
+
+
 def test_every_expression_of_the_registries_reads_to_sympys_tree():
     texts = registry_texts()
     assert len(texts) >= 30

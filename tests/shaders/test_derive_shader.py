@@ -119,3 +119,25 @@ def test_a_replacement_that_does_not_compile_is_refused_and_left_out_of_the_patc
     assert bad.status == shader_file.REFUSED and "its replacement does not compile" in bad.reason and "'y'" in bad.reason
     diff = shader_outputs.patch_text(path, [good, bad])
     assert "x * x * x * x * x" in diff and "HALF_PI - y" not in diff
+
+
+def test_a_function_s_arguments_and_branches_become_a_target_and_come_back():
+    """srgb_decode(float c): its argument c, a name the grammar keeps for the constants, is the
+    target's c_; its branch the target's `a if c_ <= ... else b`, checked like any target; a
+    replacement in c_ printed back in c, its numbers the format's."""
+    import sympy as sp
+
+    from pipeline.approximate.engines.shader_file import replacement_text
+    from pipeline.approximate.targets import reading
+
+    assert reading.variable_names(["c", "c_", "x", "k_s", "c0"]) == {"c": "c__", "c_": "c_", "x": "x", "k_s": "vk_s",
+                                                                   "c0": "c0_"}
+    options = harness.Options("glsl")
+    path = HERE / "engine_style.glsl"
+    found = {d.name: d for d in definitions.read(path)[1]}
+    read = harness.read_function(harness.preprocessed(path, options), found["srgb_decode"], options, path)
+    target = reading.from_shader_function("srgb_decode", read.expression, ["c"], {"c": (0.0, 1.0)}, "engine_style.glsl:28")
+    assert target.names == ("c_",) and target.shape == "one variable" and " if c_ <= " in target.expression
+    assert target.anchors[0].name == "as shipped" and target.anchors[0].expression == target.expression
+    c_ = sp.Symbol("c_", real=True)
+    assert replacement_text(sp.Float(0.5) * c_ + sp.Float(0.1), found["srgb_decode"], 1, "glsl", "fp32") == "0.5*c + 0.100000001"

@@ -152,8 +152,8 @@ def derive_file(path: Path, options, derive, functions: list[str] | None = None,
         outcome = Outcome(shown, d.line, DERIVED if name else NONE_CHEAPER, reason, results, name,
                           budget=budget, metric=results["error"], definition=d, check=check)
         if name is not None:
-            outcome.expression = (found_forms.hlsl if language == "hlsl" else found_forms.glsl)(name) if lanes == 1 \
-                else _lanes_text(results["forms"][name].expression, d, lanes, language, results.get("precision"))
+            outcome.expression = replacement_text(results["forms"][name].expression, d, lanes, language,
+                                                  results.get("precision"))
         key = results["error"]
         for a in results["architectures"]:
             after = name or SHIPPED
@@ -192,18 +192,24 @@ def compiled(path: Path, options, outcomes: list[Outcome], log=print) -> None:
                 log(f"{o.name}: {o.reason}")
 
 
-def _lanes_text(expression, definition, lanes: int, language: str, precision: str | None) -> str:
-    """A vector function's replacement: its result's type built of the scalar form once per lane, each
-    vector argument read at that lane (f0.x, f0.y, ...)."""
+def replacement_text(expression, definition, lanes: int, language: str, precision: str | None) -> str:
+    """A replacement's body expression in the function's own arguments (the target's names for them
+    undone, `variable_names`), its numbers the format's; a vector function's, its result's type built
+    of the scalar form once per lane, each vector argument read at that lane (f0.x, f0.y, ...)."""
     import sympy as sp
 
     from ...shaders.harness import width
     from ..forms import _GLSL, _HLSL, printed
+    from ..targets.reading import variable_names
 
+    arguments = [p.name for p in definition.parameters]
+    own = {sp.Symbol(v, real=True): sp.Symbol(a, real=True) for a, v in variable_names(arguments).items()}
+    expression = expression.xreplace(own)
+    printer = _HLSL if language == "hlsl" else _GLSL
+    if lanes == 1:
+        return printed(printer(), expression, precision)
     vectors = [p.name for p in definition.parameters if width(p.type) > 1]
-    texts = [printed(_HLSL() if language == "hlsl" else _GLSL(),
-                     expression.xreplace({sp.Symbol(a, real=True): sp.Symbol(f"{a}.{c}", real=True) for a in vectors}),
-                     precision) for c in "xyzw"[:lanes]]
+    texts = [printed(printer(), expression.xreplace({sp.Symbol(a, real=True): sp.Symbol(f"{a}.{c}", real=True)
+                                                     for a in vectors}), precision) for c in "xyzw"[:lanes]]
     kind = f"float{lanes}" if language == "hlsl" else f"vec{lanes}"
     return f"{kind}({', '.join(texts)})"
-

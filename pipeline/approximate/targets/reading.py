@@ -393,30 +393,47 @@ def _csv_target(path, variables, parameter: str | None, output: str | None, metr
 SHIPPED = "as shipped"      # the anchor that is the function as its file writes it
 
 
+def variable_names(arguments: list[str]) -> dict[str, str]:
+    """{argument: the target's name for it}: the argument's own name, or where the grammar keeps it
+    for the constants (c, c0, c1, ..., k_...) or refuses it, that name with _ appended (a k_ name
+    with v prepended) until it is free: a shader's argument `c` is the target's `c_`."""
+    from ...engine import expressions
+
+    out: dict[str, str] = {}
+    for a in arguments:
+        name = a
+        while (expressions.name_fault(name) or name == "c" or name.startswith("k_") or
+               (name[0] == "c" and name[1:].isdigit()) or name in out.values() or
+               (name != a and name in arguments)):
+            name = "v" + name if name.startswith("k_") else name + "_"
+        out[a] = name
+    return out
+
+
 def from_shader_function(name: str, expression, arguments: list[str], ranges: dict, source: str,
                          parameter: str | None = None, exact: str | None = None, metric: str = "abs",
                          floor: float = 0.0, precision: str = "fp32", role: str = "") -> Target:
     """The target of a shader function read as the compiler means it (`shaders.harness`: its sympy
     `expression` in `arguments`), checked: its arguments the variables (`ranges`: {argument: (lo,
-    hi)}), the one named `parameter` the material parameter; the function as written its anchor
-    "as shipped" (from `source`, its file and line); the function approximated the `exact` expression
-    where the author names one (`exact=acos(x)`), else the function's own mathematics. Raises
-    DeriveError for a function derive does not take: a branch (an if or ?:; derive takes branch-free
-    functions), an exact expression that does not parse in the arguments."""
+    hi)}; each named by `variable_names`), the one named `parameter` the material parameter; the
+    function as written its anchor "as shipped" (from `source`, its file and line); the function
+    approximated the `exact` expression where the author names one (`exact=acos(x)`, in the
+    arguments' names), else the function's own mathematics (a branch, an if or ?:, written
+    `a if c else b`: every form, branch-free, competes with it over the whole domain). Raises
+    DeriveError for an exact expression that does not parse in the arguments."""
     import sympy as sp
 
     from ...engine import expressions
 
-    if expression.has(sp.Piecewise):
-        raise DeriveError(f"{name}: a branch (an if or ?:): derive takes branch-free functions")
-    symbols = {a: sp.Symbol(a, real=True) for a in arguments}
-    written = expressions.text(expression, symbols)
-    variables = tuple(Axis(a, *ranges[a]) for a in arguments if a != parameter)
-    axis = Axis(parameter, *ranges[parameter]) if parameter is not None else None
+    names = variable_names(arguments)
+    renamed = {sp.Symbol(a, real=True): sp.Symbol(names[a], real=True) for a in arguments}
+    symbols = {names[a]: sp.Symbol(names[a], real=True) for a in arguments}
+    written = expressions.text(expression.xreplace(renamed), symbols)
+    variables = tuple(Axis(names[a], *ranges[a]) for a in arguments if a != parameter)
+    axis = Axis(names[parameter], *ranges[parameter]) if parameter is not None else None
     if exact is not None:
-        parse(exact, arguments, f"{name}'s exact")
+        exact = expressions.text(parse(exact, arguments, f"{name}'s exact").xreplace(renamed), symbols)
     return check(Target(name, exact or written, variables, axis, metric, floor,
                         (Anchor(SHIPPED, written, source),),
                         f"{name} of {source}" + (f", approximating {exact}" if exact else ", its own mathematics"),
                         precision=precision, role=role))
-
