@@ -141,3 +141,32 @@ def test_a_function_s_arguments_and_branches_become_a_target_and_come_back():
     assert target.anchors[0].name == "as shipped" and target.anchors[0].expression == target.expression
     c_ = sp.Symbol("c_", real=True)
     assert replacement_text(sp.Float(0.5) * c_ + sp.Float(0.1), found["srgb_decode"], 1, "glsl", "fp32") == "0.5*c + 0.100000001"
+
+
+def test_the_replacement_rule_flips_with_planted_numbers():
+    """`shader_file.replacement` on planted results (two architectures): a form within the budget at
+    no more cycles and fewer on one is chosen; one cycle more on either architecture, or an error
+    above the budget, and none is; at equal cycles only an error below the shipped one by more than
+    1 % (derive's beaten) counts; with max_error, a less accurate but cheaper form is chosen; the
+    reason names the architectures where the least within the budget costs what the shipped does."""
+    from pipeline.approximate.engines.shader_file import replacement
+
+    def results(cycles_a, cycles_b, error):
+        return dict(error="max_abs_error", rounding_floor=1e-8, architectures=["a", "b"],
+                    members={"as shipped": dict(kind="anchor", max_abs_error=1e-3),
+                             "f": dict(kind="found", max_abs_error=error, parameter_per="")},
+                    cycles={"a": {"as shipped": 10.0, "f": cycles_a}, "b": {"as shipped": 8.0, "f": cycles_b}})
+
+    assert replacement(results(9.0, 8.0, 1e-3), None)[0] == "f"
+    assert replacement(results(11.0, 6.0, 1e-3), None)[0] is None
+    assert replacement(results(9.0, 9.0, 1e-3), None)[0] is None
+    assert replacement(results(9.0, 8.0, 1.1e-3), None)[0] is None
+    assert replacement(results(10.0, 8.0, 0.98e-3), None)[0] == "f"          # more accurate by 2 %
+    assert replacement(results(10.0, 8.0, 0.995e-3), None)[0] is None        # within 1 %: matched
+    assert replacement(results(9.0, 8.0, 5e-3), 1e-2)[0] == "f"
+    name, reason, budget = replacement(results(10.0, 8.0, 1e-3), None)
+    assert name is None and budget == 1e-3 and "a: 10 cycles as shipped, the least within it 10" in reason
+    assert "the compiler already computes it as cheaply" in reason
+    material = results(9.0, 8.0, 1e-3)
+    material["members"]["f"]["parameter_per"] = "material"
+    assert replacement(material, None)[0] is None
