@@ -76,19 +76,15 @@ def _instructions(disassembly: str) -> list[tuple[str | None, str, list[str]]]:
     return out
 
 
-def read(disassembly: str, arguments: list[str]) -> sp.Expr:
-    """The value `main` stores to its output, as a sympy expression in the real symbols `arguments`
-    (the input at Location i is argument i). Raises Refused naming what the reader does not take."""
-    return read_both(disassembly, arguments)[0]
-
-
 def read_both(disassembly: str, arguments: list[str], transliterate: bool = True) -> tuple[sp.Expr, str]:
-    """(`read`'s expression, the same reading transliterated into the GLSL body of a function of
-    a0, a1, ...: one statement per SPIR-V operation, in the optimized shader's order, with its own
-    GLSL function, constant and branch condition, so that it computes what the shader computes to
-    the last bit: what the round trip executes beside the user's function, `checked`). Without
+    """(the value `main` stores to its output, a sympy expression in the real symbols `arguments`
+    (the input at Location i is argument i); that reading transliterated into the GLSL body of a
+    function of a0, a1, ...: one statement per SPIR-V operation, in the optimized shader's order,
+    with its own GLSL function, constant and branch condition, so that it computes what the shader
+    computes to the last bit, which `round_trip` executes beside the user's function). Without
     `transliterate` (a function of vectors: `lanes`), an argument of N lanes reads as N symbols
-    NAME__0, NAME__1, ..., a vector result as a tuple of its lanes, and the text is None."""
+    NAME__0, NAME__1, ..., a vector result as a tuple of its lanes, and the text is None. Raises
+    Refused naming what the reader does not take."""
     instructions = _instructions(disassembly)
     symbols = [sp.Symbol(a, real=True) for a in arguments]
     types, storage, locations, constants, declared = {}, {}, {}, {}, {}
