@@ -286,3 +286,14 @@ def difflib_lines(before: bytes, after: bytes) -> list[str]:
 
     return [line for line in difflib.unified_diff(before.decode().splitlines(), after.decode().splitlines(),
                                                   lineterm="", n=0) if not line.startswith(("---", "+++", "@@"))]
+
+
+def test_without_lavapipe_the_round_trip_says_so(monkeypatch):
+    """Where lavapipe cannot run, the check is not executed and says why (one line); nothing fails."""
+    from pipeline.isa import execution
+    from pipeline.shaders import round_trip
+
+    monkeypatch.setattr(execution, "available", lambda: "no lavapipe here (planted)")
+    check = _round_trips(ranges={"acos_fast": [(0, 1)]})["acos_fast"]
+    assert (check.how, check.checked, check.mismatch) == ("not executed: no lavapipe here (planted)", False, None)
+    assert round_trip.RoundTrip(check.how, check.inputs).checked is False
