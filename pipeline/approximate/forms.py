@@ -187,6 +187,16 @@ class _Functions:
     def _print_sinh(self, expr):
         return self._print_Function(expr)
 
+    def _print_Piecewise(self, expr):
+        """A branch as nested conditional expressions on one line, `(c ? a : b)` (sympy's printers
+        break it over lines, which a function's body then holds)."""
+        if expr.args[-1].cond != sp.true:
+            raise NoShaderForm("a branch with no otherwise case has no value everywhere")
+        out = self._print(expr.args[-1].expr)
+        for piece in reversed(expr.args[:-1]):
+            out = f"({self._print(piece.cond)} ? {self._print(piece.expr)} : {out})"
+        return out
+
     _print_cosh = _print_tanh = _print_asinh = _print_acosh = _print_atanh = _print_sinh
 
     def _print(self, expr, **kwargs):

@@ -9,6 +9,10 @@ then the points whose rows the solution violates most (as many again), solved ag
 optimum is feasible for every point is the whole program's optimum; each round costs a program of
 a few dozen rows where the whole one has thousands. HiGHS's feasibility tolerances are 1e-10 (its
 default 1e-7 is absolute: the optimum's level would differ between row sets in the eighth digit).
+A program HiGHS has not solved in `ITERATIONS` simplex iterations has no optimum (the step is not
+taken): the programs of a few dozen rows take tens of iterations, but the dual simplex can cycle on
+a degenerate one (seen on a rational fitted to a linear function, whose fit is exact for a line of
+constants, on a short interval); a count, not seconds, so that every machine stops at the same step.
 
 Each program goes to scipy's own build of HiGHS (`scipy.optimize._highspy._core`, scipy pinned) with
 the options `linprog(method="highs")` passes it (`solve`): linprog's checks of its options took three
@@ -27,11 +31,12 @@ import numpy as np
 from scipy.optimize._highspy import _core as highs_core
 
 HIGHS = dict(primal_feasibility_tolerance=1e-10, dual_feasibility_tolerance=1e-10)
+ITERATIONS = 20_000         # simplex iterations a program may take (linprog's `maxiter`): then no step
 
 
 def _options():
-    """The options `linprog(method="highs", options=HIGHS)` sets (scipy 1.17: presolve on, no output,
-    the dual simplex, HIGHS's tolerances)."""
+    """The options `linprog(method="highs", options=HIGHS | dict(maxiter=ITERATIONS))` sets (scipy
+    1.17: presolve on, no output, the dual simplex, HIGHS's tolerances, the iteration limit)."""
     options = highs_core.HighsOptions()
     options.presolve = "on"
     options.highs_debug_level = 0
@@ -40,6 +45,7 @@ def _options():
     options.simplex_strategy = int(highs_core.simplex_constants.SimplexStrategy.kSimplexStrategyDual)
     for key, value in HIGHS.items():
         setattr(options, key, value)
+    options.simplex_iteration_limit = ITERATIONS
     return options
 
 

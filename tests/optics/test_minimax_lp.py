@@ -1,5 +1,7 @@
 """The minimax step's linear program on a working set against the same program on every point."""
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 from scipy.optimize import linprog
@@ -13,7 +15,7 @@ def whole_program(J, r, radius):
     A = np.block([[J, -np.ones((J.shape[0], 1))], [-J, -np.ones((J.shape[0], 1))]])
     lp = linprog(np.r_[np.zeros(k), 1.0], A_ub=A, b_ub=np.concatenate([-r, r]),
                  bounds=[(-radius[j], radius[j]) for j in range(k)] + [(0, None)], method="highs",
-                 options=minimax_lp.HIGHS)
+                 options=minimax_lp.HIGHS | dict(maxiter=minimax_lp.ITERATIONS))
     assert lp.status == 0
     return lp.x[k], lp.x[:k]
 
@@ -49,7 +51,7 @@ def test_solve_is_linprog_bit_for_bit():
         b = np.r_[-r, r]
         c = np.r_[np.zeros(k), 1.0]
         lp = linprog(c, A_ub=A, b_ub=b, bounds=[(-radius[j], radius[j]) for j in range(k)] + [(0, None)],
-                     method="highs", options=minimax_lp.HIGHS)
+                     method="highs", options=minimax_lp.HIGHS | dict(maxiter=minimax_lp.ITERATIONS))
         x = minimax_lp.solve(c, A, b, np.r_[-radius, 0.0], np.r_[radius, np.inf])
         assert lp.status == 0 and np.array_equal(x, lp.x), trial
     # infeasible: x <= -1 and x >= 1
@@ -116,3 +118,14 @@ def test_every_template_of_the_visibility_gets_the_whole_program_s_optimum():
         t, _ = minimax_lp.linear_minimax(J, r / scale, radius)
         t_all, _ = whole_program(J, r / scale, radius)
         assert t == pytest.approx(t_all, rel=1e-9), template.name
+
+
+def test_a_program_the_dual_simplex_cycles_on_stops_at_the_iteration_limit(rows_solved):
+    """A minimax step of a rational of degrees 3/1 fitted to 12.92 x on [0, 0.0031308] (sRGB
+    encode's linear piece; the fit is exact for a line of constants, so the program is degenerate),
+    kept as it was met: HiGHS's dual simplex cycles on it without end where no iteration limit is
+    set; with ITERATIONS it has no optimum (no step), and the limit is a count, the same everywhere."""
+    kept = np.load(Path(__file__).parent / "cycling_program.npz")
+    assert minimax_lp.OPTIONS.simplex_iteration_limit == minimax_lp.ITERATIONS
+    assert minimax_lp.linear_minimax(kept["J"], kept["r"], kept["radius"]) is None
+    assert rows_solved           # (it was solved, and stopped: not refused before HiGHS ran)

@@ -8,9 +8,11 @@ and the inputs a run refuses with exit 2."""
 
 import csv
 import shutil
+import types
 import subprocess
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from pipeline.cli import main
@@ -170,3 +172,137 @@ def test_the_replacement_rule_flips_with_planted_numbers():
     material = results(9.0, 8.0, 1e-3)
     material["members"]["f"]["parameter_per"] = "material"
     assert replacement(material, None)[0] is None
+
+
+def test_the_branch_of_derived_pieces_competes_by_the_same_rule():
+    """The anchor that is the branch of a branch's derived pieces (`pieces.PIECES`) is a candidate as
+    a front member is (chosen at fewer cycles within the budget, against a dearer front member), any
+    other anchor never is (a hand fit the target carries is not the answer to its own function)."""
+    from pipeline.approximate.engines.pieces import PIECES
+    from pipeline.approximate.engines.shader_file import replacement
+
+    def results(name, kind):
+        return dict(error="max_abs_error", rounding_floor=1e-8, architectures=["a"],
+                    members={"as shipped": dict(kind="anchor", max_abs_error=1e-3),
+                             "f": dict(kind="found", max_abs_error=1e-3, parameter_per=""),
+                             name: dict(kind=kind, max_abs_error=1e-3)},
+                    cycles={"a": {"as shipped": 10.0, "f": 9.0, name: 6.0}})
+
+    assert replacement(results(PIECES, "anchor"), None)[0] == PIECES
+    assert replacement(results("lagarde", "anchor"), None)[0] == "f"
+
+
+def _planted(target, members: dict, cycles: dict) -> dict:
+    """A derivation's results as `shader_file` reads them, its members and cycles planted: {name:
+    (expression text in the target's variables, error)}, {architecture: {name: cycles}}."""
+    from pipeline.approximate.targets import parse
+
+    forms = {n: types.SimpleNamespace(expression=parse(text, target.names)) for n, (text, _) in members.items()}
+    return dict(error="max_abs_error", rounding_floor=1e-7, architectures=list(cycles), precision="fp32",
+                forms=forms, cycles=cycles,
+                members={n: dict(kind="anchor" if n in [a.name for a in target.anchors] else "found",
+                                 max_abs_error=e, expression=text, parameter_per="") for n, (text, e) in members.items()})
+
+
+@pytest.fixture(scope="module")
+def branch_run(tmp_path_factory):
+    """srgb_decode derived by a planted engine that records its targets (`test_a_branch_s_pieces_...`):
+    (the folder, the file, the outcomes, the targets in the order derived)."""
+    from pipeline.approximate.engines import pieces as branch_pieces, shader_file
+    from pipeline.shaders import intent
+
+    tmp_path = tmp_path_factory.mktemp("branch")
+    for name in ("engine_style.glsl", "engine_constants.glsl"):
+        shutil.copy(HERE / name, tmp_path / name)
+    path = tmp_path / "engine_style.glsl"
+    seen = []
+    cubic = "c_*(c_*(0.2919*c_ + 0.7102) - 0.004271) + 0.002704"
+
+    def derive(target, log, **settings):
+        seen.append(target)
+        shipped = target.anchors[0].expression
+        if target.name == "srgb_decode_piece1":
+            results = _planted(target, {"as shipped": (shipped, 1e-10)}, {"rdna3": {"as shipped": 2.0}})
+        elif target.name == "srgb_decode_piece2":
+            results = _planted(target, {"as shipped": (shipped, 5e-7), "p": (cubic, 6e-4)},
+                               {"rdna3": {"as shipped": 12.0, "p": 6.0}})
+        else:
+            branch = target.anchors[1].expression
+            results = _planted(target, {"as shipped": (shipped, 5e-7), branch_pieces.PIECES: (branch, 6e-4),
+                                        "whole": ("c_*c_", 1e-3)},
+                               {"rdna3": {"as shipped": 14.0, branch_pieces.PIECES: 9.0, "whole": 10.0}})
+        return types.SimpleNamespace(raw=results)
+
+    outcomes, _ = shader_file.derive_file(path, harness.Options("glsl"), derive, ["srgb_decode"],
+                                          intent.parse("c=0:1 max_error=2e-3", "the command line"), ["rdna3"],
+                                          log=lambda s: None)
+    return tmp_path, path, outcomes, seen
+
+
+def test_a_branch_s_pieces_are_derived_where_taken_and_their_branch_competes_whole(branch_run):
+    """srgb_decode's branch, read and executed as the file means it, derived by a planted engine that
+    records its targets: each piece a target on the interval where it is taken (not rendered), piece
+    2's cheaper form chosen by the rule, piece 1 kept; the whole function's target carries the
+    branch of the pieces' replacements as the anchor `derived pieces`, chosen where it is the
+    cheapest within the budget, printed back as the file's ternary, compiled in the patched file; the
+    report and the page say what each piece became and what the branch costs whole."""
+    import sympy as sp
+
+    from pipeline.approximate.engines import pieces as branch_pieces, shader_file
+    from pipeline.approximate.publishing import shader_outputs, shader_page
+    from pipeline.shaders import patch as shader_patch
+
+    tmp_path, path, outcomes, seen = branch_run
+    (o,) = outcomes
+    piece1, piece2, whole = seen
+    threshold = float(np.float32(0.04045))         # (the file's 0.04045 as the float32 it compiles to)
+    assert [(t.variables[0].lo, t.variables[0].hi) for t in (piece1, piece2, whole)] == \
+        [(0.0, threshold), (threshold, 1.0), (0.0, 1.0)]
+    assert piece1.role == piece2.role == "" and piece2.anchors[0].expression.startswith("(0.947867")
+    assert [p.chosen for p in o.pieces] == [None, "p"] and o.pieces[0].reason.endswith("none is within it")
+    assert [a.name for a in whole.anchors] == ["as shipped", branch_pieces.PIECES]
+    assert " if c_ <= 0.04044999" in whole.anchors[1].expression and "0.2919*c_" in whole.anchors[1].expression
+    assert o.status == shader_file.DERIVED and o.replacement == branch_pieces.PIECES   # (cheaper than "whole")
+    assert o.expression.startswith("(c <= 0.0404499993 ? 0.0773993805*c : c*(c*(0.291900009*c + 0.710200012)")
+    assert "c_" not in o.expression
+    # the patched file compiles (shader_file.compiled kept it derived) and reads back as a branch
+    patched = tmp_path / "patched.glsl"
+    patched.write_bytes(shader_patch.replaced(path.read_bytes(), {o.definition: o.expression}))
+    options = harness.Options("glsl")
+    again = next(d for d in definitions.read(patched)[1] if d.name == "srgb_decode")
+    read = harness.read_function(harness.preprocessed(patched, options), again, options, patched)
+    assert isinstance(read.expression, sp.Piecewise)
+    # what the report and the page say
+    report = shader_outputs.report(path, outcomes, "glsl")
+    assert "The branch of the pieces' replacements, costed and measured whole: rdna3 9 cycles" in report
+    assert "(the replacement)." in report and "| 2 | `otherwise` | [0.04045, 1] |" in report
+    page = shader_page.data(path, outcomes, "glsl", "")
+    (f,) = page["functions"]
+    assert f["branch"]["cycles"] == {"rdna3": 9.0} and [p["page"] for p in f["pieces"]] == \
+        ["functions/srgb_decode_piece1/report.html", "functions/srgb_decode_piece2/report.html"]
+    assert page["bars"] == [dict(function="srgb_decode", architecture="rdna3", when="before", cycles=14.0),
+                            dict(function="srgb_decode", architecture="rdna3", when="after", cycles=9.0)]
+
+
+def test_the_run_s_page_shows_every_function_and_opens_each_derivation(branch_run):
+    """report.html of the branch run in Chromium: a row per function and architecture, each naming
+    its function by a link to its section, the pieces' table with a link to each piece's derive
+    page, the branch's whole cost, the chart's bars, nothing asked of the network, no error."""
+    from pipeline.approximate.publishing import shader_outputs, shader_page
+    from tests.helpers import open_page
+
+    tmp_path, path, outcomes, _ = branch_run
+    page_path = tmp_path / "report.html"
+    shader_page.write(page_path, path, outcomes, "glsl", shader_outputs.patch_text(path, outcomes))
+    with open_page(page_path) as opened:
+        page = opened.page
+        rows = page.locator("#functions-table tbody tr")
+        assert rows.count() == 1 and rows.locator("a").first.text_content() == "srgb_decode"
+        assert rows.locator("td").nth(4).text_content() == "14 → 9"
+        section = page.locator("#function-0")
+        assert "derived pieces" in section.text_content() and "rdna3 9 cycles" in section.text_content()
+        links = [a.get_attribute("href") for a in section.locator("table a").all()]
+        assert links == ["functions/srgb_decode_piece1/report.html", "functions/srgb_decode_piece2/report.html"]
+        assert page.evaluate("pageState.views.cycles.data('source_0').length") == 2
+        assert "+    return (c <= 0.0404499993 ?" in page.locator("#patch").text_content()
+        assert opened.problems == [] and all(r.startswith("file://") for r in opened.requests)

@@ -2,8 +2,12 @@
 (`shaders.harness`), checked against itself as it executes (`shaders.round_trip`), derived by the
 engine of its shape as a target whose anchor "as shipped" is the function as written
 (`targets.reading.from_shader_function`), and its replacement chosen by the rule (`replacement`).
+A function with a branch on one argument has each piece derived first on the interval where it is
+taken (`engines.pieces`), each piece's replacement chosen by the same rule against the piece as
+shipped; where one is, the branch of the pieces' replacements is an anchor of the whole function
+(`pieces.PIECES`), costed and measured whole, and competes with the branch-free forms.
 
-The rule: a replacement is a front member whose error as executed is within the budget (the
+The rule: a replacement is a front member (or the branch of derived pieces) whose error as executed is within the budget (the
 author's `max_error`; without one, the function's own error as shipped, or the format's rounding
 floor where that is larger: only rewrites no less accurate), at no more cycles than the function as
 shipped on every architecture asked for, and better: fewer cycles on at least one, or more accurate
@@ -21,6 +25,7 @@ from pathlib import Path
 
 from ..targets import DeriveError
 from ..targets.reading import from_shader_function, SHIPPED
+from . import pieces as branch_pieces
 
 DERIVED, NONE_CHEAPER, REFUSED = "derived", "none cheaper", "refused"
 
@@ -42,6 +47,8 @@ class Outcome:
     metric: str = ""
     definition: object = None
     check: object = None
+    pieces: list = dataclasses.field(default_factory=list)
+    pieces_reason: str = ""
 
 
 def replacement(results: dict, max_error: float | None) -> tuple[str | None, str, float]:
@@ -59,9 +66,10 @@ def replacement(results: dict, max_error: float | None) -> tuple[str | None, str
     if any(c is None for c in before.values()):
         missing = [a for a, c in before.items() if c is None]
         return None, f"the function as shipped did not compile for {', '.join(missing)}", budget
+    candidate = {n for n, m in members.items() if m["kind"] == "found" or n == branch_pieces.PIECES}
     eligible = []
     for name, m in members.items():
-        if m["kind"] != "found" or not (math.isfinite(m[key]) and m[key] <= budget):
+        if name not in candidate or not (math.isfinite(m[key]) and m[key] <= budget):
             continue
         if m.get("parameter_per") == "material":        # (its constants per material: not a function body)
             continue
@@ -74,7 +82,7 @@ def replacement(results: dict, max_error: float | None) -> tuple[str | None, str
             eligible.append((sum(after.values()), m[key], name))
     if eligible:
         return min(eligible)[2], "", budget
-    within = [n for n, m in members.items() if m["kind"] == "found" and math.isfinite(m[key]) and m[key] <= budget]
+    within = [n for n, m in members.items() if n in candidate and math.isfinite(m[key]) and m[key] <= budget]
     least = {a: min((cycles[a][n] for n in within if n in cycles[a]), default=None) for a in architectures}
     held = [f"{a}: {before[a]:g} cycles as shipped, the least within it {least[a]:g}" for a in architectures
             if least[a] is not None and least[a] >= before[a]]
@@ -137,12 +145,16 @@ def derive_file(path: Path, options, derive, functions: list[str] | None = None,
         if check.mismatch is not None:
             outcomes.append(Outcome(shown, d.line, REFUSED, check.mismatch, definition=d, check=check))
             continue
+        source = f"{path.name}:{d.line}"
+        settings = dict(gpu=gpu, seconds=seconds, max_complexity=max_complexity, precision=precision)
+        pieces, pieces_reason, branch = derived_pieces(d.name, expression, arguments, intent, source, settings,
+                                                       derive, log)
         try:
-            target = from_shader_function(d.name, expression, arguments, intent.ranges, f"{path.name}:{d.line}",
+            target = from_shader_function(d.name, expression, arguments, intent.ranges, source,
                                           intent.parameter, intent.exact, intent.metric, intent.floor,
-                                          precision or intent.precision, intent.role)
-            found_forms = derive(target, gpu=gpu, seconds=seconds, max_complexity=max_complexity,
-                                     precision=precision, log=lambda s: log("  " + s))
+                                          precision or intent.precision, intent.role,
+                                          {branch_pieces.PIECES: branch} if branch is not None else None)
+            found_forms = derive(target, log=lambda s: log("  " + s), **settings)
         except DeriveError as e:
             outcomes.append(Outcome(shown, d.line, REFUSED, str(e), definition=d, check=check))
             log(f"  refused: {e}")
@@ -150,7 +162,8 @@ def derive_file(path: Path, options, derive, functions: list[str] | None = None,
         results = found_forms.raw
         name, reason, budget = replacement(results, intent.max_error)
         outcome = Outcome(shown, d.line, DERIVED if name else NONE_CHEAPER, reason, results, name,
-                          budget=budget, metric=results["error"], definition=d, check=check)
+                          budget=budget, metric=results["error"], definition=d, check=check, pieces=pieces,
+                          pieces_reason=pieces_reason)
         if name is not None:
             outcome.expression = replacement_text(results["forms"][name].expression, d, lanes, language,
                                                   results.get("precision"))
@@ -160,11 +173,55 @@ def derive_file(path: Path, options, derive, functions: list[str] | None = None,
             outcome.rows.append(dict(architecture=a, cycles_before=results["cycles"][a][SHIPPED],
                                      cycles_after=results["cycles"][a][after],
                                      error_before=results["members"][SHIPPED][key],
-                                     error_after=results["members"][after][key]))
+                                     error_after=results["members"][after][key],
+                                     flip_before=flip(results, SHIPPED), flip_after=flip(results, after)))
         log(f"  {outcome.status}" + (f": {name} ({outcome.expression})" if name else f": {reason}"))
         outcomes.append(outcome)
     compiled(path, options, outcomes, log)
     return outcomes, text
+
+
+def flip(results: dict, name: str) -> float | None:
+    """The member's largest FLIP over the rendered spheres (`rendered.STATISTIC`) where the function
+    has a role and was rendered, else None."""
+    from ..measures import rendered
+
+    if not (results.get("rendered") or {}).get("role"):
+        return None
+    return results["members"][name].get(rendered.STATISTIC)
+
+
+def derived_pieces(name: str, expression, arguments: list[str], intent, source: str, settings: dict, derive,
+                   log=print) -> tuple[list, str, object]:
+    """(the pieces of a function's branch, why none is replaced where none is, the branch of their
+    replacements in the arguments or None): each piece taken on an interval derived there by
+    `derive` (approximating the author's `exact` there where one is named, else the piece itself;
+    the piece as written its anchor "as shipped"; not rendered: a piece alone has no place in a
+    shading) and its replacement chosen by `replacement` within the author's `max_error`, else
+    within the piece's own error as shipped."""
+    pieces, why = branch_pieces.sub_domains(expression, intent.ranges)
+    if not pieces:
+        return [], why, None
+    for p in (p for p in pieces if p.domain is not None):
+        lo, hi = p.domain
+        log(f"  piece {p.index}, {p.where}: {p.argument} in [{lo:.6g}, {hi:.6g}]")
+        try:
+            target = from_shader_function(f"{name}_piece{p.index}", p.shipped, arguments,
+                                          intent.ranges | {p.argument: p.domain}, f"{source}, piece {p.index}",
+                                          intent.parameter, intent.exact, intent.metric, intent.floor,
+                                          settings.get("precision") or intent.precision, "")
+            p.results = derive(target, log=lambda s: log("    " + s), **settings).raw
+        except DeriveError as e:
+            p.reason = str(e)
+            log(f"    not derived: {e}")
+            continue
+        p.chosen, p.reason, _ = replacement(p.results, intent.max_error)
+        if p.chosen is not None:
+            p.form = in_arguments(p.results["forms"][p.chosen].expression, arguments)
+        log(f"    {p.chosen}: {p.form}" if p.chosen else f"    kept: {p.reason}")
+    if not any(p.chosen for p in pieces):
+        return pieces, "no piece has a replacement on its interval", None
+    return pieces, "", branch_pieces.assembled(pieces)
 
 
 def compiled(path: Path, options, outcomes: list[Outcome], log=print) -> None:
@@ -200,11 +257,8 @@ def replacement_text(expression, definition, lanes: int, language: str, precisio
 
     from ...shaders.harness import width
     from ..forms import _GLSL, _HLSL, printed
-    from ..targets.reading import variable_names
 
-    arguments = [p.name for p in definition.parameters]
-    own = {sp.Symbol(v, real=True): sp.Symbol(a, real=True) for a, v in variable_names(arguments).items()}
-    expression = expression.xreplace(own)
+    expression = in_arguments(expression, [p.name for p in definition.parameters])
     printer = _HLSL if language == "hlsl" else _GLSL
     if lanes == 1:
         return printed(printer(), expression, precision)
@@ -213,3 +267,14 @@ def replacement_text(expression, definition, lanes: int, language: str, precisio
                                                      for a in vectors}), precision) for c in "xyzw"[:lanes]]
     kind = f"float{lanes}" if language == "hlsl" else f"vec{lanes}"
     return f"{kind}({', '.join(texts)})"
+
+
+def in_arguments(expression, arguments: list[str]):
+    """A form of the function's target in the function's own arguments (the target's names for them,
+    `variable_names`, undone)."""
+    import sympy as sp
+
+    from ..targets.reading import variable_names
+
+    return expression.xreplace({sp.Symbol(v, real=True): sp.Symbol(a, real=True)
+                                for a, v in variable_names(arguments).items()})

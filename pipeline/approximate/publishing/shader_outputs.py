@@ -1,9 +1,11 @@
 """What `derive --shader FILE` writes into its folder, all at once: `functions.csv` (a row per function
 and architecture: its status, reason, cycles and error as executed before and after, the budget),
 `shader.patch` (the file's unified diff replacing the derived functions' bodies; `git apply` or
-`patch -p1` from the folder the path is relative to), `report.md` (per function: its status, its
-expression before and after, its cycles and errors per architecture) and, per derived function, its
-derivation's own files under `functions/NAME/`. The user's file is never written."""
+`patch -p1` from the folder the path is relative to), `report.md` and `report.html` (per function:
+its status, its expression before and after, its cycles, errors and FLIP per architecture, its
+branch's pieces; the page `shader_page`'s) and, per derived function, its derivation's own files
+under `functions/NAME/` (each piece of its branch under `functions/NAME_pieceK/`; their pages linked
+from the run's). The user's file is never written."""
 
 from __future__ import annotations
 
@@ -16,7 +18,7 @@ from pathlib import Path
 from ...engine import escape
 
 COLUMNS = ("file", "function", "status", "reason", "architecture", "cycles_before", "cycles_after", "error_before",
-           "error_after", "max_error", "metric")
+           "error_after", "max_error", "metric", "flip_before", "flip_after")
 
 
 def function_rows(path: Path, outcomes) -> list[dict]:
@@ -27,7 +29,7 @@ def function_rows(path: Path, outcomes) -> list[dict]:
                     metric=o.metric)
         if not o.rows:
             rows.append(base | dict(architecture="", cycles_before=None, cycles_after=None, error_before=None,
-                                    error_after=None))
+                                    error_after=None, flip_before=None, flip_after=None))
         rows += [base | r for r in o.rows]
     return rows
 
@@ -54,28 +56,49 @@ def patch_text(path: Path, outcomes, keep_reference: bool = False) -> str:
 
 def report(path: Path, outcomes, language: str) -> str:
     """report.md of a shader file's run."""
+    from .shader_page import function_data
+
     counts = {s: sum(o.status == s for o in outcomes) for s in ("derived", "none cheaper", "refused")}
     lines = [f"# {escape.markdown(Path(path).name)}: its functions derived", "",
-             f"{len(outcomes)} functions of `{escape.markdown(str(path))}` ({language.upper()}): "
+             f"{len(outcomes)} functions of {escape.code(str(path))} ({language.upper()}): "
              + ", ".join(f"{n} {s}" for s, n in counts.items()) + ". The file is unchanged; `shader.patch` replaces "
              "the derived functions' bodies.", ""]
     for o in outcomes:
+        f = function_data(o, language)
         lines += [f"## {escape.markdown(o.name)} (line {o.line}): {o.status}", ""]
         if o.reason:
             lines += [escape.markdown(o.reason), ""]
-        if o.check is not None:
-            lines += [f"Read as the compiler means it and executed beside it ({o.check.how}"
-                      + (f", {o.check.inputs} inputs: the same to the last bit" if o.check.checked and
-                         o.check.mismatch is None else "") + ").", ""]
+        if f["checked"]:
+            lines += [f"Read as the compiler means it and {f['checked']}.", ""]
         if o.results is not None:
-            shipped = o.results["members"]["as shipped"]["expression"]
-            lines += [f"- As shipped: `{escape.markdown(shipped)}`"]
+            lines += [f"- As shipped: {escape.code(f['read'])}"]
             if o.replacement:
-                lines += [f"- Replacement ({escape.markdown(o.replacement)}): `{escape.markdown(o.expression)}`"]
-            lines += [f"- Budget: {o.metric} {o.budget:.3g} (as executed)", "",
-                      "| architecture | cycles before | cycles after | error before | error after |", "|---|---|---|---|---|"]
+                lines += [f"- Replacement ({escape.markdown(o.replacement)}): {escape.code(o.expression)}"]
+            lines += [f"- Budget: {o.metric} {o.budget:.3g} (as executed)",
+                      f"- Its derivation: [{f['page']}]({f['page']})", ""]
+            flips = any(r["flip_before"] is not None for r in o.rows)
+            lines += ["| architecture | cycles before | cycles after | error before | error after |"
+                      + (" FLIP before | FLIP after |" if flips else ""), "|---|---|---|---|---|" + "---|---|" * flips]
             lines += [f"| {r['architecture']} | {r['cycles_before']:g} | {r['cycles_after']:g} | {r['error_before']:.3g} | "
-                      f"{r['error_after']:.3g} |" for r in o.rows]
+                      f"{r['error_after']:.3g} |" + (f" {r['flip_before']:.3g} | {r['flip_after']:.3g} |" if flips else "")
+                      for r in o.rows]
+            lines.append("")
+        if f["pieces"]:
+            branch = f["branch"]
+            lines += ["Its branch, each piece derived on the interval where it is taken"
+                      + (f": {escape.markdown(o.pieces_reason)}" if o.pieces_reason else "") + "."
+                      + (" The branch of the pieces' replacements, costed and measured whole: "
+                         + ", ".join(f"{a} {c:g} cycles" for a, c in branch["cycles"].items())
+                         + f"; error {branch['error']:.3g}" + (" (the replacement)." if o.replacement == branch["name"]
+                                                               else ".") if branch else ""), "",
+                      "| piece | taken | interval | as shipped | replacement | error before | error after |",
+                      "|---|---|---|---|---|---|---|"]
+            for p in f["pieces"]:
+                interval = f"[{p['domain'][0]:.6g}, {p['domain'][1]:.6g}]" if p["domain"] else "(a point)"
+                error = (f"{p['error']['before']:.3g} | {p['error']['after']:.3g}" if p["error"] else " | ")
+                lines.append(f"| {p['index']} | {escape.code(p['where'])} | {interval} | {escape.code(p['shipped'])} | "
+                             + (escape.code(p["form"]) if p["form"] else escape.markdown(p["reason"]))
+                             + f" | {error} |")
             lines.append("")
     return "\n".join(lines)
 
@@ -84,8 +107,9 @@ def write(out: Path, path: Path, outcomes, language: str, keep_reference: bool =
     """Every file of the module docstring into `out`, published whole."""
     from ...engine.cache import digest
     from ...engine.publishing import publish
-    from ...engine import faults
+    from ...engine import faults, web_page
     from .derive_files import results_json, write_into
+    from . import shader_page
 
     rows = function_rows(path, outcomes)
     patch = patch_text(path, outcomes, keep_reference)
@@ -103,9 +127,15 @@ def write(out: Path, path: Path, outcomes, language: str, keep_reference: bool =
             if o.results is not None:
                 folder = escape.folder_name(o.name)
                 write_into(tmp / "functions" / folder, o.results, out / "functions" / folder)
+            for p in (p for p in o.pieces if p.results is not None):
+                piece = f"{escape.folder_name(o.name)}_piece{p.index}"
+                write_into(tmp / "functions" / piece, p.results, out / "functions" / piece)
+        with faults.writing(out / "report.html"):
+            shader_page.write(tmp / "report.html", path, outcomes, language, patch)
         return f"{len(outcomes)} functions"
 
     key = digest("derive shader", Path(path).read_text(errors="replace"), patch, json.dumps(rows, default=str),
+                 report(path, outcomes, language), web_page.assets_digest(),
                  json.dumps([results_json(o.results) for o in outcomes if o.results], sort_keys=True, default=str))
     publish(out, key, log, write_all)
-    return [out / n for n in ("functions.csv", "shader.patch", "report.md")]
+    return [out / n for n in ("functions.csv", "shader.patch", "report.md", "report.html")]

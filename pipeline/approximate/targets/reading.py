@@ -412,15 +412,18 @@ def variable_names(arguments: list[str]) -> dict[str, str]:
 
 def from_shader_function(name: str, expression, arguments: list[str], ranges: dict, source: str,
                          parameter: str | None = None, exact: str | None = None, metric: str = "abs",
-                         floor: float = 0.0, precision: str = "fp32", role: str = "") -> Target:
+                         floor: float = 0.0, precision: str = "fp32", role: str = "",
+                         more_anchors: dict | None = None) -> Target:
     """The target of a shader function read as the compiler means it (`shaders.harness`: its sympy
     `expression` in `arguments`), checked: its arguments the variables (`ranges`: {argument: (lo,
     hi)}; each named by `variable_names`), the one named `parameter` the material parameter; the
     function as written its anchor "as shipped" (from `source`, its file and line); the function
     approximated the `exact` expression where the author names one (`exact=acos(x)`, in the
     arguments' names), else the function's own mathematics (a branch, an if or ?:, written
-    `a if c else b`: every form, branch-free, competes with it over the whole domain). Raises
-    DeriveError for an exact expression that does not parse in the arguments."""
+    `a if c else b`: every form, branch-free, competes with it over the whole domain); `more_anchors`
+    ({name: sympy expression in the arguments}) anchors beside it (the branch of a branch's derived
+    pieces, `engines.pieces`). Raises DeriveError for an exact expression that does not parse in the
+    arguments."""
     import sympy as sp
 
     from ...engine import expressions
@@ -434,6 +437,8 @@ def from_shader_function(name: str, expression, arguments: list[str], ranges: di
     if exact is not None:
         exact = expressions.text(parse(exact, arguments, f"{name}'s exact").xreplace(renamed), symbols)
     return check(Target(name, exact or written, variables, axis, metric, floor,
-                        (Anchor(SHIPPED, written, source),),
+                        (Anchor(SHIPPED, written, source),)
+                        + tuple(Anchor(n, expressions.text(e.xreplace(renamed), symbols), source)
+                                for n, e in (more_anchors or {}).items()),
                         f"{name} of {source}" + (f", approximating {exact}" if exact else ", its own mathematics"),
                         precision=precision, role=role))

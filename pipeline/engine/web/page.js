@@ -1,5 +1,6 @@
 // The page's code: reads the JSON island #data and draws a `pipeline derive` run's page (or the
-// paper's). Every text of the data enters the document as text (textContent), never as markup.
+// paper's, or a `derive --shader` run's). Every text of the data enters the document as text
+// (textContent), never as markup.
 (() => {
   "use strict";
   const data = JSON.parse(document.getElementById("data").textContent);
@@ -696,8 +697,73 @@
     panels.forEach((p, k) => { if (k < 2 || L.exact) g.putImageData(p, 10 + k * (n + 10), 12); });
   }
 
+  // ---- a `derive --shader` run's page -------------------------------------------------------------
+  function cyclesSpec(bars) {
+    return { data: { values: bars }, facet: { column: { field: "architecture", type: "nominal", title: null } },
+      spec: { width: 260, height: { step: 14 },
+        mark: { type: "bar" },
+        encoding: {
+          y: { field: "function", type: "nominal", title: null, sort: null },
+          yOffset: { field: "when", type: "nominal", sort: ["before", "after"] },
+          x: { field: "cycles", type: "quantitative", title: "cycles (cost model)" },
+          color: { field: "when", type: "nominal", title: "", sort: ["before", "after"], scale: { domain: ["before", "after"], range: ["#9bb3d9", "#1f5fbf"] } },
+          tooltip: [{ field: "function" }, { field: "architecture" }, { field: "when" }, { field: "cycles" }] } } };
+  }
+  const STATUS_CLASS = { derived: "beaten", "none cheaper": "matched", refused: "missed" };
+  const beforeAfter = (a, b) => (a == null ? "" : `${fmt(a)} → ${fmt(b)}`);
+  async function shaderPage() {
+    main.replaceChildren();
+    main.append(el("h1", { text: data.title }));
+    main.append(facts([["file", el("code", { text: data.file })], ["language", data.language],
+      ["functions", data.counts], ["architectures", data.architectures.join(", ")]]));
+    main.append(el("p", { class: "note", text: "The file is unchanged: shader.patch replaces the derived functions' bodies. Cycles are the cost model's per architecture; errors are as executed (fp32 or fp16 as the run's precision), against each function's own mathematics or the exact function its annotation names." }));
+    if (data.bars.length) {
+      main.append(el("h2", { text: "Cycles before and after, per GPU" }));
+      const plot = el("div", { id: "cycles-plot" });
+      main.append(plot);
+      await embed(plot, cyclesSpec(data.bars), "cycles");
+    }
+    main.append(el("h2", { text: "Every function" }));
+    const rows = [];
+    data.functions.forEach((f, i) => {
+      const link = () => el("a", { href: `#function-${i}`, text: f.name });
+      const status = { class: STATUS_CLASS[f.status], text: f.status };
+      if (!f.rows.length) rows.push({ cells: [link(), f.line, status, "", "", "", "", f.reason] });
+      for (const r of f.rows) {
+        rows.push({ cells: [link(), f.line, status, r.architecture, beforeAfter(r.cycles_before, r.cycles_after),
+          beforeAfter(r.error_before, r.error_after), beforeAfter(r.flip_before, r.flip_after),
+          f.page ? el("a", { href: f.page, text: "open" }) : ""] });
+      }
+    });
+    main.append(table(["function", "line", "status", "architecture", "cycles", "error", "FLIP", "derive page"], rows, null, "functions-table"));
+    data.functions.forEach((f, i) => {
+      const box = el("section", { id: `function-${i}`, class: "function" });
+      box.append(el("h3", {}, `${f.name} (line ${f.line}): `, el("span", { class: STATUS_CLASS[f.status], text: f.status })));
+      if (f.reason) box.append(el("p", { text: f.reason }));
+      box.append(facts([
+        ["read as", f.read ? el("code", { text: f.read }) : null], ["checked", f.checked],
+        ["replacement", f.expression ? el("span", {}, el("code", { text: f.expression }), copyButton(() => f.expression), ` (${f.replacement})`) : null],
+        ["budget", f.budget != null ? `${f.metric} ${fmt(f.budget, 3)}` : null],
+        ["derive page", f.page ? el("a", { href: f.page, text: f.page }) : null],
+      ]));
+      if (f.pieces.length) {
+        box.append(el("p", { class: "note", text: "Its branch, each piece derived on the interval where it is taken" + (f.pieces_reason ? `: ${f.pieces_reason}` : "") + "." }));
+        if (f.branch) {
+          box.append(el("p", { class: "note", text: `The branch of the pieces' replacements, costed and measured whole: ${Object.entries(f.branch.cycles).map(([a, c]) => `${a} ${fmt(c)} cycles`).join(", ")}; error ${fmt(f.branch.error)}` + (f.replacement === f.branch.name ? " (the replacement)." : ".") }));
+        }
+        box.append(table(["#", "taken", "interval", "as shipped", "replacement", "error", "cycles"], f.pieces.map((p) => ({ cells: [
+          p.page ? el("a", { href: p.page, text: String(p.index) }) : String(p.index), p.where, p.domain ? `[${fmt(p.domain[0])}, ${fmt(p.domain[1])}]` : "(a point)", p.shipped,
+          p.form || p.reason || "", p.error ? beforeAfter(p.error.before, p.error.after) : "",
+          p.cycles ? Object.entries(p.cycles).map(([a, c]) => `${a} ${beforeAfter(c.before, c.after)}`).join("; ") : ""] }))));
+      }
+      main.append(box);
+    });
+    main.append(el("h2", {}, "shader.patch", data.patch ? copyButton(() => data.patch) : null));
+    main.append(data.patch ? el("pre", { id: "patch", text: data.patch }) : el("p", { class: "note", id: "patch", text: "No function was derived: the patch is empty." }));
+  }
+
   // ---- start ----------------------------------------------------------------------------------
-  Promise.resolve().then(() => (data.kind === "derive" ? derivePage() : data.kind === "paper" ? paperPage() : null))
+  Promise.resolve().then(() => (data.kind === "derive" ? derivePage() : data.kind === "paper" ? paperPage() : data.kind === "shader" ? shaderPage() : null))
     .then(() => { document.body.dataset.ready = "1"; })
     .catch((e) => {
       state.errors.push(String(e));
