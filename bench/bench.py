@@ -27,8 +27,9 @@ less than a time. Measured, each in a fresh cache and outputs folder:
   2x of the time it announced before its search);
 - `pipeline keys` and a run with a bad config (answered without importing JAX);
 - `pipeline derive --shader`: the tests' engine-style file of 13 functions read, each compiled,
-  extracted and executed beside itself (target 10 s), and the command on two of its one-variable
-  functions, three architectures, `--seconds 10`, cold (target 8 minutes) (BENCH_ONLY=shaders: the
+  extracted and executed beside itself (target 10 s), and the command on its four one-variable
+  functions (the two sRGB ones branched: their pieces derived too), three architectures,
+  `--seconds 10`, cold (target 8 minutes) (BENCH_ONLY=shaders: the
   floor and these alone);
 - `pipeline derive` on (1 - x)^5 and acos, three architectures, cold and kept, (1 - x)^5 in fp16 cold
   (BENCH_ONLY=derive_one: these alone), and on the Smith-GGX
@@ -234,8 +235,9 @@ SHADER_DERIVE_SECONDS = 480.0   # derive --shader on the tests' file's one-varia
 def shader_rows(py) -> list:
     """`pipeline derive --shader`'s parts: the tests' engine-style file (13 functions) read, each
     function compiled, optimized, extracted and executed beside itself (`bench/shaders.py`; target
-    SHADER_READ_SECONDS), and the command on its one-variable functions with a range (acos_fast,
-    F_Schlick) on three architectures at --seconds 10, cold (target SHADER_DERIVE_SECONDS)."""
+    SHADER_READ_SECONDS), and the command on its one-variable functions (acos_fast, F_Schlick, and the
+    branched srgb_decode and srgb_encode on c=0:1, each piece derived too) on three architectures at
+    --seconds 10, cold (target SHADER_DERIVE_SECONDS)."""
     rows = []
     _, out = timed([py, str(ROOT / "bench" / "shaders.py")], dict(os.environ))
     count, read, checked, seconds = out.split()[-4:]
@@ -245,9 +247,11 @@ def shader_rows(py) -> list:
                  dict(target_seconds=SHADER_READ_SECONDS)))
     with tempfile.TemporaryDirectory() as tmp:
         seconds, _ = timed([py, "-m", "pipeline", "derive", "--shader", str(ROOT / "tests" / "shaders" / "engine_style.glsl"),
-                            "--function", "acos_fast,F_Schlick", "--gpu", DERIVE_ARCHITECTURES, "--seconds", "10",
+                            "--function", "acos_fast,F_Schlick,srgb_decode,srgb_encode", "--var", "c=0:1",
+                            "--gpu", DERIVE_ARCHITECTURES, "--seconds", "10",
                             "--out", os.path.join(tmp, "out")], _cold_env(tmp, "shader"))
-    rows.append(("derive --shader, cold", seconds, None, f"acos_fast, F_Schlick; {DERIVE_ARCHITECTURES}; target <= "
+    rows.append(("derive --shader, cold", seconds, None, f"acos_fast, F_Schlick, srgb_decode, srgb_encode (and their "
+                 f"pieces); {DERIVE_ARCHITECTURES}; target <= "
                  f"{SHADER_DERIVE_SECONDS:.0f} s " + ("ok" if seconds <= SHADER_DERIVE_SECONDS else "MISSED"),
                  dict(target_seconds=SHADER_DERIVE_SECONDS)))
     return rows

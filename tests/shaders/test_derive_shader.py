@@ -306,3 +306,43 @@ def test_the_run_s_page_shows_every_function_and_opens_each_derivation(branch_ru
         assert page.evaluate("pageState.views.cycles.data('source_0').length") == 2
         assert "+    return (c <= 0.0404499993 ?" in page.locator("#patch").text_content()
         assert opened.problems == [] and all(r.startswith("file://") for r in opened.requests)
+
+
+def test_the_visibility_with_its_roughness_is_a_target_of_two_variables_and_a_parameter(tmp_path):
+    """V_SmithGGXCorrelated(NoV, NoL, roughness) with its annotation (parameter=roughness metric=rel
+    max_error=0.25), derived by a planted engine: the target is two variables on [1e-4, 1] and the
+    parameter roughness on [0.045, 1], relative error, its anchor the function as read; Hammon's form
+    planted at fewer cycles on both architectures and within the budget is the replacement, printed in
+    the function's own arguments, compiled in the patched file, its signature unchanged."""
+    from pipeline.approximate.engines import shader_file
+    from pipeline.approximate.publishing import shader_outputs
+
+    for name in ("engine_style.glsl", "engine_constants.glsl"):
+        shutil.copy(HERE / name, tmp_path / name)
+    path = tmp_path / "engine_style.glsl"
+    seen = []
+    hammon = "0.5/(2*NoL*NoV*(1 - roughness) + roughness*(NoL + NoV))"
+
+    def derive(target, log, **settings):
+        seen.append(target)
+        results = _planted(target, {"as shipped": (target.anchors[0].expression, 1e-6), "hammon": (hammon, 0.2),
+                                    "loose": ("0.25/NoV", 0.3)},
+                           {"rdna3": {"as shipped": 26.0, "hammon": 12.0, "loose": 4.0},
+                            "sm_89": {"as shipped": 24.0, "hammon": 9.0, "loose": 3.0}})
+        results["error"] = "max_rel_error"
+        for m in results["members"].values():
+            m["max_rel_error"] = m.pop("max_abs_error")
+        return types.SimpleNamespace(raw=results)
+
+    (o,), _ = shader_file.derive_file(path, harness.Options("glsl"), derive, ["V_SmithGGXCorrelated"], None,
+                                      ["rdna3", "sm_89"], log=lambda s: None)
+    (target,) = seen
+    assert target.shape == "several variables" and target.metric == "rel"
+    assert [(a.name, a.lo, a.hi) for a in target.variables] == [("NoV", 1e-4, 1.0), ("NoL", 1e-4, 1.0)]
+    assert (target.parameter.name, target.parameter.lo, target.parameter.hi) == ("roughness", 0.045, 1.0)
+    assert o.status == shader_file.DERIVED and o.replacement == "hammon" and o.budget == 0.25   # ("loose": 0.3 > 0.25)
+    assert "roughness" in o.expression and "NoV" in o.expression
+    assert [(r["cycles_before"], r["cycles_after"]) for r in o.rows] == [(26.0, 12.0), (24.0, 9.0)]
+    diff = shader_outputs.patch_text(path, [o])
+    assert "+    return " in diff and diff.count("\n+") == 2 and "float V_SmithGGXCorrelated(float NoV, float NoL, " \
+        "float roughness) {" in diff
