@@ -208,7 +208,7 @@ def _derive(args) -> int:
     try:
         found = api.derive(target, gpu=args.gpu, seconds=args.seconds, max_cycles=args.max_cycles,
                            max_complexity=args.max_complexity, formula_complexity=args.formula_complexity,
-                           precision=args.precision, plan=plan)
+                           precision=args.precision, plan=plan, platforms=args.platforms)
     except (CompilerMissing, ToolMissing) as e:
         print(f"error: the GPU compilers cannot run here: {e}", file=sys.stderr)
         return faults.EXIT_ENVIRONMENT
@@ -359,7 +359,7 @@ def _derive_shader(args) -> int:
                               var=args.var, parameter=args.parameter, metric=args.metric, floor=args.floor,
                               max_error=args.max_error, exact=args.exact, gpu=args.gpu, seconds=args.seconds,
                               max_complexity=args.max_complexity, precision=args.precision,
-                              keep_reference=args.keep_reference)
+                              keep_reference=args.keep_reference, platforms=args.platforms)
     if all(o.status == shader_file.REFUSED for o in found.outcomes):
         raise DeriveError(f"{path}: no function could be derived: "
                           + "; ".join(f"{o.name}: {o.reason}" for o in found.outcomes))
@@ -488,7 +488,11 @@ def build_parser() -> argparse.ArgumentParser:
     der.add_argument("--floor", type=float, default=None, metavar="F",
                      help="with --metric rel: |f| below F counts as F")
     der.add_argument("--gpu", default=None, metavar="ARCH[,ARCH...]",
-                     help="architectures (default every one whose compiler runs here)")
+                     help="architectures, or platforms (desktop, android, all: named sets of them, with the "
+                          "format their shaders compute in) (default every architecture whose compiler runs here)")
+    der.add_argument("--platforms", default=None, metavar="FILE.toml",
+                     help="platforms added to the shipped ones (a table per platform: architectures, precision, "
+                          "description)")
     der.add_argument("--precision", default=None, choices=("fp32", "fp16"),
                      help="the format the shader computes in: every form costed and executed in it (default the "
                           "target's, fp32)")

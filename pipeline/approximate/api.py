@@ -90,18 +90,52 @@ class Derivation:
         return publish.write(Path(out), self.raw)
 
 
+def gpu_of(gpu, platforms=None, precision: str | None = None) -> tuple[list[str] | None, str | None]:
+    """(the architectures `gpu` names: a list or one comma-separated string of architectures' and
+    platforms' names, `isa.platforms`, from the shipped platforms and the file `platforms` where
+    given; the precision: `precision` where given, else that of the platforms named where they agree).
+    Raises DeriveError for an unknown name, a wrong platforms file, platforms of two formats without
+    `precision`."""
+    from ..isa import platforms as shipped
+
+    table = _platforms(platforms)           # (a wrong file is named even where no --gpu word uses it)
+    if gpu is None:
+        return None, precision
+    if isinstance(gpu, str):
+        gpu = [g.strip() for g in gpu.split(",") if g.strip()]
+    try:
+        architectures = shipped.architectures_of(gpu, table)
+    except shipped.PlatformError as e:
+        raise DeriveError(str(e)) from None
+    formats = {table[w].precision for w in gpu if w in table}
+    if precision is None and len(formats) > 1:
+        raise DeriveError(f"--gpu {','.join(gpu)}: its platforms compute in {' and '.join(sorted(formats))}: "
+                          "give --precision")
+    return architectures, precision if precision is not None or not formats else formats.pop()
+
+
+def _platforms(path) -> dict:
+    """The shipped platforms and those of the file `path` where given; DeriveError for a wrong file."""
+    from ..isa import platforms as shipped
+
+    try:
+        return shipped.read(path)
+    except shipped.PlatformError as e:
+        raise DeriveError(str(e)) from None
+
+
 def derive(target=None, *, expr: str | None = None, var: str = "x=0:1", table: str | None = None,
            x: str | None = None, parameter: str | None = None, y: str | None = None, gpu=None,
            metric: str | None = None, floor: float | None = None, seconds: float | None = None,
            max_cycles: float | None = None, max_complexity: int = engines.MAX_COMPLEXITY, parameter_range=None,
            formula_complexity: int = 0, precision: str | None = None, name: str | None = None,
-           plan=None, log=print) -> Derivation:
+           plan=None, platforms=None, log=print) -> Derivation:
     """The cheapest accurate forms of `target` (a registered name, a TOML file, a Target), of `expr`
     in `var`, or of a CSV `table`'s column `y` over `x` and `parameter` (its range `parameter_range`,
     "LO:HI", where given; with `formula_complexity` > 0 the constants' lines also corrected by the
     symbolic regression, `search.formulas.corrected`), read and checked once (`targets.read`), ranked
-    by compiled cycles on the architectures `gpu` (names, or one comma-separated string; default
-    every one whose compiler runs here) by the engine of its shape (`engines.derive`: one variable,
+    by compiled cycles on the architectures `gpu` (names of architectures or of platforms, `gpu_of`;
+    default every one whose compiler runs here) by the engine of its shape (`engines.derive`: one variable,
     several variables or a parameter, a pair). Raises DeriveError for bad input, CompilerMissing
     where no GPU compiler runs. `precision` (fp32 or fp16; default the target's, fp32): the format
     every form is costed and executed in (`executed`, `executed_box`; a pair of outputs: fp32 only).
@@ -115,8 +149,7 @@ def derive(target=None, *, expr: str | None = None, var: str = "x=0:1", table: s
     chosen = resolve(target, expr, var, metric, floor, table, x, parameter, y, parameter_range, name)
     if precision is not None and precision not in PRECISIONS:
         raise DeriveError(f"--precision {precision!r}: give one of {', '.join(PRECISIONS)}")
-    if isinstance(gpu, str):
-        gpu = [g.strip() for g in gpu.split(",") if g.strip()]
+    gpu, precision = gpu_of(gpu, platforms, precision)
     if plan is not None and seconds is not None:
         raise DeriveError("--plan fixes the work; --seconds would change it: give one or the other")
     try:
@@ -168,7 +201,7 @@ def derive_shader(path, function=None, *, lang: str | None = None, include=(), d
                   parameter: str | None = None, metric: str | None = None, floor: float | None = None,
                   max_error: float | None = None, exact: str | None = None, gpu=None, seconds: float | None = None,
                   max_complexity: int = engines.MAX_COMPLEXITY, precision: str | None = None,
-                  keep_reference: bool = False, log=print) -> ShaderDerivation:
+                  keep_reference: bool = False, platforms=None, log=print) -> ShaderDerivation:
     """Every function of the GLSL or HLSL file `path` (or those `function` names: a list or one
     comma-separated string) derived (`engines.shader_file`): `lang` (default by the file's suffix),
     `include` folders and `define`d macros as a shader compiler takes them; `var` ("NAME=LO:HI" or a
@@ -178,7 +211,7 @@ def derive_shader(path, function=None, *, lang: str | None = None, include=(), d
     import shlex
 
     from ..shaders import definitions, harness, intent as intents
-    from .engines import shader_file
+    from .engines import platform_answer, shader_file
 
     path = Path(path)
     language = definitions.language_of(path, lang)
@@ -193,8 +226,11 @@ def derive_shader(path, function=None, *, lang: str | None = None, include=(), d
     command_line = intents.parse(" ".join(words), "the command line")
     if isinstance(function, str):
         function = [f.strip() for f in function.split(",") if f.strip()]
-    if isinstance(gpu, str):
-        gpu = [g.strip() for g in gpu.split(",") if g.strip()]
+    words = [g.strip() for g in gpu.split(",") if g.strip()] if isinstance(gpu, str) else list(gpu or [])
+    named = {w: p for w, p in _platforms(platforms).items() if w in words}
+    gpu, precision = gpu_of(gpu, platforms, precision)
     outcomes, _ = shader_file.derive_file(path, options, derive, function, command_line, gpu, seconds,
                                           max_complexity, precision, log)
+    for o in (o for o in outcomes if o.results is not None):
+        o.platforms = {name: platform_answer.answer(o.results, p.architectures, o.budget) for name, p in named.items()}
     return ShaderDerivation(path, language, outcomes, keep_reference)

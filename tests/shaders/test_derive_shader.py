@@ -7,6 +7,7 @@ back to the replacement, a second run on it proposing nothing more, the user's f
 and the inputs a run refuses with exit 2."""
 
 import csv
+import dataclasses
 import shutil
 import types
 import subprocess
@@ -291,7 +292,11 @@ def test_the_run_s_page_shows_every_function_and_opens_each_derivation(branch_ru
     from pipeline.approximate.publishing import shader_outputs, shader_page
     from tests.helpers import open_page
 
+    from pipeline.approximate.engines import platform_answer
+
     tmp_path, path, outcomes, _ = branch_run
+    outcomes = [dataclasses.replace(o, platforms={"console": platform_answer.answer(o.results, ["rdna3"], o.budget),
+                                                  "none": None}) for o in outcomes]
     page_path = tmp_path / "report.html"
     shader_page.write(page_path, path, outcomes, "glsl", shader_outputs.patch_text(path, outcomes))
     with open_page(page_path) as opened:
@@ -305,6 +310,9 @@ def test_the_run_s_page_shows_every_function_and_opens_each_derivation(branch_ru
         assert links == ["functions/srgb_decode_piece1/report.html", "functions/srgb_decode_piece2/report.html"]
         assert page.evaluate("pageState.views.cycles.data('source_0').length") == 2
         assert "+    return (c <= 0.0404499993 ?" in page.locator("#patch").text_content()
+        platforms = page.locator("#platforms-0 tbody tr")
+        assert platforms.count() == 2 and platforms.nth(0).locator("td").nth(1).text_content() == "derived pieces"
+        assert platforms.nth(1).locator("td").nth(1).text_content() == "none within the budget"
         assert opened.problems == [] and all(r.startswith("file://") for r in opened.requests)
 
 

@@ -33,7 +33,8 @@ DERIVED, NONE_CHEAPER, REFUSED = "derived", "none cheaper", "refused"
 @dataclasses.dataclass
 class Outcome:
     """One function of the file: its status, reason, and (derived or none cheaper) its derivation's
-    results, the replacement's name, GLSL or HLSL expression and rows per architecture."""
+    results, the replacement's name, GLSL or HLSL expression and rows per architecture; its branch's
+    `pieces`; per platform named by `--gpu`, the answer for it (`platform_answer.answer`)."""
 
     name: str
     line: int
@@ -49,6 +50,7 @@ class Outcome:
     check: object = None
     pieces: list = dataclasses.field(default_factory=list)
     pieces_reason: str = ""
+    platforms: dict = dataclasses.field(default_factory=dict)
 
 
 def replacement(results: dict, max_error: float | None) -> tuple[str | None, str, float]:

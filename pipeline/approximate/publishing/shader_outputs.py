@@ -83,6 +83,20 @@ def report(path: Path, outcomes, language: str) -> str:
                       f"{r['error_after']:.3g} |" + (f" {r['flip_before']:.3g} | {r['flip_after']:.3g} |" if flips else "")
                       for r in o.rows]
             lines.append("")
+        if o.platforms:
+            lines += ["Per platform, the one form every architecture of it runs (the least worst cycles within the "
+                      "budget), and what a variant per architecture would save:", "",
+                      "| platform | form | worst cycles | error | cycles per architecture | a variant per architecture saves |",
+                      "|---|---|---|---|---|---|"]
+            for name, a in o.platforms.items():
+                if a is None:
+                    lines.append(f"| {escape.markdown(name)} | none within the budget | | | | |")
+                    continue
+                lines.append(f"| {escape.markdown(name)} | {escape.markdown(a['name'])} | {a['worst']:g} | {a['error']:.3g} | "
+                             + ", ".join(f"{k} {c:g}" for k, c in a["cycles"].items()) + " | "
+                             + (", ".join(f"{k} {c:g}" for k, c in a["variant_saving"].items() if c > 0) or "nothing")
+                             + " |")
+            lines.append("")
         if f["pieces"]:
             branch = f["branch"]
             lines += ["Its branch, each piece derived on the interval where it is taken"

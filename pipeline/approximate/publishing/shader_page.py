@@ -70,7 +70,7 @@ def function_data(o, language: str) -> dict:
                 replacement=o.replacement, expression=o.expression, budget=o.budget, metric=o.metric, rows=o.rows,
                 saving=sum(r["cycles_before"] - r["cycles_after"] for r in o.rows) if o.status == DERIVED else 0,
                 page=f"functions/{escape.folder_name(o.name)}/report.html" if o.results is not None else None,
-                pieces=_pieces(o, language), pieces_reason=o.pieces_reason, branch=_branch(o))
+                pieces=_pieces(o, language), pieces_reason=o.pieces_reason, branch=_branch(o), platforms=o.platforms)
 
 
 def data(path: Path, outcomes, language: str, patch: str) -> dict:

@@ -746,6 +746,14 @@
         ["budget", f.budget != null ? `${f.metric} ${fmt(f.budget, 3)}` : null],
         ["derive page", f.page ? el("a", { href: f.page, text: f.page }) : null],
       ]));
+      const platforms = Object.entries(f.platforms || {});
+      if (platforms.length) {
+        box.append(el("p", { class: "note", text: "Per platform, the one form every architecture of it runs (the least worst cycles within the budget), and what a variant per architecture would save." }));
+        box.append(table(["platform", "form", "worst cycles", "error", "cycles per architecture", "a variant per architecture saves"],
+          platforms.map(([name, a]) => ({ cells: a ? [name, a.name, a.worst, a.error, Object.entries(a.cycles).map(([k, c]) => `${k} ${fmt(c)}`).join(", "),
+            Object.entries(a.variant_saving).filter(([, c]) => c > 0).map(([k, c]) => `${k} ${fmt(c)}`).join(", ") || "nothing"]
+            : [name, "none within the budget", "", "", "", ""] })), null, `platforms-${i}`));
+      }
       if (f.pieces.length) {
         box.append(el("p", { class: "note", text: "Its branch, each piece derived on the interval where it is taken" + (f.pieces_reason ? `: ${f.pieces_reason}` : "") + "." }));
         if (f.branch) {
