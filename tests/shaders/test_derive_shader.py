@@ -205,18 +205,12 @@ def _planted(target, members: dict, cycles: dict) -> dict:
                                  max_abs_error=e, expression=text, parameter_per="") for n, (text, e) in members.items()})
 
 
-@pytest.fixture(scope="module")
-def branch_run(tmp_path_factory):
-    """srgb_decode derived by a planted engine that records its targets (`test_a_branch_s_pieces_...`):
-    (the folder, the file, the outcomes, the targets in the order derived)."""
-    from pipeline.approximate.engines import pieces as branch_pieces, shader_file
-    from pipeline.shaders import intent
+def _branch_engine(seen: list):
+    """A planted engine for srgb_decode's branch, recording each target in `seen`: piece 1 has no
+    cheaper form, piece 2 a cubic at 6 cycles where it costs 12; the whole function a branch-free
+    member at 10 cycles and the branch of the pieces at 9 (14 as shipped)."""
+    from pipeline.approximate.engines import pieces as branch_pieces
 
-    tmp_path = tmp_path_factory.mktemp("branch")
-    for name in ("engine_style.glsl", "engine_constants.glsl"):
-        shutil.copy(HERE / name, tmp_path / name)
-    path = tmp_path / "engine_style.glsl"
-    seen = []
     cubic = "c_*(c_*(0.2919*c_ + 0.7102) - 0.004271) + 0.002704"
 
     def derive(target, log, **settings):
@@ -234,6 +228,22 @@ def branch_run(tmp_path_factory):
                                {"rdna3": {"as shipped": 14.0, branch_pieces.PIECES: 9.0, "whole": 10.0}})
         return types.SimpleNamespace(raw=results)
 
+    return derive
+
+
+@pytest.fixture(scope="module")
+def branch_run(tmp_path_factory):
+    """srgb_decode derived by a planted engine that records its targets (`test_a_branch_s_pieces_...`):
+    (the folder, the file, the outcomes, the targets in the order derived)."""
+    from pipeline.approximate.engines import shader_file
+    from pipeline.shaders import intent
+
+    tmp_path = tmp_path_factory.mktemp("branch")
+    for name in ("engine_style.glsl", "engine_constants.glsl"):
+        shutil.copy(HERE / name, tmp_path / name)
+    path = tmp_path / "engine_style.glsl"
+    seen = []
+    derive = _branch_engine(seen)
     outcomes, _ = shader_file.derive_file(path, harness.Options("glsl"), derive, ["srgb_decode"],
                                           intent.parse("c=0:1 max_error=2e-3", "the command line"), ["rdna3"],
                                           log=lambda s: None)
@@ -354,3 +364,26 @@ def test_the_visibility_with_its_roughness_is_a_target_of_two_variables_and_a_pa
     diff = shader_outputs.patch_text(path, [o])
     assert "+    return " in diff and diff.count("\n+") == 2 and "float V_SmithGGXCorrelated(float NoV, float NoL, " \
         "float roughness) {" in diff
+
+
+def test_a_branch_of_derived_pieces_is_written_back_as_hlsl_s_ternary(tmp_path):
+    """The same planted engine on the HLSL twin of srgb_decode: the branch of the pieces printed in
+    HLSL, compiled by glslang's HLSL front end in the patched file (kept derived), read back as a branch."""
+    import sympy as sp
+
+    from pipeline.approximate.engines import pieces as branch_pieces, shader_file
+    from pipeline.shaders import intent, patch as shader_patch
+
+    path = tmp_path / "engine_style.hlsl"
+    shutil.copy(HERE / "engine_style.hlsl", path)
+    options = harness.Options("hlsl")
+    (o,), _ = shader_file.derive_file(path, options, _branch_engine([]), ["srgb_decode"],
+                                      intent.parse("c=0:1 max_error=2e-3", "the command line"), ["rdna3"],
+                                      log=lambda s: None)
+    assert o.status == shader_file.DERIVED and o.replacement == branch_pieces.PIECES, o.reason
+    assert o.expression.startswith("(c <= 0.0404499993 ? 0.0773993805*c : ")
+    patched = tmp_path / "patched.hlsl"
+    patched.write_bytes(shader_patch.replaced(path.read_bytes(), {o.definition: o.expression}))
+    again = next(d for d in definitions.read(patched)[1] if d.name == "srgb_decode")
+    assert isinstance(harness.read_function(harness.preprocessed(patched, options), again, options, patched).expression,
+                      sp.Piecewise)
