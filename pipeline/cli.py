@@ -183,7 +183,8 @@ def _derive(args) -> int:
         return _derive_shader(args)
     shader_only = [f for f, v in (("--function", args.function), ("--lang", args.lang), ("-I", args.include),
                                   ("-D", args.define), ("--max-error", args.max_error), ("--exact", args.exact),
-                                  ("--keep-reference", args.keep_reference or None)) if v is not None]
+                                  ("--keep-reference", args.keep_reference or None), ("--scheduler", args.scheduler),
+                                  ("--workers", args.workers)) if v is not None]
     if shader_only:
         raise DeriveError(f"{shader_only[0]} goes with --shader")
     if args.var is not None and len(args.var) > 1:
@@ -350,11 +351,17 @@ def _derive_shader(args) -> int:
     given = [f for f, v in (("--target", args.target), ("--expr", args.expr), ("--table", args.table)) if v is not None]
     if given:
         raise DeriveError(f"--shader and {given[0]}: give one of them")
-    path = Path(args.shader)
-    out = Path(args.out) if args.out else paths.OUTPUTS / "derive" / escape.folder_name(path.stem)
+    library = len(args.shader) > 1 or not Path(args.shader[0]).is_file()
+    path = Path(args.shader[0])
+    out = Path(args.out) if args.out else paths.OUTPUTS / "derive" / escape.folder_name(
+        "library" if library else path.stem)
     if out.exists() and not out.is_dir():
         raise DeriveError(f"--out {out}: a file, not a folder: give an output folder (the file is left as it is)")
     use_compilation_cache(paths.XLA_CACHE or paths.CACHE / XLA)
+    if library:
+        return _derive_library(args, out)
+    if args.scheduler is not None or args.workers is not None:
+        raise DeriveError("--scheduler and --workers go with a library (a folder, several files or a glob)")
     found = api.derive_shader(path, args.function, lang=args.lang, include=args.include or (), define=args.define or (),
                               var=args.var, parameter=args.parameter, metric=args.metric, floor=args.floor,
                               max_error=args.max_error, exact=args.exact, gpu=args.gpu, seconds=args.seconds,
@@ -368,6 +375,33 @@ def _derive_shader(args) -> int:
         print(f"{o.name}: {o.status}" + (f" ({o.replacement}: {o.expression})" if o.replacement else "")
               + (f": {o.reason}" if o.reason else ""))
     print(f"wrote {', '.join(str(p) for p in written)}")
+    return faults.EXIT_DONE
+
+
+def _derive_library(args, out: Path) -> int:
+    """`derive --shader DIR` (several files, a folder, a glob): every function of every file derived as
+    one batch on Dask (`approximate.api.derive_library`), the library's files written."""
+    from .approximate import api
+    from .approximate.publishing import library_outputs
+    from .shaders import definitions
+
+    if args.function is not None:
+        raise DeriveError("--function goes with one file (a library derives every function of its files)")
+    start = time.perf_counter()
+    found = api.derive_library(args.shader, lang=args.lang, include=args.include or (), define=args.define or (),
+                               var=args.var, parameter=args.parameter, metric=args.metric, floor=args.floor,
+                               max_error=args.max_error, exact=args.exact, gpu=args.gpu, seconds=args.seconds,
+                               max_complexity=args.max_complexity, precision=args.precision, platforms=args.platforms,
+                               scheduler=args.scheduler, workers=args.workers)
+    outcomes = [o for file_outcomes in found.values() for o in file_outcomes]
+    if all(o.status == "refused" for o in outcomes):
+        raise DeriveError("no function of the library could be derived: "
+                          + "; ".join(f"{o.name}: {o.reason}" for o in outcomes[:5]))
+    run = dict(workers=args.workers or (None if args.scheduler else os.cpu_count()), scheduler=args.scheduler,
+               seconds=round(time.perf_counter() - start, 1))
+    languages = {p: definitions.language_of(p, args.lang) for p in found}
+    written = library_outputs.write(out, found, languages, run)
+    print(f"wrote {', '.join(str(p) for p in written)} and files/")
     return faults.EXIT_DONE
 
 
@@ -504,9 +538,14 @@ def build_parser() -> argparse.ArgumentParser:
     der.add_argument("--max-complexity", type=int, default=12, metavar="K",
                      help="the grammar's largest complexity (default 12)")
     der.add_argument("--out", default=None, metavar="DIR", help="output folder (default outputs/derive/<target>)")
-    der.add_argument("--shader", default=None, metavar="FILE",
+    der.add_argument("--shader", default=None, nargs="+", metavar="PATH",
                      help="the functions of a GLSL or HLSL file as targets, each read as its compiler means it; "
-                          "writes functions.csv, report.md and shader.patch (the file itself is never written)")
+                          "writes functions.csv, report.md and shader.patch (the file itself is never written); "
+                          "several files, a folder or a glob: a library, derived as one batch on Dask")
+    der.add_argument("--scheduler", default=None, metavar="ADDRESS",
+                     help="with a library: an existing Dask scheduler (default a LocalCluster of this machine)")
+    der.add_argument("--workers", type=int, default=None, metavar="N",
+                     help="with a library: LocalCluster worker processes (default one per core)")
     der.add_argument("--function", default=None, metavar="NAME[,NAME...]",
                      help="with --shader: the functions to derive (default every one)")
     der.add_argument("--lang", default=None, choices=("glsl", "hlsl"),

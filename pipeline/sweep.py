@@ -34,19 +34,16 @@ from __future__ import annotations
 
 import dataclasses
 import itertools
-import logging
 import os
 import time
 from pathlib import Path
 from typing import Any
 
 from .engine import faults, paths, toolchains
+from .engine.cluster import WORKER_ENV, client as cluster_client
 from .engine.config import ConfigError, load_config, parse_override
 
 SWEEP_KEYS = ("name", "config", "mode", "only", "set", "plot")
-# One thread per worker for XLA: the workers are the parallelism (one per core).
-WORKER_ENV = {"XLA_FLAGS": "--xla_cpu_multi_thread_eigen=false intra_op_parallelism_threads=1",
-              "OMP_NUM_THREADS": "1"}
 
 
 @dataclasses.dataclass(frozen=True)
@@ -200,25 +197,6 @@ class SchedulerLost(Exception):
         self.address, self.reason = address, reason
 
 
-def _client(scheduler: str | None, scheduler_file: str | None, workers: int | None):
-    """A Dask client: of an existing cluster, or of a LocalCluster of this machine."""
-    import dask
-    from distributed import Client, LocalCluster
-
-    dask.config.set({"distributed.logging.distributed": "error"})
-    # The client's own errors (a lost scheduler) are the sweep's to report, in one line.
-    logging.getLogger("distributed.client").setLevel(logging.CRITICAL)
-    if scheduler or scheduler_file:
-        try:
-            return Client(scheduler, scheduler_file=scheduler_file, timeout="3s"), None
-        except (OSError, TimeoutError, ValueError) as e:
-            where = scheduler or f"scheduler file {scheduler_file}"
-            raise ConfigError(f"no Dask scheduler answers at {where}: {e}") from None
-    cluster = LocalCluster(n_workers=workers or os.cpu_count() or 1, threads_per_worker=1, processes=True,
-                           dashboard_address=None, env=dict(WORKER_ENV), silence_logs=50)
-    return Client(cluster), cluster
-
-
 def _fully_cached(config, only, cache_dir: str) -> bool:
     """Whether every stage the point runs is in the cache (`pipeline explain` says "cached" for each):
     such a point only reads the cache and (re)publishes its folder, and runs here, not on Dask."""
@@ -291,7 +269,7 @@ def _run_on_dask(sweep: Sweep, configs, cached, outputs: Path, caches: tuple[str
     from distributed import wait
     from distributed.client import FutureCancelledError, FuturesCancelledError
 
-    client, cluster = _client(scheduler, scheduler_file, workers)
+    client, cluster = cluster_client(scheduler, scheduler_file, workers)
     address = client.scheduler.address
     try:
         futures = {client.submit(run_point, c, sweep.only, caches[0], str(outputs), caches[1],

@@ -15,7 +15,7 @@ from pathlib import Path
 
 import pytest
 
-from pipeline.sweep import WORKER_ENV
+from pipeline.engine.cluster import WORKER_ENV
 
 if os.environ.get("PYTEST_XDIST_WORKER"):
     # `make test` runs two worker processes on two cores, as a sweep runs its Dask workers: XLA's

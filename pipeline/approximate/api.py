@@ -197,6 +197,32 @@ class ShaderDerivation:
                                     log=lambda s: None)
 
 
+def _shader_settings(lang, include, define, var, parameter, metric, floor, max_error, exact, gpu, platforms,
+                     precision):
+    """(a file's `shaders.harness.Options` by its path, the command line's intent `shaders.intent.parse`'d,
+    the architectures, the precision, {name: Platform} of the platforms `gpu` names) of `derive_shader`'s
+    and `derive_library`'s settings."""
+    import shlex
+
+    from ..shaders import definitions, harness, intent as intents
+
+    def options_of(path):
+        return harness.Options(definitions.language_of(path, lang), tuple(str(d) for d in include), tuple(define))
+
+    words = [var] if isinstance(var, str) else list(var or [])
+    if parameter is not None:
+        name, _, rest = parameter.partition("=")
+        words += [f"parameter={name}"] + ([f"{name}={rest}"] if rest else [])
+    words += [f"{k}={v}" for k, v in (("metric", metric), ("floor", floor), ("max_error", max_error)) if v is not None]
+    if exact is not None:
+        words.append(shlex.quote(f"exact={exact}"))
+    command_line = intents.parse(" ".join(words), "the command line")
+    named_words = [g.strip() for g in gpu.split(",") if g.strip()] if isinstance(gpu, str) else list(gpu or [])
+    named = {w: p for w, p in _platforms(platforms).items() if w in named_words}
+    gpu, precision = gpu_of(gpu, platforms, precision)
+    return options_of, command_line, gpu, precision, named
+
+
 def derive_shader(path, function=None, *, lang: str | None = None, include=(), define=(), var=None,
                   parameter: str | None = None, metric: str | None = None, floor: float | None = None,
                   max_error: float | None = None, exact: str | None = None, gpu=None, seconds: float | None = None,
@@ -208,29 +234,56 @@ def derive_shader(path, function=None, *, lang: str | None = None, include=(), d
     list of them), `parameter` ("NAME" or "NAME=LO:HI"), `metric`, `floor`, `max_error`, `exact` where
     a function's `// derive:` line gives none. Raises ShaderError (`shaders.definitions`) for a file
     that does not compile or a named function it does not define, DeriveError for a bad setting."""
-    import shlex
-
-    from ..shaders import definitions, harness, intent as intents
     from .engines import platform_answer, shader_file
 
     path = Path(path)
-    language = definitions.language_of(path, lang)
-    options = harness.Options(language, tuple(str(d) for d in include), tuple(define))
-    words = [var] if isinstance(var, str) else list(var or [])
-    if parameter is not None:
-        name, _, rest = parameter.partition("=")
-        words += [f"parameter={name}"] + ([f"{name}={rest}"] if rest else [])
-    words += [f"{k}={v}" for k, v in (("metric", metric), ("floor", floor), ("max_error", max_error)) if v is not None]
-    if exact is not None:
-        words.append(shlex.quote(f"exact={exact}"))
-    command_line = intents.parse(" ".join(words), "the command line")
+    options_of, command_line, gpu, precision, named = _shader_settings(lang, include, define, var, parameter, metric,
+                                                                       floor, max_error, exact, gpu, platforms,
+                                                                       precision)
     if isinstance(function, str):
         function = [f.strip() for f in function.split(",") if f.strip()]
-    words = [g.strip() for g in gpu.split(",") if g.strip()] if isinstance(gpu, str) else list(gpu or [])
-    named = {w: p for w, p in _platforms(platforms).items() if w in words}
-    gpu, precision = gpu_of(gpu, platforms, precision)
-    outcomes, _ = shader_file.derive_file(path, options, derive, function, command_line, gpu, seconds,
+    language = options_of(path).language
+    outcomes, _ = shader_file.derive_file(path, options_of(path), derive, function, command_line, gpu, seconds,
                                           max_complexity, precision, log)
     for o in (o for o in outcomes if o.results is not None):
         o.platforms = {name: platform_answer.answer(o.results, p.architectures, o.budget) for name, p in named.items()}
     return ShaderDerivation(path, language, outcomes, keep_reference)
+
+
+def derive_library(paths, *, lang: str | None = None, include=(), define=(), var=None, parameter: str | None = None,
+                   metric: str | None = None, floor: float | None = None, max_error: float | None = None,
+                   exact: str | None = None, gpu=None, seconds: float | None = None,
+                   max_complexity: int = engines.MAX_COMPLEXITY, precision: str | None = None, platforms=None,
+                   client=None, scheduler: str | None = None, workers: int | None = None, log=print) -> dict:
+    """Every function of every shader file `paths` names (files, folders, globs:
+    `engines.library.shader_files`) derived as one batch of tasks on Dask (`engines.library`): on
+    `client` where given, else on the cluster `scheduler` names, else on a LocalCluster of `workers`
+    processes (`engine.cluster.client`); the other settings as `derive_shader`'s. Returns {path:
+    [every Outcome of the file]}, each function's platforms' answers set."""
+    from ..engine import paths as pipeline_paths
+    from ..engine.cluster import client as cluster_client
+    from .engines import library, platform_answer
+
+    options_of, command_line, gpu, precision, named = _shader_settings(lang, include, define, var, parameter, metric,
+                                                                       floor, max_error, exact, gpu, platforms,
+                                                                       precision)
+    files = library.shader_files([paths] if isinstance(paths, (str, Path)) else paths)
+    work = library.tasks(files, options_of)
+    settings = dict(gpu=gpu, seconds=seconds, max_complexity=max_complexity, precision=precision)
+    started = None
+    if client is None:
+        client, started = cluster_client(scheduler, None, workers)
+    try:
+        found = library.derive_library(work, options_of, command_line, settings,
+                                       pipeline_paths.DERIVE_CACHE / "library", client, derive, log=log)
+    finally:
+        if started is not None:
+            client.close()
+            started.close()
+    out: dict = {path: [] for path in files}
+    for (path, _), outcomes in found.items():
+        for o in outcomes:
+            if o.results is not None:
+                o.platforms = {n: platform_answer.answer(o.results, p.architectures, o.budget) for n, p in named.items()}
+        out[path] += outcomes
+    return out

@@ -117,35 +117,47 @@ def report(path: Path, outcomes, language: str) -> str:
     return "\n".join(lines)
 
 
+def write_files(folder: Path, shown: Path, path: Path, outcomes, language: str, keep_reference: bool = False) -> None:
+    """Every file of the module docstring into `folder` (a temporary folder being published as
+    `shown`, which an error names)."""
+    from ...engine import faults
+    from .derive_files import write_into
+    from . import shader_page
+
+    rows = function_rows(path, outcomes)
+    patch = patch_text(path, outcomes, keep_reference)
+    folder.mkdir(parents=True, exist_ok=True)
+    text = io.StringIO()
+    writer = csv.DictWriter(text, fieldnames=COLUMNS, lineterminator="\n")
+    writer.writeheader()
+    writer.writerows({k: ("" if v is None else v) for k, v in r.items()} for r in rows)
+    for name, content in (("functions.csv", text.getvalue()), ("shader.patch", patch),
+                          ("report.md", report(path, outcomes, language))):
+        with faults.writing(shown / name):
+            (folder / name).write_text(content)
+    for o in outcomes:
+        if o.results is not None:
+            name = escape.folder_name(o.name)
+            write_into(folder / "functions" / name, o.results, shown / "functions" / name)
+        for p in (p for p in o.pieces if p.results is not None):
+            piece = f"{escape.folder_name(o.name)}_piece{p.index}"
+            write_into(folder / "functions" / piece, p.results, shown / "functions" / piece)
+    with faults.writing(shown / "report.html"):
+        shader_page.write(folder / "report.html", path, outcomes, language, patch)
+
+
 def write(out: Path, path: Path, outcomes, language: str, keep_reference: bool = False, log=print) -> list[Path]:
     """Every file of the module docstring into `out`, published whole."""
     from ...engine.cache import digest
     from ...engine.publishing import publish
-    from ...engine import faults, web_page
-    from .derive_files import results_json, write_into
-    from . import shader_page
+    from ...engine import web_page
+    from .derive_files import results_json
 
     rows = function_rows(path, outcomes)
     patch = patch_text(path, outcomes, keep_reference)
 
     def write_all(tmp: Path) -> str:
-        text = io.StringIO()
-        writer = csv.DictWriter(text, fieldnames=COLUMNS, lineterminator="\n")
-        writer.writeheader()
-        writer.writerows({k: ("" if v is None else v) for k, v in r.items()} for r in rows)
-        for name, content in (("functions.csv", text.getvalue()), ("shader.patch", patch),
-                              ("report.md", report(path, outcomes, language))):
-            with faults.writing(out / name):
-                (tmp / name).write_text(content)
-        for o in outcomes:
-            if o.results is not None:
-                folder = escape.folder_name(o.name)
-                write_into(tmp / "functions" / folder, o.results, out / "functions" / folder)
-            for p in (p for p in o.pieces if p.results is not None):
-                piece = f"{escape.folder_name(o.name)}_piece{p.index}"
-                write_into(tmp / "functions" / piece, p.results, out / "functions" / piece)
-        with faults.writing(out / "report.html"):
-            shader_page.write(tmp / "report.html", path, outcomes, language, patch)
+        write_files(tmp, out, path, outcomes, language, keep_reference)
         return f"{len(outcomes)} functions"
 
     key = digest("derive shader", Path(path).read_text(errors="replace"), patch, json.dumps(rows, default=str),

@@ -1,0 +1,98 @@
+"""What `derive --shader DIR` (several files, a folder, a glob) writes, all at once: per file its
+single-file run's files under `files/NAME/` (`shader_outputs`), `library.patch` (every file's diff in
+one, applying with `git apply` from the working folder), `library.md` and `library.json` (per
+function its file, status, reason, and per architecture its cycles and error as executed before and
+after; the totals per architecture over the functions; the cluster's workers and the wall time)."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+from ...engine import escape
+from . import shader_outputs
+
+
+def rows(library: dict) -> list[dict]:
+    """functions.csv's rows of every file, in file order."""
+    return [r for path, outcomes in library.items() for r in shader_outputs.function_rows(path, outcomes)]
+
+
+def totals(library_rows: list[dict]) -> dict:
+    """Per architecture, the cycles before and after summed over the functions derived or none cheaper
+    (a refused function has no cycles)."""
+    out: dict = {}
+    for r in library_rows:
+        if r["cycles_before"] is None:
+            continue
+        t = out.setdefault(r["architecture"], dict(functions=0, cycles_before=0.0, cycles_after=0.0))
+        t["functions"] += 1
+        t["cycles_before"] += r["cycles_before"]
+        t["cycles_after"] += r["cycles_after"]
+    return out
+
+
+def report(library: dict, library_rows: list[dict], summed: dict, run: dict) -> str:
+    """library.md."""
+    counts = {s: sum(r["status"] == s for r in {(r["file"], r["function"]): r for r in library_rows}.values())
+              for s in ("derived", "none cheaper", "refused")}
+    lines = [f"# A shader library: {len(library)} files, {sum(counts.values())} functions", "",
+             ", ".join(f"{n} {s}" for s, n in counts.items()) + f"; on {run['workers']} Dask workers in "
+             f"{run['seconds']:.0f} s. The files are unchanged; `library.patch` replaces the derived functions' bodies.",
+             "", "## Totals per architecture", "", "| architecture | functions | cycles before | cycles after |",
+             "|---|---|---|---|"]
+    lines += [f"| {a} | {t['functions']} | {t['cycles_before']:g} | {t['cycles_after']:g} |" for a, t in summed.items()]
+    lines += ["", "## Every function", "", "| file | function | status | architecture | cycles | error | reason |",
+              "|---|---|---|---|---|---|---|"]
+    for r in library_rows:
+        cycles = f"{r['cycles_before']:g} → {r['cycles_after']:g}" if r["cycles_before"] is not None else ""
+        error = f"{r['error_before']:.3g} → {r['error_after']:.3g}" if r["error_before"] is not None else ""
+        lines.append(f"| {escape.markdown(Path(r['file']).name)} | {escape.markdown(r['function'])} | {r['status']} | "
+                     f"{r['architecture']} | {cycles} | {error} | {escape.markdown(r['reason'])} |")
+    return "\n".join(lines) + "\n"
+
+
+def folder_of(path: Path, root: Path) -> str:
+    """A file's folder under files/: its path below the library's common folder, as one name."""
+    try:
+        relative = Path(path).relative_to(root)
+    except ValueError:
+        relative = Path(Path(path).name)
+    return escape.folder_name(str(relative).replace("/", "__"))
+
+
+def write(out: Path, library: dict, languages: dict, run: dict, log=print) -> list[Path]:
+    """Every file of the module docstring into `out` (`languages`: {path: glsl or hlsl}; `run`: the
+    cluster's workers and the wall time)."""
+    import os
+
+    from ...engine import faults, web_page
+    from ...engine.cache import digest
+    from ...engine.publishing import publish
+    from .derive_files import results_json
+
+    library_rows = rows(library)
+    summed = totals(library_rows)
+    root = Path(os.path.commonpath([str(Path(p).parent) for p in library])) if library else Path(".")
+    patch = "".join(shader_outputs.patch_text(path, outcomes) for path, outcomes in library.items())
+
+    def write_all(tmp: Path) -> str:
+        for path, outcomes in library.items():
+            if outcomes:
+                folder = folder_of(path, root)
+                shader_outputs.write_files(tmp / "files" / folder, out / "files" / folder, path, outcomes,
+                                           languages[path])
+        for name, content in (("library.patch", patch), ("library.md", report(library, library_rows, summed, run)),
+                              ("library.json", json.dumps(dict(run=run, totals=summed, rows=library_rows), indent=1,
+                                                          default=str))):
+            with faults.writing(out / name):
+                (tmp / name).write_text(content)
+        return f"{len(library_rows)} rows"
+
+    key = digest("derive library", patch, json.dumps(library_rows, default=str), json.dumps(summed),
+                 report(library, library_rows, summed, run), web_page.assets_digest(),
+                 *(shader_outputs.report(p, o, languages[p]) for p, o in library.items()),
+                 json.dumps([results_json(o.results) for outcomes in library.values() for o in outcomes if o.results],
+                            sort_keys=True, default=str))
+    publish(out, key, log, write_all)
+    return [out / n for n in ("library.md", "library.json", "library.patch")]

@@ -1,0 +1,176 @@
+"""A shader library as one batch (`approximate.engines.library`): the files a folder or a glob names,
+a task per function on a LocalCluster of 2 workers, each task's outcome kept by what the function
+computes; a planted engine (every function none cheaper) so that the batch's own work is tested."""
+
+import dataclasses
+import shutil
+import sys
+import types
+from pathlib import Path
+
+import pytest
+
+from pipeline.approximate.engines import library
+from pipeline.shaders import definitions, harness
+
+HERE = Path(__file__).parent
+TONEMAP = """// derive: x=0:4
+float reinhard(float x) { return x / (1.0 + x); }
+
+// derive: x=0:1
+float gamma_22(float x) { return pow(x, 1.0 / 2.2); }
+"""
+
+
+def planted_derive(target, log, **settings):
+    """Every function none cheaper: its anchor alone, 10 cycles on each architecture asked for."""
+    from pipeline.approximate.targets import parse
+
+    architectures = settings.get("gpu") or ["rdna3"]
+    members = {"as shipped": target.anchors[0].expression}
+    if target.name == "reinhard":                   # (reinhard alone gets a cheaper form: derived)
+        members["found"] = "1 - 1/(1 + x)"
+    return types.SimpleNamespace(raw=dict(
+        error="max_abs_error", rounding_floor=1e-7, architectures=architectures, precision="fp32",
+        forms={n: types.SimpleNamespace(expression=parse(t, target.names)) for n, t in members.items()},
+        members={n: dict(kind="anchor" if n == "as shipped" else "found", max_abs_error=1e-7, expression=t)
+                 for n, t in members.items()},
+        cycles={a: {"as shipped": 10.0, "found": 6.0} for a in architectures}))
+
+
+@pytest.fixture(scope="module")
+def cluster():
+    import cloudpickle
+
+    from pipeline.engine.cluster import client
+
+    cloudpickle.register_pickle_by_value(sys.modules[__name__])     # (the planted engine, into the workers)
+    dask_client, local = client(workers=2)
+    yield dask_client
+    dask_client.close()
+    local.close()
+
+
+def _library(root: Path) -> Path:
+    shaders = root / "shaders"
+    (shaders / "post").mkdir(parents=True)
+    for name in ("engine_style.glsl", "engine_constants.glsl", "engine_style.hlsl"):
+        shutil.copy(HERE / name, shaders / name)
+    (shaders / "post" / "tonemap.glsl").write_text(TONEMAP)
+    (shaders / "post" / "broken.glsl").write_text("float half_of(float x) { return x * ; }\n")
+    (shaders / "notes.txt").write_text("not a shader")
+    return shaders
+
+
+def records(cache: Path) -> list[str]:
+    return (cache / "records.log").read_text().splitlines() if (cache / "records.log").exists() else []
+
+
+def test_a_library_is_derived_as_one_batch_and_a_rerun_computes_only_what_changed(tmp_path, cluster):
+    shaders = _library(tmp_path)
+    files = library.shader_files([shaders])
+    assert [f.name for f in files] == ["engine_constants.glsl", "engine_style.glsl", "engine_style.hlsl",
+                                       "broken.glsl", "tonemap.glsl"]
+    assert library.shader_files([str(shaders / "**" / "*.glsl")]) == \
+        [f for f in files if f.suffix == ".glsl"]
+    with pytest.raises(definitions.ShaderError, match="no such file or folder"):
+        library.shader_files([tmp_path / "none"])
+    work = library.tasks(files, lambda p: harness.Options(definitions.language_of(p)))   # (constants: no task)
+    files = files[1:]
+    assert len(work) == 13 + 4 + 1 + 2 and len(set(work)) == len(work)      # (saturate_'s overloads one task)
+    options_of = lambda p: harness.Options(definitions.language_of(p))       # noqa: E731
+    settings = dict(gpu=["rdna3"])
+    cache = tmp_path / "kept"
+    said = []
+    found = library.derive_library(work, options_of, None, settings, cache, cluster, planted_derive, said.append)
+    assert list(found) == work and said[0] == "20 functions of 4 files on 2 Dask workers"
+    assert said[-1].startswith("[20/20] ") and "0 left" in said[-1]
+    status = {(p.name, n): [o.status for o in outcomes] for (p, n), outcomes in found.items()}
+    assert status[("tonemap.glsl", "reinhard")] == ["derived"] and status[("engine_style.glsl", "acos_fast")] == \
+        ["none cheaper"]
+    assert status[("engine_style.glsl", "sum_loop")] == ["refused"] and status[("engine_style.glsl", "saturate_")] \
+        == ["refused", "refused"]
+    (broken,) = found[(files[2], "half_of")]
+    assert broken.status == "refused" and "does not compile" in broken.reason and \
+        "broken.glsl" in broken.reason
+    assert sorted(r.split()[0] for r in records(cache)) == ["computed"] * 20
+    # nothing changed: every task kept
+    again = library.derive_library(work, options_of, None, settings, cache, cluster, planted_derive, lambda s: None)
+    assert [r.split()[0] for r in records(cache)[20:]] == ["kept"] * 20
+    assert {k: [o.status for o in v] for k, v in again.items()} == {k: [o.status for o in v] for k, v in found.items()}
+    # one function's body edited (the same lines): that function alone computed again
+    glsl = files[0]
+    glsl.write_text(glsl.read_text().replace("(-0.156583 * x + HALF_PI)", "(-0.156500 * x + HALF_PI)"))
+    library.derive_library(work, options_of, None, settings, cache, cluster, planted_derive, lambda s: None)
+    computed = [r.split()[1:3] for r in records(cache)[40:] if r.startswith("computed")]
+    assert computed == [["engine_style.glsl", "acos_fast"]]
+    # what the library run writes: each file's run under files/, one patch that applies, the totals the rows' sums
+    from pipeline.approximate.publishing import library_outputs
+
+    by_file = {}
+    for (path, _), outcomes in found.items():        # (the planted results hold no derive run's files)
+        by_file.setdefault(path, []).extend(dataclasses.replace(o, results=None) for o in outcomes)
+    out = tmp_path / "out"
+    library_outputs.write(out, by_file, {p: definitions.language_of(p) for p in by_file}, dict(workers=2, seconds=1.0),
+                          log=lambda s: None)
+    assert sorted(p.name for p in (out / "files").iterdir()) == ["engine_style.glsl", "engine_style.hlsl",
+                                                                  "post__broken.glsl", "post__tonemap.glsl"]
+    data = __import__("json").loads((out / "library.json").read_text())
+    rows = [r for r in data["rows"] if r["architecture"] == "rdna3"]
+    assert data["totals"]["rdna3"] == dict(functions=len(rows), cycles_before=sum(r["cycles_before"] for r in rows),
+                                           cycles_after=sum(r["cycles_after"] for r in rows))
+    assert data["totals"]["rdna3"]["cycles_before"] - data["totals"]["rdna3"]["cycles_after"] == 4.0
+    patch = (out / "library.patch").read_text()
+    assert patch.count("+++ b/") == 1 and patch.startswith("--- a/tonemap.glsl\n")
+    assert "+    return 1.0 - 1.0/(x + 1.0);" in patch and "+float reinhard(float x) {" in patch
+    assert "library.md" in [p.name for p in out.iterdir()]
+
+
+class DyingEngine:
+    """The planted engine, whose worker dies the first time it derives reinhard (the file `marker`
+    says it did)."""
+
+    def __init__(self, marker: Path):
+        self.marker = marker
+
+    def __call__(self, target, log, **settings):
+        import os
+
+        if target.name == "reinhard" and not self.marker.exists():
+            self.marker.write_text("died once")
+            os._exit(1)
+        return planted_derive(target, log, **settings)
+
+
+def test_a_worker_killed_mid_batch_leaves_a_complete_batch(tmp_path, cluster):
+    """reinhard's worker dies mid-task: Dask runs it again on a worker that lives, the batch completes
+    with every row, and each function is derived once (the dead attempt recorded nothing)."""
+    shaders = tmp_path / "shaders"
+    shaders.mkdir()
+    (shaders / "tonemap.glsl").write_text(TONEMAP)
+    marker = tmp_path / "marker"
+    work = library.tasks(library.shader_files([shaders]), lambda p: harness.Options("glsl"))
+    cache = tmp_path / "kept"
+    found = library.derive_library(work, lambda p: harness.Options("glsl"), None, dict(gpu=["rdna3"]), cache, cluster,
+                                   DyingEngine(marker), lambda s: None)
+    assert marker.read_text() == "died once"
+    assert {n: [o.status for o in v] for (_, n), v in found.items()} == dict(reinhard=["derived"],
+                                                                           gamma_22=["none cheaper"])
+    assert sorted(r.split()[2] for r in records(cache)) == ["gamma_22", "reinhard"]
+
+
+@pytest.mark.parametrize("argv, message", [
+    (["--shader", "a.glsl", "b.glsl", "--function", "f"], "--function goes with one file"),
+    (["--expr", "x*x", "--workers", "2"], "--workers goes with --shader"),
+    (["--shader", str(HERE / "engine_style.glsl"), "--workers", "2"], "--scheduler and --workers go with a library"),
+    (["--shader", "no_such_folder/"], "--shader no_such_folder/: no such file or folder"),
+])
+def test_a_library_s_options_out_of_place_are_one_line_and_exit_2(argv, message, tmp_path, capsys, monkeypatch):
+    from pipeline.cli import main
+
+    monkeypatch.chdir(tmp_path)
+    for name in ("a.glsl", "b.glsl"):
+        (tmp_path / name).write_text("float f(float x) { return x; }\n")
+    assert main(["derive", *argv, "--out", str(tmp_path / "out")]) == 2
+    err = capsys.readouterr().err
+    assert message in err and err.count("\n") == 1 and not (tmp_path / "out").exists()
