@@ -3,8 +3,9 @@
     // derive: NoV=1e-4:1 NoL=1e-4:1 roughness=0.045:1 parameter=roughness metric=rel max_error=1e-3 role=visibility
 
 each argument's range (NAME=LO:HI), the argument that is a material `parameter`, the `metric` (and
-its `floor`), the `max_error` a replacement may have, the `precision`, the `role` and, for a function
-that is itself an approximation, the `exact` function it approximates (`exact=acos(x)`; a value with
+its `floor`), the `max_error` a replacement may have, the `precision`, the `role`, how many times a
+pixel `calls` it (a library's totals weigh its cycles by it; 1 by default) and, for a function that
+is itself an approximation, the `exact` function it approximates (`exact=acos(x)`; a value with
 spaces in double quotes). The command line's values (`--var`, `--parameter`, `--metric`, ...) stand
 where the comment gives none. A function without a range for each argument is one line naming it
 and the line to write.
@@ -18,7 +19,7 @@ import shlex
 
 from .definitions import Definition, ShaderError
 
-KEYS = ("parameter", "metric", "floor", "max_error", "precision", "role", "exact")
+KEYS = ("parameter", "metric", "floor", "max_error", "precision", "role", "exact", "calls")
 METRICS = ("abs", "rel")
 PRECISIONS = ("fp32", "fp16")
 
@@ -35,6 +36,7 @@ class Intent:
     precision: str = "fp32"
     role: str = ""
     exact: str | None = None
+    calls: float = 1.0
 
 
 def _number(text: str, what: str, where: str) -> float:
@@ -75,10 +77,10 @@ def parse(text: str, where: str) -> dict:
             raise ShaderError(f"{where}: metric={value}: give one of {', '.join(METRICS)}")
         if key == "precision" and value not in PRECISIONS:
             raise ShaderError(f"{where}: precision={value}: give one of {', '.join(PRECISIONS)}")
-        if key in ("floor", "max_error"):
+        if key in ("floor", "max_error", "calls"):
             out[key] = _number(value, key, where)
-            if out[key] < 0 or (key == "max_error" and out[key] == 0):
-                raise ShaderError(f"{where}: {key}={value}: give a number {'>' if key == 'max_error' else '>='} 0")
+            if out[key] < 0 or (key in ("max_error", "calls") and out[key] == 0):
+                raise ShaderError(f"{where}: {key}={value}: give a number {'>=' if key == 'floor' else '>'} 0")
         elif key in KEYS:
             out[key] = value
         else:
@@ -113,4 +115,5 @@ def intent(definition: Definition, path, command_line: dict | None = None) -> In
         raise ShaderError(f"{path}:{definition.line}: {definition.name} has no range for {', '.join(missing)}: write "
                           f"`// derive: {example}` on the line above it, or give --var {missing[0]}=LO:HI")
     return Intent({a: given[a] for a in arguments}, parameter, given.get("metric", "abs"), given.get("floor", 0.0),
-                  given.get("max_error"), given.get("precision", "fp32"), given.get("role", ""), given.get("exact"))
+                  given.get("max_error"), given.get("precision", "fp32"), given.get("role", ""), given.get("exact"),
+                  given.get("calls", 1.0))

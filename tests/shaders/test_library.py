@@ -14,7 +14,7 @@ from pipeline.approximate.engines import library
 from pipeline.shaders import definitions, harness
 
 HERE = Path(__file__).parent
-TONEMAP = """// derive: x=0:4
+TONEMAP = """// derive: x=0:4 calls=3
 float reinhard(float x) { return x / (1.0 + x); }
 
 // derive: x=0:1
@@ -107,9 +107,13 @@ def test_a_library_is_derived_as_one_batch_and_a_rerun_computes_only_what_change
     # what the library run writes: each file's run under files/, one patch that applies, the totals the rows' sums
     from pipeline.approximate.publishing import library_outputs
 
+    from pipeline.approximate.engines import platform_answer
+
     by_file = {}
     for (path, _), outcomes in found.items():        # (the planted results hold no derive run's files)
-        by_file.setdefault(path, []).extend(dataclasses.replace(o, results=None) for o in outcomes)
+        by_file.setdefault(path, []).extend(dataclasses.replace(
+            o, results=None, platforms={"one": platform_answer.answer(o.results, ["rdna3"], o.budget)}
+            if o.results else {}) for o in outcomes)
     out = tmp_path / "out"
     library_outputs.write(out, by_file, {p: definitions.language_of(p) for p in by_file}, dict(workers=2, seconds=1.0),
                           log=lambda s: None)
@@ -117,9 +121,13 @@ def test_a_library_is_derived_as_one_batch_and_a_rerun_computes_only_what_change
                                                                   "post__broken.glsl", "post__tonemap.glsl"]
     data = __import__("json").loads((out / "library.json").read_text())
     rows = [r for r in data["rows"] if r["architecture"] == "rdna3"]
-    assert data["totals"]["rdna3"] == dict(functions=len(rows), cycles_before=sum(r["cycles_before"] for r in rows),
-                                           cycles_after=sum(r["cycles_after"] for r in rows))
-    assert data["totals"]["rdna3"]["cycles_before"] - data["totals"]["rdna3"]["cycles_after"] == 4.0
+    assert {r["function"]: r["calls"] for r in rows}["reinhard"] == 3.0
+    assert data["totals"]["rdna3"] == dict(functions=len(rows),
+                                           cycles_before=sum(r["calls"] * r["cycles_before"] for r in rows),
+                                           cycles_after=sum(r["calls"] * r["cycles_after"] for r in rows))
+    assert data["totals"]["rdna3"]["cycles_before"] - data["totals"]["rdna3"]["cycles_after"] == 3 * 4.0
+    assert data["platforms"]["one"]["cycles_before"] - data["platforms"]["one"]["cycles_after"] == 3 * 4.0
+    assert "## Totals per platform" in (out / "library.md").read_text()
     patch = (out / "library.patch").read_text()
     assert patch.count("+++ b/") == 1 and patch.startswith("--- a/tonemap.glsl\n")
     assert "+    return 1.0 - 1.0/(x + 1.0);" in patch and "+float reinhard(float x) {" in patch
@@ -174,3 +182,12 @@ def test_a_library_s_options_out_of_place_are_one_line_and_exit_2(argv, message,
     assert main(["derive", *argv, "--out", str(tmp_path / "out")]) == 2
     err = capsys.readouterr().err
     assert message in err and err.count("\n") == 1 and not (tmp_path / "out").exists()
+
+
+def test_calls_is_a_positive_number():
+    from pipeline.shaders import intent
+
+    assert intent.parse("x=0:1 calls=2.5", "here")["calls"] == 2.5
+    for bad, message in (("calls=0", "calls=0: give a number > 0"), ("calls=many", "calls = 'many': give a number")):
+        with pytest.raises(definitions.ShaderError, match=message):
+            intent.parse(bad, "here")

@@ -34,7 +34,8 @@ DERIVED, NONE_CHEAPER, REFUSED = "derived", "none cheaper", "refused"
 class Outcome:
     """One function of the file: its status, reason, and (derived or none cheaper) its derivation's
     results, the replacement's name, GLSL or HLSL expression and rows per architecture; its branch's
-    `pieces`; per platform named by `--gpu`, the answer for it (`platform_answer.answer`)."""
+    `pieces`; per platform named by `--gpu`, the answer for it (`platform_answer.answer`); how many
+    times a pixel `calls` it (its annotation's; 1 by default)."""
 
     name: str
     line: int
@@ -51,6 +52,7 @@ class Outcome:
     pieces: list = dataclasses.field(default_factory=list)
     pieces_reason: str = ""
     platforms: dict = dataclasses.field(default_factory=dict)
+    calls: float = 1.0
 
 
 def replacement(results: dict, max_error: float | None) -> tuple[str | None, str, float]:
@@ -165,7 +167,7 @@ def derive_file(path: Path, options, derive, functions: list[str] | None = None,
         name, reason, budget = replacement(results, intent.max_error)
         outcome = Outcome(shown, d.line, DERIVED if name else NONE_CHEAPER, reason, results, name,
                           budget=budget, metric=results["error"], definition=d, check=check, pieces=pieces,
-                          pieces_reason=pieces_reason)
+                          pieces_reason=pieces_reason, calls=intent.calls)
         if name is not None:
             outcome.expression = replacement_text(results["forms"][name].expression, d, lanes, language,
                                                   results.get("precision"))

@@ -2,7 +2,8 @@
 single-file run's files under `files/NAME/` (`shader_outputs`), `library.patch` (every file's diff in
 one, applying with `git apply` from the working folder), `library.md` and `library.json` (per
 function its file, status, reason, and per architecture its cycles and error as executed before and
-after; the totals per architecture over the functions; the cluster's workers and the wall time)."""
+after; the totals per architecture and per platform `--gpu` names, each function's cycles weighted by
+how many times a pixel calls it; the cluster's workers and the wall time)."""
 
 from __future__ import annotations
 
@@ -20,28 +21,54 @@ def rows(library: dict) -> list[dict]:
 
 def totals(library_rows: list[dict]) -> dict:
     """Per architecture, the cycles before and after summed over the functions derived or none cheaper
-    (a refused function has no cycles)."""
+    (a refused function has no cycles), each weighted by how many times a pixel calls it (`calls`)."""
     out: dict = {}
     for r in library_rows:
         if r["cycles_before"] is None:
             continue
         t = out.setdefault(r["architecture"], dict(functions=0, cycles_before=0.0, cycles_after=0.0))
         t["functions"] += 1
-        t["cycles_before"] += r["cycles_before"]
-        t["cycles_after"] += r["cycles_after"]
+        t["cycles_before"] += r["calls"] * r["cycles_before"]
+        t["cycles_after"] += r["calls"] * r["cycles_after"]
     return out
 
 
-def report(library: dict, library_rows: list[dict], summed: dict, run: dict) -> str:
+def platform_totals(library: dict) -> dict:
+    """Per platform `--gpu` named, over the functions it has an answer for: the worst cycles over its
+    architectures of each function as shipped and of the platform's answer (`platform_answer`), each
+    weighted by its `calls`, summed."""
+    out: dict = {}
+    for outcomes in library.values():
+        for o in outcomes:
+            for name, answer in (o.platforms or {}).items():
+                t = out.setdefault(name, dict(functions=0, cycles_before=0.0, cycles_after=0.0))
+                if answer is None:
+                    continue
+                shipped = max(r["cycles_before"] for r in o.rows if r["architecture"] in answer["cycles"])
+                t["functions"] += 1
+                t["cycles_before"] += o.calls * shipped
+                t["cycles_after"] += o.calls * answer["worst"]
+    return out
+
+
+def report(library: dict, library_rows: list[dict], summed: dict, run: dict, per_platform: dict) -> str:
     """library.md."""
     counts = {s: sum(r["status"] == s for r in {(r["file"], r["function"]): r for r in library_rows}.values())
               for s in ("derived", "none cheaper", "refused")}
     lines = [f"# A shader library: {len(library)} files, {sum(counts.values())} functions", "",
              ", ".join(f"{n} {s}" for s, n in counts.items()) + f"; on {run['workers']} Dask workers in "
              f"{run['seconds']:.0f} s. The files are unchanged; `library.patch` replaces the derived functions' bodies.",
-             "", "## Totals per architecture", "", "| architecture | functions | cycles before | cycles after |",
-             "|---|---|---|---|"]
+             "", "## Totals per architecture", "",
+             "Cycles summed over the functions, each times the calls a pixel makes of it (`calls=`, 1 by default).", "",
+             "| architecture | functions | cycles before | cycles after |", "|---|---|---|---|"]
     lines += [f"| {a} | {t['functions']} | {t['cycles_before']:g} | {t['cycles_after']:g} |" for a, t in summed.items()]
+    if per_platform:
+        lines += ["", "## Totals per platform", "",
+                  "Per function, its worst cycles over the platform's architectures as shipped and of the one form "
+                  "they all run (the least worst within the budget), times its calls, summed.", "",
+                  "| platform | functions | cycles before | cycles after |", "|---|---|---|---|"]
+        lines += [f"| {escape.markdown(p)} | {t['functions']} | {t['cycles_before']:g} | {t['cycles_after']:g} |"
+                  for p, t in per_platform.items()]
     lines += ["", "## Every function", "", "| file | function | status | architecture | cycles | error | reason |",
               "|---|---|---|---|---|---|---|"]
     for r in library_rows:
@@ -73,6 +100,7 @@ def write(out: Path, library: dict, languages: dict, run: dict, log=print) -> li
 
     library_rows = rows(library)
     summed = totals(library_rows)
+    per_platform = platform_totals(library)
     root = Path(os.path.commonpath([str(Path(p).parent) for p in library])) if library else Path(".")
     patch = "".join(shader_outputs.patch_text(path, outcomes) for path, outcomes in library.items())
 
@@ -82,15 +110,16 @@ def write(out: Path, library: dict, languages: dict, run: dict, log=print) -> li
                 folder = folder_of(path, root)
                 shader_outputs.write_files(tmp / "files" / folder, out / "files" / folder, path, outcomes,
                                            languages[path])
-        for name, content in (("library.patch", patch), ("library.md", report(library, library_rows, summed, run)),
-                              ("library.json", json.dumps(dict(run=run, totals=summed, rows=library_rows), indent=1,
+        text = report(library, library_rows, summed, run, per_platform)
+        for name, content in (("library.patch", patch), ("library.md", text),
+                              ("library.json", json.dumps(dict(run=run, totals=summed, platforms=per_platform, rows=library_rows), indent=1,
                                                           default=str))):
             with faults.writing(out / name):
                 (tmp / name).write_text(content)
         return f"{len(library_rows)} rows"
 
     key = digest("derive library", patch, json.dumps(library_rows, default=str), json.dumps(summed),
-                 report(library, library_rows, summed, run), web_page.assets_digest(),
+                 report(library, library_rows, summed, run, per_platform), web_page.assets_digest(),
                  *(shader_outputs.report(p, o, languages[p]) for p, o in library.items()),
                  json.dumps([results_json(o.results) for outcomes in library.values() for o in outcomes if o.results],
                             sort_keys=True, default=str))

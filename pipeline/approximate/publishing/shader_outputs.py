@@ -18,7 +18,7 @@ from pathlib import Path
 from ...engine import escape
 
 COLUMNS = ("file", "function", "status", "reason", "architecture", "cycles_before", "cycles_after", "error_before",
-           "error_after", "max_error", "metric", "flip_before", "flip_after")
+           "error_after", "max_error", "metric", "flip_before", "flip_after", "calls")
 
 
 def function_rows(path: Path, outcomes) -> list[dict]:
@@ -26,7 +26,7 @@ def function_rows(path: Path, outcomes) -> list[dict]:
     rows = []
     for o in outcomes:
         base = dict(file=str(path), function=o.name, status=o.status, reason=o.reason, max_error=o.budget,
-                    metric=o.metric)
+                    metric=o.metric, calls=o.calls)
         if not o.rows:
             rows.append(base | dict(architecture="", cycles_before=None, cycles_after=None, error_before=None,
                                     error_after=None, flip_before=None, flip_after=None))
