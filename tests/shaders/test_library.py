@@ -128,6 +128,18 @@ def test_a_library_is_derived_as_one_batch_and_a_rerun_computes_only_what_change
     assert data["totals"]["rdna3"]["cycles_before"] - data["totals"]["rdna3"]["cycles_after"] == 3 * 4.0
     assert data["platforms"]["one"]["cycles_before"] - data["platforms"]["one"]["cycles_after"] == 3 * 4.0
     assert "## Totals per platform" in (out / "library.md").read_text()
+    # library.html: every function, the derived one first (sorted by saving), the totals among the facts
+    from tests.helpers import open_page
+
+    with open_page(out / "library.html") as opened:
+        page = opened.page
+        first = page.locator("#functions-table tbody tr").first.locator("td")
+        assert first.nth(0).text_content() == "tonemap.glsl: reinhard" and first.nth(2).text_content() == "derived"
+        names = {a.text_content() for a in page.locator("#functions-table tbody tr td:first-child a").all()}
+        assert len(names) == 21          # (20 tasks; saturate_ has two overloads)
+        assert "total cycles, rdna3" in page.locator("dl.facts").first.text_content()
+        assert page.evaluate("pageState.views.cycles.data('source_0').length") == 2    # (the derived one's bars)
+        assert opened.problems == []
     patch = (out / "library.patch").read_text()
     assert patch.count("+++ b/") == 1 and patch.startswith("--- a/tonemap.glsl\n")
     assert "+    return 1.0 - 1.0/(x + 1.0);" in patch and "+float reinhard(float x) {" in patch

@@ -1,8 +1,9 @@
 """What `derive --shader DIR` (several files, a folder, a glob) writes, all at once: per file its
 single-file run's files under `files/NAME/` (`shader_outputs`), `library.patch` (every file's diff in
-one, applying with `git apply` from the working folder), `library.md` and `library.json` (per
-function its file, status, reason, and per architecture its cycles and error as executed before and
-after; the totals per architecture and per platform `--gpu` names, each function's cycles weighted by
+one, applying with `git apply` from the working folder), `library.html` (the page of a file's run
+over every function, sorted by saving, each opening its derivation's page), `library.md` and
+`library.json` (per function its file, status, reason, and per architecture its cycles and error as
+executed before and after; the totals per architecture and per platform `--gpu` names, each function's cycles weighted by
 how many times a pixel calls it; the cluster's workers and the wall time)."""
 
 from __future__ import annotations
@@ -97,6 +98,7 @@ def write(out: Path, library: dict, languages: dict, run: dict, log=print) -> li
     from ...engine.cache import digest
     from ...engine.publishing import publish
     from .derive_files import results_json
+    from . import shader_page
 
     library_rows = rows(library)
     summed = totals(library_rows)
@@ -111,6 +113,11 @@ def write(out: Path, library: dict, languages: dict, run: dict, log=print) -> li
                 shader_outputs.write_files(tmp / "files" / folder, out / "files" / folder, path, outcomes,
                                            languages[path])
         text = report(library, library_rows, summed, run, per_platform)
+        folders = {path: folder_of(path, root) for path in library}
+        page = shader_page.library_data(library, languages, folders, patch,
+                                        dict(architectures=summed, platforms=per_platform))
+        with faults.writing(out / "library.html"):
+            (tmp / "library.html").write_text(web_page.page(page["title"], page))
         for name, content in (("library.patch", patch), ("library.md", text),
                               ("library.json", json.dumps(dict(run=run, totals=summed, platforms=per_platform, rows=library_rows), indent=1,
                                                           default=str))):
@@ -124,4 +131,4 @@ def write(out: Path, library: dict, languages: dict, run: dict, log=print) -> li
                  json.dumps([results_json(o.results) for outcomes in library.values() for o in outcomes if o.results],
                             sort_keys=True, default=str))
     publish(out, key, log, write_all)
-    return [out / n for n in ("library.md", "library.json", "library.patch")]
+    return [out / n for n in ("library.md", "library.json", "library.html", "library.patch")]

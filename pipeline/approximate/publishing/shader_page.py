@@ -85,6 +85,37 @@ def data(path: Path, outcomes, language: str, patch: str) -> dict:
                 functions=[function_data(o, language) for o in outcomes], bars=bars, patch=patch)
 
 
+def library_data(library: dict, languages: dict, folders: dict, patch: str, totals: dict) -> dict:
+    """library.html's data: the page of a file's run (`data`) over every function of the library, each
+    named with its file, sorted by its saving (cycles before less after, summed over the
+    architectures; the greatest first), its links into its file's folder (`folders`: {path: the
+    folder under files/}); the totals per architecture and per platform as facts."""
+    functions = []
+    for path, outcomes in library.items():
+        for o in outcomes:
+            f = function_data(o, languages[path])
+            f["name"] = f"{Path(path).name}: {o.name}"
+            if f["page"]:
+                f["page"] = f"files/{folders[path]}/{f['page']}"
+            for p in f["pieces"]:
+                p["page"] = p["page"] and f"files/{folders[path]}/{p['page']}"
+            functions.append(f)
+    functions.sort(key=lambda f: -f["saving"])
+    counts = {s: sum(f["status"] == s for f in functions) for s in (DERIVED, NONE_CHEAPER, REFUSED)}
+    bars = [dict(function=f["name"], architecture=r["architecture"], when=when, cycles=r[f"cycles_{when}"])
+            for f in functions for r in f["rows"] for when in ("before", "after")]
+    facts = [[f"total cycles, {a}", f"{t['cycles_before']:g} → {t['cycles_after']:g} ({t['functions']} functions, "
+                                    "each times its calls)"] for a, t in totals["architectures"].items()]
+    facts += [[f"total worst cycles, platform {p}", f"{t['cycles_before']:g} → {t['cycles_after']:g}"]
+              for p, t in totals["platforms"].items()]
+    return dict(kind="shader", title=f"A shader library: {len(library)} files, {len(functions)} functions",
+                file=f"{len(library)} files", language=", ".join(sorted({v.upper() for v in languages.values()})),
+                architectures=list(dict.fromkeys(b["architecture"] for b in bars)),
+                counts=", ".join(f"{n} {s}" for s, n in counts.items()), totals=facts,
+                functions=functions, bars=[b for b in bars if any(f["saving"] > 0 and f["name"] == b["function"]
+                                                                  for f in functions)], patch=patch)
+
+
 def write(page: Path, path: Path, outcomes, language: str, patch: str) -> None:
     """report.html at `page`."""
     from ...engine import web_page

@@ -715,7 +715,7 @@
     main.replaceChildren();
     main.append(el("h1", { text: data.title }));
     main.append(facts([["file", el("code", { text: data.file })], ["language", data.language],
-      ["functions", data.counts], ["architectures", data.architectures.join(", ")]]));
+      ["functions", data.counts], ["architectures", data.architectures.join(", ")], ...(data.totals || [])]));
     main.append(el("p", { class: "note", text: "The file is unchanged: shader.patch replaces the derived functions' bodies. Cycles are the cost model's per architecture; errors are as executed (fp32 or fp16 as the run's precision), against each function's own mathematics or the exact function its annotation names." }));
     if (data.bars.length) {
       main.append(el("h2", { text: "Cycles before and after, per GPU" }));
