@@ -141,8 +141,19 @@ def test_a_library_is_derived_as_one_batch_and_a_rerun_computes_only_what_change
         assert page.evaluate("pageState.views.cycles.data('source_0').length") == 2    # (the derived one's bars)
         assert opened.problems == []
     patch = (out / "library.patch").read_text()
-    assert patch.count("+++ b/") == 1 and patch.startswith("--- a/tonemap.glsl\n")
+    assert patch.count("+++ b/") == 1 and patch.startswith("--- a/post/tonemap.glsl\n")
     assert "+    return 1.0 - 1.0/(x + 1.0);" in patch and "+float reinhard(float x) {" in patch
+    # it applies to a copy of the library from the library's folder, and the patched file compiles
+    import subprocess
+
+    copy = tmp_path / "copy"
+    shutil.copytree(shaders, copy)
+    done = subprocess.run(["git", "apply", str(out / "library.patch")], cwd=copy, capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr
+    patched = copy / "post" / "tonemap.glsl"
+    options = harness.Options("glsl")
+    reinhard = next(d for d in definitions.read(patched)[1] if d.name == "reinhard")
+    assert "OpFunction" in harness.disassembly(harness.preprocessed(patched, options), reinhard, options, patched)
     assert "library.md" in [p.name for p in out.iterdir()]
 
 

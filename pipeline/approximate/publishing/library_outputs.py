@@ -1,6 +1,7 @@
 """What `derive --shader DIR` (several files, a folder, a glob) writes, all at once: per file its
 single-file run's files under `files/NAME/` (`shader_outputs`), `library.patch` (every file's diff in
-one, applying with `git apply` from the working folder), `library.html` (the page of a file's run
+one, applying with `git apply` from the working folder, or from the library's folder where it lies
+outside it), `library.html` (the page of a file's run
 over every function, sorted by saving, each opening its derivation's page), `library.md` and
 `library.json` (per function its file, status, reason, and per architecture its cycles and error as
 executed before and after; the totals per architecture and per platform `--gpu` names, each function's cycles weighted by
@@ -9,6 +10,7 @@ how many times a pixel calls it; the cluster's workers and the wall time)."""
 from __future__ import annotations
 
 import json
+import os
 from pathlib import Path
 
 from ...engine import escape
@@ -80,6 +82,14 @@ def report(library: dict, library_rows: list[dict], summed: dict, run: dict, per
     return "\n".join(lines) + "\n"
 
 
+def patch_path(path: Path, root: Path) -> str:
+    """A file as library.patch names it: relative to the working folder where the library lies under
+    it, else to the library's common folder (`git apply` or `patch -p1` from there)."""
+    resolved = Path(path).resolve()
+    base = Path.cwd() if resolved.is_relative_to(Path.cwd()) and root.resolve().is_relative_to(Path.cwd()) else root
+    return Path(os.path.relpath(resolved, base.resolve())).as_posix()
+
+
 def folder_of(path: Path, root: Path) -> str:
     """A file's folder under files/: its path below the library's common folder, as one name."""
     try:
@@ -92,8 +102,6 @@ def folder_of(path: Path, root: Path) -> str:
 def write(out: Path, library: dict, languages: dict, run: dict, log=print) -> list[Path]:
     """Every file of the module docstring into `out` (`languages`: {path: glsl or hlsl}; `run`: the
     cluster's workers and the wall time)."""
-    import os
-
     from ...engine import faults, web_page
     from ...engine.cache import digest
     from ...engine.publishing import publish
@@ -104,7 +112,8 @@ def write(out: Path, library: dict, languages: dict, run: dict, log=print) -> li
     summed = totals(library_rows)
     per_platform = platform_totals(library)
     root = Path(os.path.commonpath([str(Path(p).parent) for p in library])) if library else Path(".")
-    patch = "".join(shader_outputs.patch_text(path, outcomes) for path, outcomes in library.items())
+    patch = "".join(shader_outputs.patch_text(path, outcomes, shown=patch_path(path, root))
+                    for path, outcomes in library.items())
 
     def write_all(tmp: Path) -> str:
         for path, outcomes in library.items():

@@ -44,14 +44,15 @@ def shown_path(path: Path) -> str:
         return Path(path).name
 
 
-def patch_text(path: Path, outcomes, keep_reference: bool = False) -> str:
+def patch_text(path: Path, outcomes, keep_reference: bool = False, shown: str | None = None) -> str:
     """The unified diff of the file with each derived function's body its replacement (empty where
-    none was derived)."""
+    none was derived), the file named `shown` (default `shown_path`)."""
     from ...shaders import patch
 
     source = Path(path).read_bytes()
     bodies = {o.definition: o.expression for o in outcomes if o.status == "derived"}
-    return patch.unified_diff(shown_path(path), source, patch.replaced(source, bodies, keep_reference)) if bodies else ""
+    return patch.unified_diff(shown or shown_path(path), source,
+                              patch.replaced(source, bodies, keep_reference)) if bodies else ""
 
 
 def report(path: Path, outcomes, language: str) -> str:
