@@ -90,28 +90,29 @@ class Derivation:
         return publish.write(Path(out), self.raw)
 
 
-def gpu_of(gpu, platforms=None, precision: str | None = None) -> tuple[list[str] | None, str | None]:
+def gpu_of(gpu, platforms=None, precision: str | None = None) -> tuple[list[str] | None, str | None, dict]:
     """(the architectures `gpu` names: a list or one comma-separated string of architectures' and
     platforms' names, `isa.platforms`, from the shipped platforms and the file `platforms` where
-    given; the precision: `precision` where given, else that of the platforms named where they agree).
-    Raises DeriveError for an unknown name, a wrong platforms file, platforms of two formats without
-    `precision`."""
+    given; the precision: `precision` where given, else that of the platforms named where they agree;
+    {name: Platform} of the platforms named). Raises DeriveError for an unknown name, a wrong
+    platforms file, platforms of two formats without `precision`."""
     from ..isa import platforms as shipped
 
     table = _platforms(platforms)           # (a wrong file is named even where no --gpu word uses it)
     if gpu is None:
-        return None, precision
+        return None, precision, {}
     if isinstance(gpu, str):
         gpu = [g.strip() for g in gpu.split(",") if g.strip()]
     try:
         architectures = shipped.architectures_of(gpu, table)
     except shipped.PlatformError as e:
         raise DeriveError(str(e)) from None
-    formats = {table[w].precision for w in gpu if w in table}
+    named = {w: table[w] for w in gpu if w in table}
+    formats = {p.precision for p in named.values()}
     if precision is None and len(formats) > 1:
         raise DeriveError(f"--gpu {','.join(gpu)}: its platforms compute in {' and '.join(sorted(formats))}: "
                           "give --precision")
-    return architectures, precision if precision is not None or not formats else formats.pop()
+    return architectures, precision if precision is not None or not formats else formats.pop(), named
 
 
 def _platforms(path) -> dict:
@@ -149,7 +150,7 @@ def derive(target=None, *, expr: str | None = None, var: str = "x=0:1", table: s
     chosen = resolve(target, expr, var, metric, floor, table, x, parameter, y, parameter_range, name)
     if precision is not None and precision not in PRECISIONS:
         raise DeriveError(f"--precision {precision!r}: give one of {', '.join(PRECISIONS)}")
-    gpu, precision = gpu_of(gpu, platforms, precision)
+    gpu, precision, _ = gpu_of(gpu, platforms, precision)
     if plan is not None and seconds is not None:
         raise DeriveError("--plan fixes the work; --seconds would change it: give one or the other")
     try:
@@ -217,10 +218,16 @@ def _shader_settings(lang, include, define, var, parameter, metric, floor, max_e
     if exact is not None:
         words.append(shlex.quote(f"exact={exact}"))
     command_line = intents.parse(" ".join(words), "the command line")
-    named_words = [g.strip() for g in gpu.split(",") if g.strip()] if isinstance(gpu, str) else list(gpu or [])
-    named = {w: p for w, p in _platforms(platforms).items() if w in named_words}
-    gpu, precision = gpu_of(gpu, platforms, precision)
+    gpu, precision, named = gpu_of(gpu, platforms, precision)
     return options_of, command_line, gpu, precision, named
+
+
+def _answer_platforms(outcomes, named: dict) -> None:
+    """Each derived or none-cheaper function's answer for each platform `named` (`platform_answer`)."""
+    from .engines import platform_answer
+
+    for o in (o for o in outcomes if o.results is not None):
+        o.platforms = {name: platform_answer.answer(o.results, p.architectures, o.budget) for name, p in named.items()}
 
 
 def derive_shader(path, function=None, *, lang: str | None = None, include=(), define=(), var=None,
@@ -234,7 +241,7 @@ def derive_shader(path, function=None, *, lang: str | None = None, include=(), d
     list of them), `parameter` ("NAME" or "NAME=LO:HI"), `metric`, `floor`, `max_error`, `exact` where
     a function's `// derive:` line gives none. Raises ShaderError (`shaders.definitions`) for a file
     that does not compile or a named function it does not define, DeriveError for a bad setting."""
-    from .engines import platform_answer, shader_file
+    from .engines import shader_file
 
     path = Path(path)
     options_of, command_line, gpu, precision, named = _shader_settings(lang, include, define, var, parameter, metric,
@@ -245,8 +252,7 @@ def derive_shader(path, function=None, *, lang: str | None = None, include=(), d
     language = options_of(path).language
     outcomes, _ = shader_file.derive_file(path, options_of(path), derive, function, command_line, gpu, seconds,
                                           max_complexity, precision, log)
-    for o in (o for o in outcomes if o.results is not None):
-        o.platforms = {name: platform_answer.answer(o.results, p.architectures, o.budget) for name, p in named.items()}
+    _answer_platforms(outcomes, named)
     return ShaderDerivation(path, language, outcomes, keep_reference)
 
 
@@ -262,7 +268,7 @@ def derive_library(paths, *, lang: str | None = None, include=(), define=(), var
     [every Outcome of the file]}, each function's platforms' answers set."""
     from ..engine import paths as pipeline_paths
     from ..engine.cluster import client as cluster_client
-    from .engines import library, platform_answer
+    from .engines import library
 
     options_of, command_line, gpu, precision, named = _shader_settings(lang, include, define, var, parameter, metric,
                                                                        floor, max_error, exact, gpu, platforms,
@@ -282,8 +288,6 @@ def derive_library(paths, *, lang: str | None = None, include=(), define=(), var
             started.close()
     out: dict = {path: [] for path in files}
     for (path, _), outcomes in found.items():
-        for o in outcomes:
-            if o.results is not None:
-                o.platforms = {n: platform_answer.answer(o.results, p.architectures, o.budget) for n, p in named.items()}
+        _answer_platforms(outcomes, named)
         out[path] += outcomes
     return out

@@ -100,9 +100,12 @@ def test_derive_takes_a_platform_s_name_and_its_format(tmp_path, capsys):
     from pipeline.approximate import api
     from pipeline.cli import main
 
-    assert api.gpu_of("android,rdna3") == (["a740", "a630", "g610", "g72", "rdna3"], "fp16")
-    assert api.gpu_of(["desktop"], precision="fp16") == (["rdna3", "rdna2", "sm_89", "sm_86", "xe_hpg"], "fp16")
-    assert api.gpu_of(["sm_89"]) == (["sm_89"], None)
+    shipped = platforms.read()
+    assert api.gpu_of("android,rdna3") == (["a740", "a630", "g610", "g72", "rdna3"], "fp16",
+                                           {"android": shipped["android"]})
+    assert api.gpu_of(["desktop"], precision="fp16") == (["rdna3", "rdna2", "sm_89", "sm_86", "xe_hpg"], "fp16",
+                                                         {"desktop": shipped["desktop"]})
+    assert api.gpu_of(["sm_89"]) == (["sm_89"], None, {})
     out = tmp_path / "out"
     for argv, message in ((["--gpu", "mobile"], "--gpu 'mobile': neither a platform"),
                           (["--gpu", "android,desktop"], "its platforms compute in fp16 and fp32: give --precision"),
