@@ -31,6 +31,13 @@ less than a time. Measured, each in a fresh cache and outputs folder:
   functions (the two sRGB ones branched: their pieces derived too), three architectures,
   `--seconds 10`, cold (target 8 minutes) (BENCH_ONLY=shaders: the
   floor and these alone);
+- `pipeline derive --shader` on the tests' library's one-variable files (12 functions, three files),
+  `--gpu desktop --seconds 10`: cold on a LocalCluster of 2 workers (target 10 minutes), again with
+  nothing changed (target 15 s), and cold on 1 worker: the speed-up of 2 workers over 1
+  (BENCH_ONLY=library: the floor and these alone);
+- `pipeline derive --certify`, cold: acos on RDNA3 in float32 (every float32 of [0, 1] for each front
+  member, anchor and the exact target; target 5 minutes), Schlick's in float16 (target 90 s)
+  (BENCH_ONLY=certify: the floor and these alone);
 - `pipeline derive` on (1 - x)^5 and acos, three architectures, cold and kept, (1 - x)^5 in fp16 cold
   (BENCH_ONLY=derive_one: these alone), and on the Smith-GGX
   visibility and the environment BRDF cold (target 10 minutes) and with other architectures (BENCH_ONLY=derive: the
@@ -59,6 +66,7 @@ folders within 360 s, in seconds (TEST_SECONDS: a fresh clone's suite, as CI run
 from __future__ import annotations
 
 import contextlib
+import json
 import os
 import signal
 import statistics
@@ -191,7 +199,6 @@ def derive_rows(py, several: bool = True, one_variable: bool = True) -> list:
     with the compiled programs kept (target 30 s); Schlick's in float16 cold (target 120 s); each with
     the time it announced before starting (target: within 2x). With `several`, the targets of two
     variables and a parameter too."""
-    import json
 
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
@@ -257,6 +264,72 @@ def shader_rows(py) -> list:
     return rows
 
 
+LIBRARY = ROOT / "tests" / "shaders" / "library"
+LIBRARY_FILES = ("color.glsl", "lighting.hlsl", "math.glsl")     # (the tests' library's one-variable files)
+LIBRARY_SECONDS = 600.0         # the library on 2 workers, cold
+LIBRARY_RERUN_SECONDS = 15.0    # the same, nothing changed
+LIBRARY_SPEED_UP = 1.5          # 2 workers over 1, on 2 cores
+
+
+def library_rows(py) -> list:
+    """`pipeline derive --shader` on the tests' library's one-variable files (`LIBRARY_FILES`: 12
+    functions, srgb_decode's pieces derived too) on `--gpu desktop` at `--seconds 10`: cold on a
+    LocalCluster of 2 workers (target LIBRARY_SECONDS), again with nothing changed (target
+    LIBRARY_RERUN_SECONDS), and cold on 1 worker, the speed-up of 2 over 1 (target LIBRARY_SPEED_UP)."""
+    rows = []
+    files = [str(LIBRARY / name) for name in LIBRARY_FILES]
+    command = [py, "-m", "pipeline", "derive", "--shader", *files, "--gpu", "desktop", "--seconds", "10"]
+    times = {}
+    with tempfile.TemporaryDirectory() as tmp:
+        for workers in (2, 1):
+            env = _cold_env(tmp, f"library_{workers}")
+            out = os.path.join(tmp, f"out_{workers}")
+            times[workers], _ = timed([*command, "--workers", str(workers), "--out", out], env)
+            if workers == 2:
+                rerun, said = timed([*command, "--workers", "2", "--out", out], env)
+                kept = sum(" kept " in line for line in said.splitlines())
+        summary = json.loads(Path(tmp, "out_2", "library.json").read_text())
+    functions = len({(r["file"], r["function"]) for r in summary["rows"]})
+    rows.append(("derive --shader library, 2 workers, cold", times[2], None,
+                 f"{functions} functions of {len(files)} files, desktop, --seconds 10; target <= "
+                 f"{LIBRARY_SECONDS:.0f} s " + ("ok" if times[2] <= LIBRARY_SECONDS else "MISSED"),
+                 dict(target_seconds=LIBRARY_SECONDS, functions=functions)))
+    rows.append(("derive --shader library, rerun", rerun, None,
+                 f"{kept} tasks kept; target <= {LIBRARY_RERUN_SECONDS:.0f} s "
+                 + ("ok" if rerun <= LIBRARY_RERUN_SECONDS else "MISSED"),
+                 dict(target_seconds=LIBRARY_RERUN_SECONDS, kept=kept)))
+    speed_up = times[1] / times[2]
+    rows.append(("derive --shader library, 1 worker, cold", times[1], None,
+                 f"2 workers over 1: {speed_up:.2f}x; target >= {LIBRARY_SPEED_UP:g}x "
+                 + ("ok" if speed_up >= LIBRARY_SPEED_UP else "MISSED"), dict(speed_up=round(speed_up, 2))))
+    return rows
+
+
+CERTIFY_RUNS = {        # {label: (derive's arguments, target seconds)}
+    "derive acos --certify, rdna3": (["--target", "acos", "--gpu", "rdna3", "--certify"], 300.0),
+    "derive schlick fp16 --certify": (["--target", "schlick", "--precision", "fp16", "--certify"], 90.0),
+}
+
+
+def certify_rows(py) -> list:
+    """`pipeline derive --certify`, cold (`CERTIFY_RUNS`): acos in float32 on RDNA3 (every float32 of
+    [0, 1] for each front member, anchor and the exact target; target 5 minutes) and Schlick's in
+    float16 (target 90 s), each with how many forms were certified and the certification's own time."""
+    rows = []
+    for label, (arguments, target) in CERTIFY_RUNS.items():
+        with tempfile.TemporaryDirectory() as tmp:
+            out = os.path.join(tmp, "out")
+            seconds, _ = timed([py, "-m", "pipeline", "derive", *arguments, "--out", out], _cold_env(tmp, "certify"))
+            certification = json.loads(Path(out, "results.json").read_text())["certification"]
+        rows.append((label, seconds, None,
+                     f"{len(certification['certified'])} forms at every one of {certification['inputs']:,} inputs "
+                     f"({certification['seconds']:.0f} s of it); target <= {target:.0f} s "
+                     + ("ok" if seconds <= target else "MISSED"),
+                     dict(target_seconds=target, certified=len(certification["certified"]),
+                          certify_seconds=certification["seconds"])))
+    return rows
+
+
 RENDERED_SECONDS = 60.0         # what the rendered comparison may add to a derive run
 
 
@@ -313,7 +386,6 @@ def verdict(seconds: float, floor: float, target, fields: dict) -> str:
 
 def record(rows, floor: float, throughput) -> None:
     """Merge this run's rows into RECORD (module docstring), each under its label."""
-    import json
     import datetime
 
     commit = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=ROOT, capture_output=True,
@@ -342,7 +414,8 @@ def main() -> int:
     # `pipeline regress`'s default engine alone; BENCH_ONLY=reproduce: a cold and a warm reproduce;
     # BENCH_ONLY=shaders: the floor and `derive --shader`'s rows alone.
     only = os.environ.get("BENCH_ONLY")
-    if only not in ("tests", "derive", "derive_one", "derive_parametric", "regress", "reproduce", "shaders"):
+    if only not in ("tests", "derive", "derive_one", "derive_parametric", "regress", "reproduce", "shaders",
+                    "library", "certify"):
         with tempfile.TemporaryDirectory() as tmp:
             env = _run_env(tmp)
             rows.append(cold_reproduce_row(py, env))
@@ -470,8 +543,12 @@ def main() -> int:
         rows += regress_rows(py, dict(os.environ, JAX_ENABLE_X64="1", JAX_PLATFORMS="cpu"))
     if only in (None, "shaders"):
         rows += shader_rows(py)
+    if only in (None, "library"):
+        rows += library_rows(py)
+    if only in (None, "certify"):
+        rows += certify_rows(py)
     if os.environ.get("BENCH_TESTS", "1") != "0" and only not in ("derive", "derive_one", "derive_parametric", "regress",
-                                                                  "reproduce", "shaders"):
+                                                                  "reproduce", "shaders", "library", "certify"):
         # Twice, on one folder of compiled XLA programs and one of shaders' machine code
         # (`isa.machine_code`'s kept results): empty at first (a fresh clone, as CI runs it), then
         # holding what the first session compiled (`make test` keeps both between runs).
@@ -490,7 +567,8 @@ def main() -> int:
     except RuntimeError:
         pass
     throughput = [(label, lobe_throughput(device)) for label, device in devices
-                  if only not in ("derive", "derive_one", "derive_parametric", "regress", "shaders")]
+                  if only not in ("derive", "derive_one", "derive_parametric", "regress", "shaders", "library",
+                                  "certify")]
 
     print(f"import floor ({FLOOR}): {floor:.2f} s\n")
     print(f"{'':<30} {'seconds':>8} {'x floor':>8}  {'target':>8}  note")

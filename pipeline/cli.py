@@ -209,7 +209,7 @@ def _derive(args) -> int:
     try:
         found = api.derive(target, gpu=args.gpu, seconds=args.seconds, max_cycles=args.max_cycles,
                            max_complexity=args.max_complexity, formula_complexity=args.formula_complexity,
-                           precision=args.precision, plan=plan, platforms=args.platforms)
+                           precision=args.precision, plan=plan, platforms=args.platforms, certify=args.certify)
     except (CompilerMissing, ToolMissing) as e:
         print(f"error: the GPU compilers cannot run here: {e}", file=sys.stderr)
         return faults.EXIT_ENVIRONMENT
@@ -351,6 +351,9 @@ def _derive_shader(args) -> int:
     given = [f for f, v in (("--target", args.target), ("--expr", args.expr), ("--table", args.table)) if v is not None]
     if given:
         raise DeriveError(f"--shader and {given[0]}: give one of them")
+    if args.certify:
+        raise DeriveError("--certify goes with a target (--target, --expr): a shader's functions are derived with "
+                          "their errors sampled")
     library = len(args.shader) > 1 or not Path(args.shader[0]).is_file()
     path = Path(args.shader[0])
     out = Path(args.out) if args.out else paths.OUTPUTS / "derive" / escape.folder_name(
@@ -530,6 +533,10 @@ def build_parser() -> argparse.ArgumentParser:
     der.add_argument("--precision", default=None, choices=("fp32", "fp16"),
                      help="the format the shader computes in: every form costed and executed in it (default the "
                           "target's, fp32)")
+    der.add_argument("--certify", action="store_true",
+                     help="one variable: every front member's, anchor's and the exact target's largest error as "
+                          "executed taken over every input of the domain in the format (1,065,353,217 float32 "
+                          "values of [0, 1]: minutes), the fronts read off those")
     der.add_argument("--max-cycles", type=float, default=None, metavar="N", help="leave out forms above N cycles")
     der.add_argument("--seconds", type=float, default=None, metavar="S",
                      help="the grammar search's budget, planned as work before the search at the reference "

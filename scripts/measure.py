@@ -18,6 +18,9 @@ typed by hand. The records:
 - `power_regress`: docs/regress.md's coef over (n, m): the power sweep, its datasets joined into one
   file, and `pipeline regress` on it.
 - `grammar`: how many forms the grammars hold at the complexities docs/regress.md names.
+- `library`: `pipeline derive --shader` on the tests' library (`tests/shaders/library/`) for the
+  android and desktop platforms (docs/shaders.md): its totals, the form each function ships per
+  platform, and its `savings.png` as `docs/library_savings.png`.
 
 A record no page reads fails a test (`tests/docs/test_generated.py`): a run added here is also
 marked in a page. `python scripts/measure.py [NAME ...]` runs the named ones (default all, about 25
@@ -257,8 +260,32 @@ def grammar_record(env: dict) -> dict:
     return dict(command="len(grammar.enumerate_forms(K, OPS, VARIABLES))", counts=counts)
 
 
+LIBRARY_SHOT = ROOT / "docs" / "library_savings.png"     # docs/shaders.md's picture: the library's savings.png
+
+
+def library_record(env: dict) -> dict:
+    """`pipeline derive --shader` on the tests' library (every file) for the Android and desktop
+    platforms, on a LocalCluster of this machine's cores: library.json's totals and per-platform rows,
+    and its savings.png copied to `LIBRARY_SHOT`."""
+    args = ["derive", "--shader", "tests/shaders/library", "--gpu", "android,desktop", "--seconds", "10",
+            "--out", "measure_library"]
+    seconds, _ = _pipeline(args, env)
+    out = Path(env["PIPELINE_OUTPUTS_DIR"]) / "measure_library"
+    summary = json.loads((out / "library.json").read_text())
+    LIBRARY_SHOT.write_bytes((out / "savings.png").read_bytes())
+    functions = {(r["file"], r["function"]): r["status"] for r in summary["rows"]}
+    return dict(command="pipeline " + " ".join(args[:-2]), wall_seconds=round(seconds, 1), run=summary["run"],
+                functions=len(functions), statuses={s: list(functions.values()).count(s)
+                                                    for s in sorted(set(functions.values()))},
+                totals=summary["totals"], platforms=summary["platforms"],
+                platform_rows=[{k: r[k] for k in ("function", "platform", "form", "cycles_before", "cycles_after",
+                                                  "error_after", "calls")} | dict(file=Path(r["file"]).name)
+                               for r in summary["platform_rows"]])
+
+
 RECORDS = {**{f"derive_{target}": None for target in DERIVE_RUNS}, "costs": costs_record, "refits": refits_record,
-           "lobe_refits": lobe_refits_record, "power_regress": power_regress_record, "grammar": grammar_record}
+           "lobe_refits": lobe_refits_record, "power_regress": power_regress_record, "grammar": grammar_record,
+           "library": library_record}
 
 
 def measure(name: str, tmp: str) -> Path:

@@ -130,7 +130,7 @@ def derive(target=None, *, expr: str | None = None, var: str = "x=0:1", table: s
            metric: str | None = None, floor: float | None = None, seconds: float | None = None,
            max_cycles: float | None = None, max_complexity: int = engines.MAX_COMPLEXITY, parameter_range=None,
            formula_complexity: int = 0, precision: str | None = None, name: str | None = None,
-           plan=None, platforms=None, log=print) -> Derivation:
+           plan=None, platforms=None, certify: bool = False, log=print) -> Derivation:
     """The cheapest accurate forms of `target` (a registered name, a TOML file, a Target), of `expr`
     in `var`, or of a CSV `table`'s column `y` over `x` and `parameter` (its range `parameter_range`,
     "LO:HI", where given; with `formula_complexity` > 0 the constants' lines also corrected by the
@@ -143,7 +143,9 @@ def derive(target=None, *, expr: str | None = None, var: str = "x=0:1", table: s
     `seconds` (default `engines.DEFAULT_SECONDS`): the searches' budget, planned as work before they
     start (`symbolic.ladder.make_plan`); `plan`, the plans of an earlier run to run exactly instead (a
     path to its results.json or plan file, or a `symbolic.budgets.Budget`); results.json's `plan`
-    records the plans run."""
+    records the plans run. `certify` (or the target file's `certify = true`): every front member's,
+    anchor's and the exact target's largest error as executed taken over every input of the domain in
+    the format (`measures.exhaustive`; one variable), the fronts read off those."""
     from ..symbolic import budgets
     from .targets import PRECISIONS
 
@@ -159,7 +161,8 @@ def derive(target=None, *, expr: str | None = None, var: str = "x=0:1", table: s
     except budgets.PlanError as e:
         raise DeriveError(str(e)) from None
     try:
-        raw = engines.derive(chosen, gpu, budget, max_cycles, max_complexity, formula_complexity, precision, log)
+        raw = engines.derive(chosen, gpu, budget, max_cycles, max_complexity, formula_complexity, precision, log,
+                             certify=certify)
     except budgets.PlanError as e:
         raise DeriveError(f"--plan: {e}") from None
     raw["plan"] = dict(seconds=budget.seconds, searches=budgets.plans_of(raw["coverage"]))
@@ -280,6 +283,7 @@ def derive_library(paths, *, lang: str | None = None, include=(), define=(), var
     if client is None:
         client, started = cluster_client(scheduler, None, workers)
     try:
+        library.calibrate(client, gpu or engines.available_architectures(), log)
         found = library.derive_library(work, options_of, command_line, settings,
                                        pipeline_paths.DERIVE_CACHE / "library", client, derive, log=log)
     finally:

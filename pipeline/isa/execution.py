@@ -276,18 +276,41 @@ def emulate(body: str, inputs, precision: str = "fp32", variable: str = "x") -> 
     float32 or float16 (`lowering.evaluate`), each + - * / and sqrt correctly rounded as lavapipe
     rounds them; the special functions numpy's in the format (not a driver's: acos and pow are not
     those a GPU executes). Literals are the format's nearest, as `shader_source` writes them."""
+    from . import lowering
+
+    _, dtype = PRECISIONS[precision]
+    named = dict(inputs) if isinstance(inputs, dict) else {variable: inputs}
+    ops, result = emulation_program(body, precision, list(named))
+    arrays = {name: np.asarray(a, dtype=dtype) for name, a in named.items()}
+    shape = next(iter(arrays.values())).shape
+    return np.asarray(lowering.evaluate(ops, result, arrays, {}, dtype), dtype=dtype).reshape(shape)
+
+
+def emulation_program(body: str, precision: str, names: list[str]) -> tuple[list, str]:
+    """(the operations, the result's id) `emulate` evaluates for the form `body` in the inputs
+    `names`, in the format (`lowering.operations` of its optimized fragment shader)."""
     from ..optics.spirv import optimized_disassembly
     from . import lowering
     from .shaders import form_shader, LITERAL
 
-    _, dtype = PRECISIONS[precision]
     if precision == "fp16":      # (the nearest float16 of each literal, exact in the float32 shader)
         body = LITERAL.sub(lambda m: repr(float(np.float16(float(m.group(1))))), body)
-    named = dict(inputs) if isinstance(inputs, dict) else {variable: inputs}
-    ops, result = lowering.operations(optimized_disassembly(form_shader(list(named), list(named), f"return {body};", "")))
-    arrays = {name: np.asarray(a, dtype=dtype) for name, a in named.items()}
-    shape = next(iter(arrays.values())).shape
-    return np.asarray(lowering.evaluate(ops, result, arrays, {}, dtype), dtype=dtype).reshape(shape)
+    return lowering.operations(optimized_disassembly(form_shader(names, names, f"return {body};", "")))
+
+
+# The operations whose emulation (numpy, per operation in the format) equals lavapipe's result bit
+# for bit: IEEE's correctly rounded + - * / and sqrt, and those that round nothing.
+EXACT_FUNCTIONS = ("Sqrt", "FAbs", "FMax", "FMin", "NMax", "NMin", "FClamp", "NClamp")
+
+
+def not_exactly_emulated(ops) -> str | None:
+    """None where every operation of `ops` is emulated bit for bit (`EXACT_FUNCTIONS`, arithmetic,
+    comparisons, selections), else the first that is not (a driver's own function, a fused
+    multiply-add), by its SPIR-V name."""
+    for op in ops:
+        if op.kind == "function" and op.op not in EXACT_FUNCTIONS:
+            return op.op
+    return None
 
 
 def _memory_type(vk, physical, bits: int, flags: int) -> int:

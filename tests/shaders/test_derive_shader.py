@@ -142,6 +142,10 @@ def test_a_function_s_arguments_and_branches_become_a_target_and_come_back():
     target = reading.from_shader_function("srgb_decode", read.expression, ["c"], {"c": (0.0, 1.0)}, "engine_style.glsl:28")
     assert target.names == ("c_",) and target.shape == "one variable" and " if c_ <= " in target.expression
     assert target.anchors[0].name == "as shipped" and target.anchors[0].expression == target.expression
+    # an exact expression with a decimal constant: its constants read as float64, the target's text reads back
+    quarter = reading.from_shader_function("s", read.expression, ["c"], {"c": (0.0, 1.0)}, "here",
+                                           exact="sin(1.5707963267948966*c)")
+    assert quarter.expression == "sin(1.5707963267948966*c_)" and abs(quarter.numpy()(1.0) - 1.0) < 1e-15
     c_ = sp.Symbol("c_", real=True)
     assert replacement_text(sp.Float(0.5) * c_ + sp.Float(0.1), found["srgb_decode"], 1, "glsl", "fp32") == "0.5*c + 0.100000001"
 

@@ -14,6 +14,7 @@ from pipeline.approximate.engines import library
 from pipeline.shaders import definitions, harness
 
 HERE = Path(__file__).parent
+LIBRARY = HERE / "library"
 TONEMAP = """// derive: x=0:4 calls=3
 float reinhard(float x) { return x / (1.0 + x); }
 
@@ -52,11 +53,14 @@ def cluster():
 
 
 def _library(root: Path) -> Path:
+    """The tests' library (`tests/shaders/library/`: 14 annotated functions in GLSL and HLSL, and a file
+    of constants they include), the engine-style file beside it, a file that does not compile, and a
+    file that is not a shader."""
     shaders = root / "shaders"
-    (shaders / "post").mkdir(parents=True)
-    for name in ("engine_style.glsl", "engine_constants.glsl", "engine_style.hlsl"):
+    shutil.copytree(LIBRARY, shaders)
+    for name in ("engine_style.glsl", "engine_constants.glsl"):
         shutil.copy(HERE / name, shaders / name)
-    (shaders / "post" / "tonemap.glsl").write_text(TONEMAP)
+    (shaders / "post").mkdir()
     (shaders / "post" / "broken.glsl").write_text("float half_of(float x) { return x * ; }\n")
     (shaders / "notes.txt").write_text("not a shader")
     return shaders
@@ -69,56 +73,65 @@ def records(cache: Path) -> list[str]:
 def test_a_library_is_derived_as_one_batch_and_a_rerun_computes_only_what_changed(tmp_path, cluster):
     shaders = _library(tmp_path)
     files = library.shader_files([shaders])
-    assert [f.name for f in files] == ["engine_constants.glsl", "engine_style.glsl", "engine_style.hlsl",
-                                       "broken.glsl", "tonemap.glsl"]
+    assert [f.name for f in files] == ["brdf.glsl", "color.glsl", "constants.glsl", "engine_constants.glsl",
+                                       "engine_style.glsl", "lighting.hlsl", "math.glsl", "broken.glsl"]
     assert library.shader_files([str(shaders / "**" / "*.glsl")]) == \
         [f for f in files if f.suffix == ".glsl"]
     with pytest.raises(definitions.ShaderError, match="no such file or folder"):
         library.shader_files([tmp_path / "none"])
-    work = library.tasks(files, lambda p: harness.Options(definitions.language_of(p)))   # (constants: no task)
-    files = files[1:]
-    assert len(work) == 13 + 4 + 1 + 2 and len(set(work)) == len(work)      # (saturate_'s overloads one task)
     options_of = lambda p: harness.Options(definitions.language_of(p))       # noqa: E731
+    work = library.tasks(files, options_of)                 # (the constants' files: no task)
+    files = [f for f in files if "constants" not in f.name]
+    assert len(work) == 2 + 4 + 13 + 4 + 4 + 1 and len(set(work)) == len(work)     # (saturate_'s overloads one task)
     settings = dict(gpu=["rdna3"])
     cache = tmp_path / "kept"
     said = []
     found = library.derive_library(work, options_of, None, settings, cache, cluster, planted_derive, said.append)
-    assert list(found) == work and said[0] == "20 functions of 4 files on 2 Dask workers"
-    assert said[-1].startswith("[20/20] ") and "0 left" in said[-1]
+    assert list(found) == work and said[0] == "28 functions of 6 files on 2 Dask workers"
+    assert said[-1].startswith("[28/28] ") and "0 running, 0 left" in said[-1]
+    assert all(0 <= int(s.split("; ")[1].split()[0]) <= 2 for s in said[1:])      # (running: at most a task a worker)
     status = {(p.name, n): [o.status for o in outcomes] for (p, n), outcomes in found.items()}
-    assert status[("tonemap.glsl", "reinhard")] == ["derived"] and status[("engine_style.glsl", "acos_fast")] == \
+    assert status[("color.glsl", "reinhard")] == ["derived"] and status[("math.glsl", "acos_fast")] == \
         ["none cheaper"]
+    assert sum(s == ["none cheaper"] for (f, _), s in status.items() if f != "engine_style.glsl") == 13
     assert status[("engine_style.glsl", "sum_loop")] == ["refused"] and status[("engine_style.glsl", "saturate_")] \
         == ["refused", "refused"]
-    (broken,) = found[(files[2], "half_of")]
+    (broken,) = found[(files[-1], "half_of")]
     assert broken.status == "refused" and "does not compile" in broken.reason and \
         "broken.glsl" in broken.reason
-    assert sorted(r.split()[0] for r in records(cache)) == ["computed"] * 20
+    assert sorted(r.split()[0] for r in records(cache)) == ["computed"] * 28
     # nothing changed: every task kept
     again = library.derive_library(work, options_of, None, settings, cache, cluster, planted_derive, lambda s: None)
-    assert [r.split()[0] for r in records(cache)[20:]] == ["kept"] * 20
+    assert [r.split()[0] for r in records(cache)[28:]] == ["kept"] * 28
     assert {k: [o.status for o in v] for k, v in again.items()} == {k: [o.status for o in v] for k, v in found.items()}
-    # one function's body edited (the same lines): that function alone computed again
-    glsl = files[0]
+    # one function's body edited (the same lines), and a comment added above another: that function alone
+    # computed again (math.glsl's acos_fast, the same text, is another file's: kept), the other kept in its new place
+    glsl = next(f for f in files if f.name == "engine_style.glsl")
     glsl.write_text(glsl.read_text().replace("(-0.156583 * x + HALF_PI)", "(-0.156500 * x + HALF_PI)"))
-    library.derive_library(work, options_of, None, settings, cache, cluster, planted_derive, lambda s: None)
-    computed = [r.split()[1:3] for r in records(cache)[40:] if r.startswith("computed")]
+    color = next(f for f in files if f.name == "color.glsl")
+    color.write_text(color.read_text().replace("// derive: x=0:4 calls=3", "// Reinhard's operator\n// derive: x=0:4 calls=3"))
+    moved = library.derive_library(work, options_of, None, settings, cache, cluster, planted_derive, lambda s: None)
+    computed = [r.split()[1:3] for r in records(cache)[56:] if r.startswith("computed")]
     assert computed == [["engine_style.glsl", "acos_fast"]]
+    (reinhard,) = moved[(color, "reinhard")]
+    assert reinhard.line == found[(color, "reinhard")][0].line + 1 and \
+        color.read_bytes()[reinhard.definition.start:].startswith(b"float reinhard(")
     # what the library run writes: each file's run under files/, one patch that applies, the totals the rows' sums
     from pipeline.approximate.publishing import library_outputs
 
     from pipeline.approximate.engines import platform_answer
 
     by_file = {}
-    for (path, _), outcomes in found.items():        # (the planted results hold no derive run's files)
+    for (path, _), outcomes in moved.items():        # (the planted results hold no derive run's files)
         by_file.setdefault(path, []).extend(dataclasses.replace(
-            o, results=None, platforms={"one": platform_answer.answer(o.results, ["rdna3"], o.budget)}
-            if o.results else {}) for o in outcomes)
+            o, results=None, pieces=[dataclasses.replace(p, results=None) for p in o.pieces],
+            platforms={"one": platform_answer.answer(o.results, ["rdna3"], o.budget)} if o.results else {})
+            for o in outcomes)
     out = tmp_path / "out"
     library_outputs.write(out, by_file, {p: definitions.language_of(p) for p in by_file}, dict(workers=2, seconds=1.0),
                           log=lambda s: None)
-    assert sorted(p.name for p in (out / "files").iterdir()) == ["engine_style.glsl", "engine_style.hlsl",
-                                                                  "post__broken.glsl", "post__tonemap.glsl"]
+    assert sorted(p.name for p in (out / "files").iterdir()) == ["brdf.glsl", "color.glsl", "engine_style.glsl",
+                                                                  "lighting.hlsl", "math.glsl", "post__broken.glsl"]
     data = __import__("json").loads((out / "library.json").read_text())
     rows = [r for r in data["rows"] if r["architecture"] == "rdna3"]
     assert {r["function"]: r["calls"] for r in rows}["reinhard"] == 3.0
@@ -127,22 +140,29 @@ def test_a_library_is_derived_as_one_batch_and_a_rerun_computes_only_what_change
                                            cycles_after=sum(r["calls"] * r["cycles_after"] for r in rows))
     assert data["totals"]["rdna3"]["cycles_before"] - data["totals"]["rdna3"]["cycles_after"] == 3 * 4.0
     assert data["platforms"]["one"]["cycles_before"] - data["platforms"]["one"]["cycles_after"] == 3 * 4.0
-    assert "## Totals per platform" in (out / "library.md").read_text()
+    shipped = [r for r in data["platform_rows"] if r["form"] is not None]
+    assert data["platforms"]["one"] == dict(functions=len(shipped),
+                                            cycles_before=sum(r["calls"] * r["cycles_before"] for r in shipped),
+                                            cycles_after=sum(r["calls"] * r["cycles_after"] for r in shipped))
+    assert {r["function"]: r["form"] for r in shipped}["reinhard"] == "found"
+    text = (out / "library.md").read_text()
+    assert "## Totals per platform" in text and "| color.glsl | reinhard | one | found | 10 → 6 |" in text
+    assert (out / "savings.png").read_bytes()[:4] == b"\x89PNG"
     # library.html: every function, the derived one first (sorted by saving), the totals among the facts
     from tests.helpers import open_page
 
     with open_page(out / "library.html") as opened:
         page = opened.page
         first = page.locator("#functions-table tbody tr").first.locator("td")
-        assert first.nth(0).text_content() == "tonemap.glsl: reinhard" and first.nth(2).text_content() == "derived"
+        assert first.nth(0).text_content() == "color.glsl: reinhard" and first.nth(2).text_content() == "derived"
         names = {a.text_content() for a in page.locator("#functions-table tbody tr td:first-child a").all()}
-        assert len(names) == 21          # (20 tasks; saturate_ has two overloads)
+        assert len(names) == 29          # (28 tasks; saturate_ has two overloads)
         assert "total cycles, rdna3" in page.locator("dl.facts").first.text_content()
         assert page.evaluate("pageState.views.cycles.data('source_0').length") == 2    # (the derived one's bars)
         assert opened.problems == []
     patch = (out / "library.patch").read_text()
-    assert patch.count("+++ b/") == 1 and patch.startswith("--- a/post/tonemap.glsl\n")
-    assert "+    return 1.0 - 1.0/(x + 1.0);" in patch and "+float reinhard(float x) {" in patch
+    assert patch.count("+++ b/") == 1 and patch.startswith("--- a/color.glsl\n")
+    assert "-    return x / (1.0 + x);\n+    return 1.0 - 1.0/(x + 1.0);\n" in patch
     # it applies to a copy of the library from the library's folder, and the patched file compiles
     import subprocess
 
@@ -150,7 +170,7 @@ def test_a_library_is_derived_as_one_batch_and_a_rerun_computes_only_what_change
     shutil.copytree(shaders, copy)
     done = subprocess.run(["git", "apply", str(out / "library.patch")], cwd=copy, capture_output=True, text=True)
     assert done.returncode == 0, done.stderr
-    patched = copy / "post" / "tonemap.glsl"
+    patched = copy / "color.glsl"
     options = harness.Options("glsl")
     reinhard = next(d for d in definitions.read(patched)[1] if d.name == "reinhard")
     assert "OpFunction" in harness.disassembly(harness.preprocessed(patched, options), reinhard, options, patched)

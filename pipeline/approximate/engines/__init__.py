@@ -8,13 +8,18 @@ from .options import available_architectures, checked_options, DEFAULT_SECONDS, 
 
 
 def derive(target: Target, gpu, budget, max_cycles, max_complexity: int, formula_complexity: int = 0,
-           precision: str | None = None, log=print) -> dict:
+           precision: str | None = None, log=print, certify: bool = False) -> dict:
     """The results of the engine that derives a checked `target`'s shape (`Target.shape`), every form
     costed and executed in `precision` (default the target's). Raises DeriveError for an option the
-    shape does not take."""
+    shape does not take. `certify`: every front member's error as executed proven over the whole
+    domain (one variable: every input, `one_variable.certified`)."""
     from . import one_variable, pairs, several_variables
 
     precision = precision or target.precision
+    certify = certify or target.certify
+    if certify and target.shape != ONE_VARIABLE:
+        raise DeriveError(f"{target.name}: --certify proves the errors of targets of one variable (every input of "
+                          f"the domain); a target of several variables or a pair is not certified")
     if target.shape == PAIR:
         if precision != "fp32":
             raise DeriveError(f"{target.name}: --precision {precision}: a pair of outputs is executed and costed in "
@@ -24,6 +29,7 @@ def derive(target: Target, gpu, budget, max_cycles, max_complexity: int, formula
     if target.shape == ONE_VARIABLE:
         if formula_complexity:
             raise DeriveError(f"{target.name} has no parameter: --formula-complexity applies to targets with one")
-        return one_variable.derive(target, gpu, budget, max_cycles, max_complexity, log=log, precision=precision)
+        return one_variable.derive(target, gpu, budget, max_cycles, max_complexity, log=log, precision=precision,
+                                   certify=certify)
     return several_variables.derive(target, gpu, budget, max_cycles, max_complexity, log=log,
                                     formula_complexity=formula_complexity, precision=precision)

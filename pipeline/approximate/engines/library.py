@@ -4,7 +4,7 @@ default, or the cluster a scheduler names), each task the single-file derivation
 (`shader_file.derive_file`).
 
 Each task keeps its outcome under `paths.DERIVE_CACHE/library/`, keyed by what the function computes
-and how it is asked: the optimized SPIR-V of each of its overloads' harnesses (so that an edit of its
+and how it is asked: the file's path, the optimized SPIR-V of each of its overloads' harnesses (so that an edit of its
 body, of a helper it calls or of a macro it reads changes the key, and an edit elsewhere in the file
 does not), its annotation, the command line's settings and this code. A rerun reads the kept
 outcomes and computes only the functions whose key changed; two batches sharing a function compute it
@@ -67,7 +67,7 @@ def key_of(path: Path, name: str, options, command_line: dict | None, settings: 
     from ...shaders import definitions, harness
     from ..search.grammar_search import code_version
 
-    parts = [code_version(), name, json.dumps(command_line or {}, sort_keys=True, default=str),
+    parts = [code_version(), str(Path(path).resolve()), name, json.dumps(command_line or {}, sort_keys=True, default=str),
              json.dumps(settings, sort_keys=True, default=str)]
     try:
         text = harness.preprocessed(path, options)
@@ -106,9 +106,27 @@ def derive_function(path: Path, name: str, options, command_line: dict | None, s
         partial = kept.with_suffix(f".{time.time_ns()}.tmp")
         partial.write_bytes(pickle.dumps(outcomes))
         partial.replace(kept)
+    outcomes = in_place(outcomes, path, name, options)
     with open(Path(cache) / "records.log", "a") as records:
         records.write(f"{how} {Path(path).name} {name} {key}\n")
     return outcomes, how, time.perf_counter() - start
+
+
+def in_place(outcomes: list, path: Path, name: str, options) -> list:
+    """The outcomes with each overload's definition (its byte spans, which the patch replaces) and
+    line those of the file as it is now: a kept outcome was computed where an edit elsewhere in the
+    file (which keeps its key) may have moved the function. Overloads are matched by signature (part
+    of the key)."""
+    import dataclasses
+
+    from ...shaders import definitions
+
+    try:
+        now = {d.signature: d for d in definitions.read(path, options.language)[1] if d.name == name}
+    except definitions.ShaderError:
+        return outcomes
+    return [dataclasses.replace(o, definition=now[o.definition.signature], line=now[o.definition.signature].line)
+            if o.definition is not None and o.definition.signature in now else o for o in outcomes]
 
 
 def failed(path: Path, name: str, why: str) -> list:
@@ -116,6 +134,39 @@ def failed(path: Path, name: str, why: str) -> list:
     from . import shader_file
 
     return [shader_file.Outcome(name, 0, shader_file.REFUSED, f"its task failed: {why}")]
+
+
+def running(client, batch: str, left: int) -> int:
+    """How many of the batch's tasks the workers are running now: those the scheduler has given them
+    (`Client.processing`), at most one per worker thread, at most those left."""
+    processing = sum(str(key).endswith(batch) for keys in client.processing().values() for key in keys)
+    threads = sum(w["nthreads"] for w in client.scheduler_info()["workers"].values())
+    return min(processing, threads, left)
+
+
+def calibrated(architecture: str) -> str:
+    """One architecture's cost table compiled and kept (`gpu_costs.operation_costs`: its CALIBRATION
+    forms' machine code in the machine-code cache), in a worker: the batch's tasks then read it
+    instead of each compiling it at once."""
+    from ...symbolic import gpu_costs
+    from .one_variable import CALIBRATION
+
+    gpu_costs.operation_costs(CALIBRATION, [architecture])
+    return architecture
+
+
+def calibrate(client, architectures, log=print) -> None:
+    """Every architecture's cost table compiled once, one task per architecture spread over the
+    workers, before the batch (`calibrated`); an architecture whose compiler fails here is left to the
+    tasks, which say why."""
+    from distributed import wait
+
+    start = time.perf_counter()
+    futures = client.map(calibrated, list(architectures), key=[f"calibrate-{a}-{uuid.uuid4().hex[:8]}"
+                                                               for a in architectures], pure=False)
+    wait(futures)
+    done = [f.result() for f in futures if f.status == "finished"]
+    log(f"cost tables of {len(done)} architectures ready ({time.perf_counter() - start:.0f} s)")
 
 
 def derive_library(work: list[tuple[Path, str]], options_of, command_line: dict | None, settings: dict, cache: Path,
@@ -143,6 +194,5 @@ def derive_library(work: list[tuple[Path, str]], options_of, command_line: dict 
         left = len(work) - done
         pace = (time.perf_counter() - start) / done
         log(f"[{done}/{len(work)}] {Path(path).name}:{name} {how} ({seconds:.0f} s); "
-            f"{min(left, len(client.scheduler_info()['workers']))} running, {left} left, about "
-            f"{pace * left:.0f} s left")
+            f"{running(client, batch, left)} running, {left} left, about {pace * left:.0f} s left")
     return {(p, n): out[(p, n)] for p, n in work}

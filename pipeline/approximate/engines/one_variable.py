@@ -105,12 +105,14 @@ def _executed(forms: list[Form], target, precision: str, real: dict, log, chosen
 
 
 def derive(target, gpu=None, budget=None, max_cycles: float | None = None,
-           max_complexity: int = MAX_COMPLEXITY, log=print, precision: str = "fp32") -> dict:
+           max_complexity: int = MAX_COMPLEXITY, log=print, precision: str = "fp32", certify: bool = False) -> dict:
     """The derivation of the module docstring for a checked `target` on the architectures `gpu`
     (names; default every one whose compiler runs here), every form costed and executed in
     `precision` (fp32 or fp16, `executed`), the search's work planned by `budget` (a
-    `symbolic.budgets.Budget`; default DEFAULT_SECONDS). Returns the results (`results.json`'s
-    content) with the forms' rows."""
+    `symbolic.budgets.Budget`; default DEFAULT_SECONDS). With `certify`, every front member, anchor
+    and the exact target executed at every input of the domain in the format (`certified`), the
+    fronts and verdicts read off those errors. Returns the results (`results.json`'s content) with
+    the forms' rows."""
     from ...isa.machine_code import estimate_seconds
     from ...symbolic import budgets, gpu_costs, grammar, ladder
     from ...symbolic.grammar import TEN
@@ -217,6 +219,13 @@ def derive(target, gpu=None, budget=None, max_cycles: float | None = None,
     log(f"kept the chosen constants of {len(kept)} forms (their error as executed lower)")
 
     forms_by_name = {m.name: m for m in everything}
+    sampled = {name: dict(e) for name, e in errors.items()}
+    certification = None
+    if certify:
+        def needed(current):
+            on = {r["name"] for a in architectures for r in front(rows_of(a, current), error_key, floor)}
+            return on | {m.name for m in anchors + [exact] if any(m.name in cycles[a] for a in architectures)}
+        certification = certified(needed, forms_by_name, target, precision, errors, error_key, log)
     rows, fronts, verdicts = [], {}, {}
     for a in architectures:
         table = tables.get(a, {})
@@ -232,7 +241,8 @@ def derive(target, gpu=None, budget=None, max_cycles: float | None = None,
                              max_abs_error=errors[m.name]["max_abs_error"], max_rel_error=errors[m.name]["max_rel_error"],
                              on_front=m.name in fronts[a], source=m.source, range="", parameter_per="",
                              max_abs_error_real=real[m.name]["max_abs_error"],
-                             max_rel_error_real=real[m.name]["max_rel_error"], precision=precision))
+                             max_rel_error_real=real[m.name]["max_rel_error"], precision=precision,
+                             **_certified_columns(m.name, certification, sampled)))
         # each anchor's verdict, and the exact target's as the driver executes it (its own functions)
         judged = anchors + [exact]
         verdicts[a] = {m.name: dict(cycles=cycles[a][m.name], error=errors[m.name][error_key],
@@ -260,16 +270,62 @@ def derive(target, gpu=None, budget=None, max_cycles: float | None = None,
                 family_members=[m.name for m in found if m.family != "grammar"],
                 fronts=fronts, verdicts=verdicts, rows=rows, error=error_key,
                 constant_error=baseline, rounding_floor=floor, precision=precision, execution=run,
+                **({"certification": certification} if certification is not None else {}),
                 special_functions=special_functions(rows, forms_by_name, precision), cost_tables=tables,
                 seconds=round(elapsed, 1), estimated_seconds=round(estimate, 1),
                 members={m.name: dict(kind=m.kind, family=m.family, source=m.source, converged=m.converged,
                                       expression=_text(m, target), **errors[m.name],
                                       max_abs_error_real=real[m.name]["max_abs_error"],
                                       max_rel_error_real=real[m.name]["max_rel_error"],
+                                      **_certified_columns(m.name, certification, sampled),
                                       **({"gap": causes[m.name]} if m.name in causes else {}),
                                       **({"constants": searches[m.name]} if m.name in searches else {}))
                          for m in everything if m.kind != "found" or any(m.name in fr for fr in fronts.values())},
                 forms=forms_by_name, cycles=cycles)
+
+
+def certified(needed, forms_by_name: dict, target, precision: str, errors: dict, error_key: str, log) -> dict:
+    """Each form `needed(errors)` names executed at every input of the domain (`exhaustive.certify`),
+    its errors in `errors` replaced by those maxima, until every form needed (the fronts' members read
+    off the errors as they now stand, the anchors, the exact target) is certified or cannot be: a
+    form's sampled error is at most its true one, so a form the certified members dominate by its
+    sampled error is dominated by its true one too. Returns dict(names certified, not_certified={name:
+    why}, how={name: emulation or lavapipe}, inputs, truth, passes, seconds)."""
+    from ..measures import exhaustive
+
+    out = dict(certified=[], not_certified={}, how={}, inputs=None, truth=None, passes=0, seconds=0.0)
+    while True:
+        names = sorted(n for n in needed(errors) if n not in out["certified"] and n not in out["not_certified"])
+        if not names:
+            return out
+        bodies = {}
+        for name in names:
+            if not math.isfinite(errors[name][error_key]):
+                out["not_certified"][name] = "not executed (its sampled error is not finite)"
+                continue
+            bodies[name] = glsl(forms_by_name[name].expression, target.variable, precision)
+        if not bodies:
+            continue
+        run = exhaustive.certify(bodies, target, precision, log)
+        for name, e in run["errors"].items():
+            errors[name] = dict(e)
+            out["certified"].append(name)
+        out["not_certified"].update(run["not_certified"])
+        out["how"].update(run["how"])
+        out.update(inputs=run["inputs"], truth=run["truth"], passes=out["passes"] + 1,
+                   seconds=round(out["seconds"] + run["seconds"], 1))
+        log(f"certified {len(run['errors'])} forms at every input ({run['seconds']:.0f} s); "
+            f"{len(run['not_certified'])} not certified")
+
+
+def _certified_columns(name: str, certification: dict | None, sampled: dict) -> dict:
+    """A row's `certified` (exhaustive, or sampled where it was not) and its sampled errors beside the
+    certified ones, with `--certify`; nothing without it."""
+    if certification is None:
+        return {}
+    return dict(certified="exhaustive" if name in certification["certified"] else "sampled",
+                max_abs_error_sampled=sampled[name]["max_abs_error"],
+                max_rel_error_sampled=sampled[name]["max_rel_error"])
 
 
 def bound_columns(rows: list[dict], forms_by_name: dict, target, f, precision: str, error_key: str) -> None:

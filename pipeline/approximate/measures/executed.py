@@ -96,10 +96,19 @@ def inputs(lo: float, hi: float, precision: str, extrema=()) -> np.ndarray:
 
 
 def truth(target, x: np.ndarray, unit: float, log=print) -> tuple[np.ndarray, dict]:
-    """(the target's values at the inputs x, how they were computed and checked): float64, or where
-    float64 differs from mpmath (30 digits) on `TRUTH_CHECK` of the inputs by more than
-    `TRUTH_TOLERANCE` of the format's unit (relative, or of the target's range), numpy's long
-    double (80-bit on x86) if it does not, else mpmath at every input."""
+    """(the target's values at the inputs x, how they were computed and checked): `truth_function`
+    checked on `TRUTH_CHECK` of the inputs, then applied to them all."""
+    function, checked = truth_function(target, x, unit, log)
+    return function(np.asarray(x, dtype=np.float64)), checked
+
+
+def truth_function(target, x: np.ndarray, unit: float, log=print):
+    """(a function of float64 inputs giving the target's values, how it computes them and how it was
+    checked), chosen on `TRUTH_CHECK` of the inputs x spread evenly: float64, or where float64
+    differs from mpmath (30 digits) there by more than `TRUTH_TOLERANCE` of the format's unit
+    (relative, or of the target's range), numpy's long double (80-bit on x86) if it does not, else
+    mpmath at every input. `float64_difference` (and `difference`, the chosen one's) is the largest
+    difference found, in units of the range (abs) or relative: the truth's margin."""
     import mpmath
     import sympy as sp
 
@@ -131,7 +140,7 @@ def truth(target, x: np.ndarray, unit: float, log=print) -> tuple[np.ndarray, di
     float64 = difference(target.numpy()(sample))
     checked = dict(float64_difference=float64, computed_by="float64", checked=int(sample.size))
     if float64 <= TRUTH_TOLERANCE * unit:
-        return target.numpy()(exact), checked
+        return target.numpy(), checked
     try:
         wider = difference(by_long_double(sample)) if np.finfo(np.longdouble).nmant > 52 else np.inf
     except Exception:               # (a function numpy does not compute in long double)
@@ -139,10 +148,10 @@ def truth(target, x: np.ndarray, unit: float, log=print) -> tuple[np.ndarray, di
     if wider <= TRUTH_TOLERANCE * unit:
         log(f"float64 computes {target.expression} with a relative error {float64:.3g} on the domain: the truth by "
             f"numpy's long double (its difference from mpmath {wider:.3g})")
-        return by_long_double(exact), checked | dict(computed_by="long double", difference=wider)
+        return by_long_double, checked | dict(computed_by="long double", difference=wider)
     log(f"float64 computes {target.expression} with a relative error {float64:.3g} on the domain: the truth at all "
         f"{exact.size} inputs by mpmath (30 digits)")
-    return by_mpmath(exact), checked | dict(computed_by="mpmath (30 digits)", difference=0.0)
+    return by_mpmath, checked | dict(computed_by="mpmath (30 digits)", difference=0.0)
 
 
 def measure(bodies: dict[str, str], target, precision: str, extrema=(), log=print) -> dict:

@@ -49,6 +49,33 @@ def _number(v):
     return v
 
 
+def certification_lines(results: dict) -> list[str]:
+    """report.md's lines on what its errors are: maxima over every input (`--certify`), or of the inputs
+    tried."""
+    c = results.get("certification")
+    if c is None:
+        return ["- The largest errors are those of the inputs tried (a sample of the domain): `--certify` takes "
+                "them over every input of the domain."] if results.get("execution", {}).get("truth") else []
+    if not c["certified"]:
+        return ["- Certified: none (" + "; ".join(escape.markdown(f"{n}: {w}") for n, w in c["not_certified"].items())
+                + ")."]
+    how = {h: sorted(n for n, k in c["how"].items() if k == h) for h in sorted(set(c["how"].values()))}
+    out = [f"- Certified (`certified` = exhaustive in front.csv): the largest errors as executed of {len(c['certified'])} "
+           f"forms ({', '.join(escape.markdown(n) for n in sorted(c['certified']))}) are the maxima over every one of "
+           f"the {c['inputs']:,} {results['precision']} values of the domain, "
+           + "; ".join(f"{len(v)} by {'the per-operation emulation (bit for bit what lavapipe computes)' if h == 'emulation' else 'lavapipe'}"
+                       for h, v in how.items())
+           + f", against the target in {c['truth']['computed_by']} (its largest difference from mpmath on "
+           f"{c['truth']['checked']:,} inputs: {c['truth']['float64_difference']:.3g}, the margin of each maximum), "
+           f"in {c['seconds']:.0f} s. The sampled maxima are beside them (`max_abs_error_sampled`, "
+           "`max_rel_error_sampled`); the fronts and verdicts read the certified ones. A GPU other than lavapipe "
+           "may round otherwise where Vulkan allows it."]
+    if c["not_certified"]:
+        out += ["- Not certified (their errors sampled): " + "; ".join(
+            escape.markdown(f"{n}: {w}") for n, w in c["not_certified"].items()) + "."]
+    return out
+
+
 def write_csv(path: Path, rows) -> None:
     """COLUMNS, then any other key of the rows (a pair's errors of each output)."""
     columns = list(COLUMNS) + [k for k in dict.fromkeys(k for r in rows for k in r) if k not in COLUMNS]
@@ -298,6 +325,7 @@ def report(results) -> str:
                   f"({results['precision']}'s rounding of the target's range) count as equal."]
         if run["not_executed"]:
             lines += ["- Not executed: " + "; ".join(escape.markdown(v) for v in run["not_executed"].values()) + "."]
+        lines += certification_lines(results)
     else:
         lines += ["- Errors are those of each expression in float64; a shader computes in float32, whose rounding "
                   "(about 1e-7 relative) is not included; on the fronts and in the verdicts, errors below "

@@ -28,11 +28,11 @@ def text_of(expression, language: str, precision: str | None) -> str:
 
 def _pieces(o, language: str) -> list[dict]:
     precision = (o.results or {}).get("precision")
-    key = (o.results or {}).get("error")
     out = []
     for p in o.pieces:
         error = None
         if p.results is not None:
+            key = p.results["error"]
             error = dict(before=p.results["members"][SHIPPED][key],
                          after=p.results["members"][p.chosen or SHIPPED][key])
         page = f"functions/{escape.folder_name(o.name)}_piece{p.index}/report.html" if p.results else None

@@ -14,6 +14,7 @@ A TOML file of one variable:
     floor = 0.0             # rel only: |f| below floor counts as floor
     precision = "fp32"      # or "fp16": the format the shader computes in (`measures.executed`)
     role = "fresnel"        # optional: where it enters a shading (`optics.roles`), rendered there
+    certify = true          # optional: every error proven over every input of the domain (`--certify`)
     [[anchor]]
     name = "mine"
     expression = "x * (0.97 - 0.19 * x * x)"
@@ -250,7 +251,7 @@ def _expression_target(expression: str, var: str, metric: str, floor: float, nam
 
 # ---- a TOML file ---------------------------------------------------------------------------------
 
-TARGET_KEYS = {"name", "expression", "metric", "floor", "description", "precision", "role"}
+TARGET_KEYS = {"name", "expression", "metric", "floor", "description", "precision", "role", "certify"}
 ONE_VARIABLE_KEYS = {"variable", "domain"}      # a file of one variable's [target] (without [[variable]])
 ANCHOR_KEYS = {"name", "expression", "source"}
 AXIS_KEYS = {"name", "range"}
@@ -287,10 +288,13 @@ def _file_target(path: Path) -> Target:
             raise DeriveError(f"{path}: domain = {domain!r}: give [lo, hi]")
         variables = (Axis(str(table.get("variable", "x")), float(domain[0]), float(domain[1])),)
         parameter = None
+    certify = table.get("certify", False)
+    if not isinstance(certify, bool):
+        raise DeriveError(f"{path}: certify = {certify!r}: give true or false")
     return Target(str(table.get("name", path.stem)), str(table["expression"]), variables, parameter,
                   str(table.get("metric", "abs")), read_floor(table, path), read_anchors(data, path),
                   str(table.get("description", "")), precision=str(table.get("precision", "fp32")),
-                  role=str(table.get("role", "")))
+                  role=str(table.get("role", "")), certify=certify)
 
 
 def _axis(entry, where: str, path: Path) -> Axis:
@@ -435,7 +439,8 @@ def from_shader_function(name: str, expression, arguments: list[str], ranges: di
     variables = tuple(Axis(names[a], *ranges[a]) for a in arguments if a != parameter)
     axis = Axis(names[parameter], *ranges[parameter]) if parameter is not None else None
     if exact is not None:
-        exact = expressions.text(parse(exact, arguments, f"{name}'s exact").xreplace(renamed), symbols)
+        read = parse(exact, arguments, f"{name}'s exact").xreplace(renamed)       # (its constants as float64)
+        exact = expressions.text(read.xreplace({f: sp.Float(float(f), precision=53) for f in read.atoms(sp.Float)}), symbols)
     return check(Target(name, exact or written, variables, axis, metric, floor,
                         (Anchor(SHIPPED, written, source),)
                         + tuple(Anchor(n, expressions.text(e.xreplace(renamed), symbols), source)

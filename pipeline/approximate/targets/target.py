@@ -138,6 +138,7 @@ class Target:
     role: str = ""              # where it enters a shading (`optics.roles`): rendered there (`measures.rendered`)
     max_degree: int = 4         # the family templates' largest total degree (several variables)
     parts: tuple = ()           # a pair's two targets (scale, bias), each of one output
+    certify: bool = False       # its errors proven over the whole domain (`engines.derive`'s certify)
 
     @property
     def shape(self) -> str:

@@ -204,7 +204,10 @@
       formBox.replaceChildren(el("h3", { text: `${name} (${f.kind})` }));
       formBox.append(facts([
         ["expression", el("code", { text: f.expression })], ["source", f.source],
-        ["error as executed", row ? `${fmt(row.error)} on ${state.arch}` : "not on this GPU"],
+        ["error as executed", row ? `${fmt(row.error)} on ${state.arch}` + (row.certified === "exhaustive"
+          ? " (certified: the largest over every input of the domain)" : row.certified === "sampled"
+          ? " (sampled: not certified)" : " (the largest of the inputs tried)") : "not on this GPU"],
+        ["error as executed, sampled", row && row.certified ? fmt(row.error_sampled) : null],
         ["error of its mathematics (float64)", row ? fmt(row.error_real) : null],
         ["cycles", row ? `${fmt(row.cycles)} on ${state.arch}` : null],
       ]));

@@ -1,0 +1,566 @@
+"""Proven bounds of a form's largest error as a shader computes it, over a box of its variables:
+branch and bound with interval arithmetic (python-flint's arb, whose every ball provably encloses
+the value it stands for).
+
+The form is taken as its shader computes it: the operations of its optimized SPIR-V
+(`execution.emulation_program`, what `lowering.evaluate` emulates), its constants the format's
+values. On a box B (one interval per input; the inputs exact values of the format):
+
+- its real error, the exact value of those operations minus the target, by the mean-value form:
+  e - f over B lies in (e - f)(c) + sum_i d_i(e - f)(B) [-r_i, r_i] (c the box's centre, r_i its
+  half-widths; the derivatives carried forward through the operations, and through the target's
+  sympy tree, as arb enclosures over B). Where an operation is not differentiable over B (a
+  selection whose condition B does not decide, a square root reaching 0) the plain enclosure
+  e(B) - f(B) stands instead;
+- its rounding error, carried forward through the operations: each computed value differs from its
+  exact value over B by at most d, propagated (|a| d_b + |b| d_a + d_a d_b for a product, and so
+  on), plus what the operation itself may err at its result (`Rounding`: half a unit in the last
+  place for + - * / and sqrt correctly rounded, as lavapipe computes them; Vulkan's minimum
+  allowances; a vendor's documented figures), a unit in the last place being at most `UNIT` |v|
+  plus the subnormals' spacing. A contracted multiply-add rounds once instead of twice, within the
+  same bound.
+
+A relative error divides by the least of max(|f|, floor) over B. `certify` splits the boxes on the
+side that adds most to the bound, the largest bound first; the largest error found bounds from below:
+with `LAVAPIPE`'s rounding each box's centre's and corners' error as executed (the emulation), with an
+allowance (Vulkan's, a vendor's) the bound at each box's centre alone (the most a driver may err
+there). It stops when the largest bound left is within `RATIO` of the largest found (proven) or after
+`WORK` boxes (budget, with the bound reached): the same plan on every machine.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import heapq
+import math
+
+import numpy as np
+
+UNIT = {"fp32": 2.0 ** -23, "fp16": 2.0 ** -10}          # the format's spacing at 1 (an ulp at v: <= UNIT |v|)
+SMALLEST = {"fp32": 2.0 ** -149, "fp16": 2.0 ** -24}     # the subnormals' spacing
+RATIO = 1.25            # proven: the largest bound left within RATIO of the largest error found
+WORK = 20_000           # boxes bounded per form at most
+DEBUG = False
+
+
+class NotBounded(ValueError):
+    """An operation not bounded on a box (a divisor reaching 0 there), one line."""
+
+
+class Unsupported(NotBounded):
+    """A form with an operation its `Rounding` does not bound anywhere (one line naming it)."""
+
+
+@dataclasses.dataclass(frozen=True)
+class Rounding:
+    """What each operation's computed result may err at its exact value, in units in the last place
+    of the result: `basic` for + - * (0.5: correctly rounded; 1: either neighbour), `division`,
+    `sqrt`; a driver's own functions by `functions` ({exp2, log2, inversesqrt, ...: an
+    `isa.special_functions.Accuracy`}; a function not there is not bounded). `source` says whose."""
+
+    name: str
+    basic: float
+    division: float
+    sqrt: float
+    functions: dict = dataclasses.field(default_factory=dict)
+    source: str = ""
+
+
+LAVAPIPE = Rounding("lavapipe", 0.5, 0.5, 0.5, {}, "IEEE 754 round to nearest (lavapipe: every + - * / and sqrt "
+                                                   "correctly rounded)")
+
+
+def vulkan(precision: str) -> Rounding:
+    """Vulkan's minimum for a conforming driver: + - * to either neighbour (no RoundingModeRTE), division
+    2.5 ulp, sqrt 4.5 (inherited from 1 / inversesqrt), the functions `special_functions.MINIMUM`'s."""
+    from ...isa import special_functions
+
+    table = special_functions.MINIMUM[precision]
+    return Rounding("Vulkan", 1.0, table["division"].ulps, table["sqrt"].ulps, dict(table), special_functions.VULKAN)
+
+
+def vendor(name: str, precision: str) -> Rounding:
+    """A vendor's documented figures where it publishes them (`special_functions.VENDOR`), Vulkan's
+    minimum elsewhere; + - * correctly rounded (the vendors' ISA guides: round to nearest even)."""
+    from ...isa import special_functions
+
+    spec = vulkan(precision)
+    own = special_functions.VENDOR.get((name, precision), {})
+    functions = dict(spec.functions) | {k: v for k, v in own.items() if k not in ("division", "sqrt")}
+    return Rounding(name, 0.5, own["division"].ulps if "division" in own else spec.division,
+                    own["sqrt"].ulps if "sqrt" in own else spec.sqrt, functions,
+                    "; ".join(sorted({a.source for a in own.values()})) or spec.source)
+
+
+# --- arb helpers ---------------------------------------------------------------------------------
+
+def _arb(value):
+    from flint import arb
+
+    return arb(value)
+
+
+def lo(a) -> float:
+    """A float at most every value of the ball `a`."""
+    return math.nextafter(float(a.mid()) - float(a.rad()), -math.inf)
+
+
+def hi(a) -> float:
+    """A float at least every value of the ball `a`."""
+    return math.nextafter(float(a.mid()) + float(a.rad()), math.inf)
+
+
+def magnitude(a) -> float:
+    """A float at least every |value| of `a`."""
+    return max(abs(lo(a)), abs(hi(a)))
+
+
+def least_magnitude(a) -> float:
+    """A float at most every |value| of `a` (0 where it straddles 0)."""
+    low, high = lo(a), hi(a)
+    return 0.0 if low <= 0.0 <= high else max(0.0, math.nextafter(min(abs(low), abs(high)), 0.0))
+
+
+def hull(low: float, high: float):
+    return _arb(low).union(_arb(high))
+
+
+def finite(a) -> bool:
+    return a.is_finite() and math.isfinite(lo(a)) and math.isfinite(hi(a))
+
+
+# --- the forward pass over the shader's operations -------------------------------------------------
+
+@dataclasses.dataclass
+class Value:
+    """An operation's exact value over the box (`v`), its partial derivatives over it (`g`, one ball
+    per input; None where not differentiable there) and the bound of its rounding error (`d`)."""
+
+    v: object
+    g: list | None
+    d: float
+
+
+def _ulp(v, precision: str, ulps: float) -> float:
+    """`ulps` units in the last place at every value of `v`, bounded."""
+    return ulps * (UNIT[precision] * magnitude(v) + SMALLEST[precision])
+
+
+def _up(x: float) -> float:
+    return math.nextafter(x, math.inf)
+
+
+def form_pass(ops, result: str, box, inputs: list[str], precision: str, rounding: Rounding,
+              derivatives: bool = True) -> Value:
+    """The form's operations over `box` (one arb per name of `inputs`): its exact value, derivatives
+    and rounding bound (module docstring). Raises NotBounded for an operation `rounding` does not
+    bound."""
+    count = len(inputs)
+    zero = [_arb(0)] * count
+    values: dict[str, Value] = {}
+
+    def grad(*parts):
+        return None if any(p is None for p in parts) else parts
+
+    for op in ops:
+        a = [values[x] for x in op.args]
+        if op.kind == "input":
+            i = inputs.index(op.op)
+            values[op.name] = Value(box[i], [_arb(1) if j == i else _arb(0) for j in range(count)] if derivatives
+                                    else None, 0.0)
+        elif op.kind == "constant":          # (the format's value, as the shader holds it)
+            exact = float(np.float16(op.value) if precision == "fp16" or op.width == 16 else np.float32(op.value))
+            values[op.name] = Value(_arb(exact), list(zero) if derivatives else None, 0.0)
+        elif op.kind == "convert":
+            values[op.name] = a[0]
+        elif op.kind == "arithmetic":
+            values[op.name] = _arithmetic(op.op, a, precision, rounding, derivatives)
+        elif op.kind == "function":
+            values[op.name] = _function(op.op, a, precision, rounding, derivatives)
+        elif op.kind == "compare":
+            values[op.name] = Value(_decided(op.op, a[0], a[1]), None, 0.0)
+        elif op.kind == "select":
+            condition, x, y = a
+            if condition.v is True:
+                values[op.name] = x
+            elif condition.v is False:
+                values[op.name] = y
+            else:       # (not decided over the box, or a computed value may fall on either side)
+                values[op.name] = Value(x.v.union(y.v), None, max(x.d, y.d) + _spread(x.v, y.v))
+        else:
+            raise Unsupported(f"{op.kind} {op.op} is not bounded")
+        if derivatives and values[op.name].g is not None and grad(*values[op.name].g) is None:
+            values[op.name].g = None
+    return values[result]
+
+
+def _spread(x, y) -> float:
+    """What picking the other branch may add: the largest gap between the two values' enclosures."""
+    return max(0.0, _up(hi(x) - lo(y)), _up(hi(y) - lo(x)))
+
+
+def _decided(kind: str, a: Value, b: Value):
+    """True or False where the comparison holds or fails at every value within the rounding error of
+    a and b, else None."""
+    low_a, high_a = lo(a.v) - a.d, hi(a.v) + a.d
+    low_b, high_b = lo(b.v) - b.d, hi(b.v) + b.d
+    if kind in ("gt", "ge"):
+        if low_a > high_b:
+            return True
+        if high_a < low_b:
+            return False
+    if kind in ("lt", "le"):
+        if high_a < low_b:
+            return True
+        if low_a > high_b:
+            return False
+    return None
+
+
+def _arithmetic(kind: str, a: list[Value], precision: str, rounding: Rounding, derivatives: bool) -> Value:
+    if kind == "FNegate":
+        x = a[0]
+        return Value(-x.v, [-g for g in x.g] if x.g is not None else None, x.d)
+    x, y = a
+    if kind in ("FAdd", "FSub"):
+        sign = 1 if kind == "FAdd" else -1
+        v = x.v + y.v if sign > 0 else x.v - y.v
+        g = [p + sign * q for p, q in zip(x.g, y.g)] if x.g is not None and y.g is not None else None
+        d = _up(x.d + y.d)
+        return Value(v, g, _up(d + _ulp(v + hull(-d, d), precision, rounding.basic)))
+    if kind == "FMul":
+        v = x.v * y.v
+        g = [x.v * q + y.v * p for p, q in zip(x.g, y.g)] if x.g is not None and y.g is not None else None
+        d = _up(magnitude(x.v) * y.d + magnitude(y.v) * x.d + x.d * y.d)
+        return Value(v, g, _up(d + _ulp(v + hull(-d, d), precision, rounding.basic)))
+    if kind == "FDiv":
+        least = least_magnitude(y.v) - y.d
+        if least <= 0:
+            raise NotBounded("a division whose divisor's enclosure reaches 0 on the box")
+        v = x.v / y.v
+        g = [(p * y.v - x.v * q) / (y.v * y.v) for p, q in zip(x.g, y.g)] if x.g is not None and y.g is not None \
+            else None
+        d = _up((x.d + magnitude(v) * y.d) / math.nextafter(least, 0.0))
+        return Value(v, g, _up(d + _ulp(v + hull(-d, d), precision, rounding.division)))
+    raise Unsupported(f"{kind} is not bounded")
+
+
+def _function(kind: str, a: list[Value], precision: str, rounding: Rounding, derivatives: bool) -> Value:
+    if kind == "Sqrt":
+        x = a[0]
+        low = lo(x.v)
+        if low < 0 and hi(x.v) < 0:
+            raise NotBounded("sqrt of a negative enclosure")
+        inside = x.v if low >= 0 else hull(0.0, hi(x.v))
+        v = inside.sqrt()
+        g = None
+        if x.g is not None and low > 0:
+            g = [p / (2 * v) for p in x.g]
+        root = math.sqrt(max(low, 0.0))
+        below = math.sqrt(max(low - x.d, 0.0))
+        d = _up(min(x.d / (root + below), math.sqrt(x.d)) if root + below > 0 else math.sqrt(x.d))
+        return Value(v, g, _up(d + _ulp(v + hull(-d, d), precision, rounding.sqrt)))
+    if kind == "FAbs":
+        x = a[0]
+        if lo(x.v) > 0:
+            return x
+        if hi(x.v) < 0:
+            return Value(-x.v, [-p for p in x.g] if x.g is not None else None, x.d)
+        return Value(hull(0.0, magnitude(x.v)), None, x.d)
+    if kind in ("FMax", "NMax", "FMin", "NMin"):
+        x, y = a
+        bigger = kind.endswith("Max")
+        if lo(x.v) - x.d > hi(y.v) + y.d:
+            return x if bigger else y
+        if lo(y.v) - y.d > hi(x.v) + x.d:
+            return y if bigger else x
+        v = x.v.max(y.v) if bigger else x.v.min(y.v)
+        g = [p.union(q) for p, q in zip(x.g, y.g)] if x.g is not None and y.g is not None else None
+        return Value(v, g, max(x.d, y.d))
+    if kind in ("FClamp", "NClamp"):
+        x, low_, high_ = a
+        return _function("FMin", [_function("FMax", [x, low_], precision, rounding, derivatives), high_], precision,
+                         rounding, derivatives)
+    name = {"Exp2": "exp2", "Log2": "log2", "InverseSqrt": "inversesqrt", "Sin": "sin", "Cos": "cos",
+            "Exp": "exp", "Log": "log", "Acos": "acos", "Asin": "asin", "Atan": "atan", "Pow": "pow"}.get(kind)
+    if name is None or name not in rounding.functions or name == "pow":
+        raise Unsupported(f"uses {kind}, which {rounding.name} does not bound")
+    return _special(name, a[0], precision, rounding.functions[name])
+
+
+def _special(name: str, x: Value, precision: str, accuracy) -> Value:
+    """A driver's own function of one argument: its exact value and derivative over the argument's
+    enclosure widened by the argument's rounding error, plus its allowance (`accuracy`)."""
+    from flint import arb
+
+    wide = x.v + hull(-x.d, x.d)
+    exact = {"exp2": lambda t: (t * arb(2).log()).exp(), "log2": lambda t: t.log() / arb(2).log(),
+             "inversesqrt": lambda t: 1 / t.sqrt(), "sin": lambda t: t.sin(), "cos": lambda t: t.cos(),
+             "acos": lambda t: t.acos(), "asin": lambda t: t.asin(), "atan": lambda t: t.atan()}[name]
+    slope = {"exp2": lambda t: (t * arb(2).log()).exp() * arb(2).log(), "log2": lambda t: 1 / (t * arb(2).log()),
+             "inversesqrt": lambda t: -1 / (2 * t * t.sqrt()), "sin": lambda t: t.cos(), "cos": lambda t: -t.sin(),
+             "acos": lambda t: -1 / (1 - t * t).sqrt(), "asin": lambda t: 1 / (1 - t * t).sqrt(),
+             "atan": lambda t: 1 / (1 + t * t)}[name]
+    v = exact(x.v)
+    steepest = slope(wide)
+    if not (finite(v) and finite(steepest)):
+        raise NotBounded(f"{name} is not bounded on the box (its argument reaches where it is not finite)")
+    g = [p * slope(x.v) for p in x.g] if x.g is not None else None
+    propagated = _up(magnitude(steepest) * x.d)
+    value = exact(wide)
+    argument = magnitude(wide)
+    allowed = 0.0
+    if accuracy.absolute and lo(wide) <= accuracy.hi and hi(wide) >= accuracy.lo:
+        allowed = accuracy.absolute
+    if not accuracy.absolute or lo(wide) < accuracy.lo or hi(wide) > accuracy.hi:
+        allowed = max(allowed, _ulp(value, precision, accuracy.ulps + accuracy.ulps_per_x * argument))
+    return Value(v, g, _up(propagated + allowed))
+
+
+# --- the target's sympy tree ----------------------------------------------------------------------
+
+def target_pass(expression, symbols, box, derivatives: bool = True):
+    """(the target's value over `box` as an arb, its partial derivatives or None): the sympy
+    `expression` in `symbols` walked with arb balls."""
+    import sympy as sp
+    from flint import arb
+
+    count = len(symbols)
+
+    def walk(e):
+        if e.is_Symbol:
+            i = symbols.index(e)
+            return box[i], [arb(1) if j == i else arb(0) for j in range(count)]
+        if e.is_Number:
+            if e.is_Rational:
+                value = arb(int(e.p)) / arb(int(e.q))
+            else:
+                value = arb(float(e))
+            return value, [arb(0)] * count
+        if e is sp.pi:
+            return arb.pi(), [arb(0)] * count
+        if e is sp.E:
+            return arb(1).exp(), [arb(0)] * count
+        if e.is_Add:
+            value, g = walk(e.args[0])
+            for t in e.args[1:]:
+                v, h = walk(t)
+                value, g = value + v, [p + q for p, q in zip(g, h)]
+            return value, g
+        if e.is_Mul:
+            value, g = walk(e.args[0])
+            for t in e.args[1:]:
+                v, h = walk(t)
+                value, g = value * v, [p * v + value * q for p, q in zip(g, h)]
+            return value, g
+        if e.is_Pow:
+            base, power = e.args
+            b, gb = walk(base)
+            if power.is_Integer:
+                n = int(power)
+                value = b ** n if n >= 0 else 1 / (b ** (-n))
+                return value, [n * (b ** (n - 1) if n >= 1 else 1 / b ** (1 - n)) * p for p in gb]
+            if power == sp.Rational(1, 2):
+                value = b.sqrt()
+                return value, [p / (2 * value) for p in gb]
+            if power == sp.Rational(-1, 2):
+                value = 1 / b.sqrt()
+                return value, [-p / (2 * b * b.sqrt()) for p in gb]
+            q, gq = walk(power)
+            value = (q * b.log()).exp()
+            return value, [value * (hq * b.log() + q * hb / b) for hb, hq in zip(gb, gq)]
+        functions = {sp.exp: (lambda t: t.exp(), lambda t: t.exp()), sp.log: (lambda t: t.log(), lambda t: 1 / t),
+                     sp.sin: (lambda t: t.sin(), lambda t: t.cos()), sp.cos: (lambda t: t.cos(), lambda t: -t.sin()),
+                     sp.acos: (lambda t: t.acos(), lambda t: -1 / (1 - t * t).sqrt()),
+                     sp.asin: (lambda t: t.asin(), lambda t: 1 / (1 - t * t).sqrt()),
+                     sp.atan: (lambda t: t.atan(), lambda t: 1 / (1 + t * t)),
+                     sp.tan: (lambda t: t.tan(), lambda t: 1 / (t.cos() * t.cos()))}
+        if e.func in functions:
+            value_of, slope_of = functions[e.func]
+            v, g = walk(e.args[0])
+            return value_of(v), [slope_of(v) * p for p in g]
+        raise Unsupported(f"the target's {e.func.__name__} is not bounded")
+
+    value, g = walk(sp.sympify(expression))
+    return value, (g if derivatives else None)
+
+
+# --- one box, and the branch and bound --------------------------------------------------------------
+
+def box_bound(ops, result, inputs, target_expression, symbols, box, precision: str, rounding: Rounding,
+              metric: str = "abs", floor: float = 0.0) -> float:
+    """A proven upper bound of the form's error as computed (`rounding`) against the target over
+    `box` (a list of (lo, hi) per input; module docstring); inf where it cannot be bounded there."""
+    return bound_and_sides(ops, result, inputs, target_expression, symbols, box, precision, rounding, metric,
+                           floor)[0]
+
+
+def bound_and_sides(ops, result, inputs, target_expression, symbols, box, precision: str, rounding: Rounding,
+                    metric: str = "abs", floor: float = 0.0) -> tuple[float, list[float] | None]:
+    """(`box_bound`, what each side adds to it where the mean-value form bounded it: the slope's
+    magnitude times the side's width, the side to split; None where the plain enclosure did)."""
+    from flint import arb
+
+    balls = [hull(a, b) for a, b in box]
+    try:
+        whole = form_pass(ops, result, balls, inputs, precision, rounding)
+        f, gf = target_pass(target_expression, symbols, balls)
+    except (NotBounded, ZeroDivisionError, ValueError):
+        return math.inf, None
+    relative = metric == "rel"
+    sides = None
+    least = max(least_magnitude(f), floor) if relative else 1.0
+    if relative and least <= 0:
+        return math.inf, None
+    # the plain enclosure, and the mean-value form of e - f (abs) or of e / f (rel, where |f| >= floor)
+    error = (whole.v - f) / f if relative and least_magnitude(f) >= floor else whole.v - f
+    if not relative or least_magnitude(f) < floor:
+        error = (whole.v - f) * (1 / _arb(least) if relative else 1)
+    if whole.g is not None and gf is not None and (not relative or least_magnitude(f) >= floor):
+        middle = [0.5 * a + 0.5 * b for a, b in box]
+        centre = [arb(c) for c in middle]
+        try:
+            at = form_pass(ops, result, centre, inputs, precision, rounding, derivatives=False)
+            fc, _ = target_pass(target_expression, symbols, centre, derivatives=False)
+        except (NotBounded, ZeroDivisionError, ValueError):
+            at = None
+        if at is not None:
+            if relative:          # d(e / f) = (f de - e df) / f^2
+                spread = at.v / fc - 1
+                slopes = [(f * p - whole.v * q) / (f * f) for p, q in zip(whole.g, gf)]
+            else:
+                spread = at.v - fc
+                slopes = [p - q for p, q in zip(whole.g, gf)]
+            for (a, b), c, slope in zip(box, middle, slopes):
+                spread = spread + slope * (arb(a) - arb(c)).union(arb(b) - arb(c))
+            if finite(spread) and magnitude(spread) < magnitude(error):
+                error = spread
+            if all(finite(slope) for slope in slopes):
+                sides = [magnitude(slope) * (b - a) for (a, b), slope in zip(box, slopes)]
+    if not (finite(error) and finite(whole.v)):
+        return math.inf, None
+    rounding_part = whole.d / math.nextafter(least, 0.0) if relative else whole.d
+    return _up(magnitude(error) + _up(rounding_part)), sides
+
+
+@dataclasses.dataclass
+class Certified:
+    """A form's certified error: `bound` (proven over the box where `status` is "proven" or
+    "budget"), the largest error found (`found`, where: `at`), the boxes bounded (`boxes`),
+    `status`: proven (bound <= RATIO found), budget (WORK boxes bounded first), or not bounded (why in
+    `reason`)."""
+
+    bound: float
+    found: float
+    at: tuple
+    boxes: int
+    status: str
+    reason: str = ""
+
+
+def certify(body: str, inputs: list[str], target_expression, symbols, domain, precision: str = "fp32",
+            rounding: Rounding = LAVAPIPE, metric: str = "abs", floor: float = 0.0, found: float = 0.0,
+            at: tuple = (), excluded=(), work: int = WORK, ratio: float = RATIO) -> Certified:
+    """The branch and bound of the module docstring for the form `body` (GLSL in `inputs`) against
+    the target (a sympy expression in `symbols`, in the inputs' order) over `domain` ((lo, hi) per
+    input), the largest error sampled so far `found` (at `at`) its starting lower bound. `excluded`:
+    boxes of the domain left out (a singular corner the target excludes), each ((lo, hi), ...)."""
+    from ...isa import execution
+
+    try:
+        ops, result = execution.emulation_program(body, precision, list(inputs))
+    except Exception as e:          # (an operation the lowering does not know)
+        return Certified(math.inf, found, at, 0, "not bounded", str(e).splitlines()[0][:160])
+    try:
+        whole = [hull(*map(float, d)) for d in domain]
+        form_pass(ops, result, whole, list(inputs), precision, rounding, derivatives=False)
+        target_pass(target_expression, symbols, whole, derivatives=False)
+    except Unsupported as e:
+        return Certified(math.inf, found, at, 0, "not bounded", str(e))
+    except (NotBounded, ZeroDivisionError, ValueError):
+        pass
+    exact = _numpy_target(target_expression, symbols)
+    dtype = np.float32 if precision == "fp32" else np.float16
+    heap: list = []
+    boxes = 0
+    best, where = found, tuple(at)
+
+    def push(box):
+        nonlocal boxes, best, where
+        if any(all(a >= e_lo and b <= e_hi for (a, b), (e_lo, e_hi) in zip(box, ex)) for ex in excluded):
+            return
+        boxes += 1
+        if rounding == LAVAPIPE:
+            seen, point = _executed_error(ops, result, inputs, _points(box, dtype), exact, dtype, metric, floor)
+        else:           # (what the allowance permits at the centre: the most a conforming driver may err there)
+            point = tuple(_points(box, dtype)[0])
+            seen = box_bound(ops, result, inputs, target_expression, symbols, tuple((c, c) for c in point), precision,
+                             rounding, metric, floor)
+            seen = seen if math.isfinite(seen) else 0.0
+        if seen > best:
+            best, where = seen, point
+        bound, sides = bound_and_sides(ops, result, inputs, target_expression, symbols, box, precision, rounding,
+                                       metric, floor)
+        heapq.heappush(heap, (-bound, boxes, box, sides))
+
+    push(tuple(tuple(map(float, d)) for d in domain))
+    while heap:
+        top = -heap[0][0]
+        if top <= ratio * best and math.isfinite(top):
+            return Certified(max(top, best), best, where, boxes, "proven")
+        if boxes >= work:
+            if DEBUG:
+                for item in heapq.nsmallest(8, heap):
+                    print(-item[0], item[2], item[3])
+            return Certified(top, best, where, boxes, "budget")
+        _, _, box, sides = heapq.heappop(heap)
+        # the widest side, measured relative to its distance from 0 where it does not reach it (a side
+        # from 0.01 to 1 is split at 0.1: a function of 1 / x varies alike on each half)
+        # the side that adds most to the bound, or where the plain enclosure bounded it the widest
+        # (relative to its distance from 0 where it does not reach it: from 0.01 to 1 split at 0.1)
+        widths = sides or [(b - a) * (1.0 if not (a > 0 and b > 4 * a) else math.log(b / a) / (b - a) * b)
+                           for a, b in box]
+        i = int(np.argmax(widths))
+        a, b = box[i]
+        middle = float(dtype(math.sqrt(a * b) if a > 0 and b > 4 * a else 0.5 * (a + b)))
+        if not (a < middle < b):         # (one value of the format wide: the centre's error is the box's)
+            middle = 0.5 * (a + b)
+            if not (a < middle < b):
+                heapq.heappush(heap, (-best, boxes, box, None))
+                continue
+        push(box[:i] + ((a, middle),) + box[i + 1:])
+        push(box[:i] + ((middle, b),) + box[i + 1:])
+    return Certified(best, best, where, boxes, "proven")
+
+
+def _numpy_target(expression, symbols):
+    import sympy as sp
+
+    return sp.lambdify(symbols, expression, "numpy")
+
+
+def _points(box, dtype) -> np.ndarray:
+    """The box's centre and corners in the format (where the error is sought from below), one row each."""
+    import itertools
+
+    centre = [float(dtype(0.5 * a + 0.5 * b)) for a, b in box]
+    corners = list(itertools.product(*[(float(dtype(a)), float(dtype(b))) for a, b in box]))
+    return np.asarray([centre] + [list(c) for c in corners], dtype=np.float64)
+
+
+def _executed_error(ops, result, inputs, points: np.ndarray, exact, dtype, metric: str, floor: float) -> tuple:
+    """(the largest error as the emulation executes the form at `points` of the format, where)."""
+    from ...isa import lowering
+
+    with np.errstate(all="ignore"):
+        values = {name: points[:, i].astype(dtype) for i, name in enumerate(inputs)}
+        computed = np.asarray(lowering.evaluate(ops, result, values, {}, dtype), dtype=np.float64)
+        computed = np.broadcast_to(computed, (len(points),))
+        f = np.broadcast_to(np.asarray(exact(*[points[:, i] for i in range(points.shape[1])]), dtype=np.float64),
+                            (len(points),))
+        error = np.abs(computed - f)
+        if metric == "rel":
+            error = error / np.maximum(np.abs(f), floor)
+    error = np.where(np.isfinite(error), error, 0.0)
+    k = int(np.argmax(error))
+    return float(error[k]), tuple(float(v) for v in points[k])
