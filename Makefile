@@ -81,19 +81,22 @@ $(RADV_READY): $(INSTALLED)
 	fi
 	touch $(RADV_READY)
 
-# Best effort: Sollya (Debian's sollya), whose fpminimax the test of the constants chosen in float16
-# is compared with; without it that test says so and skips.
+# Best effort: Sollya and Gappa (Debian's sollya and gappa): Sollya's fpminimax the test of the
+# constants chosen in float16 is compared with, its checkinfnorm and Gappa's proof the oracles of the
+# certified error bounds; without them those tests say so and skip.
 $(SOLLYA_READY): $(INSTALLED)
-	@if command -v sollya >/dev/null; then \
-		echo "Sollya found: the constants chosen in a format are compared with its fpminimax"; \
-	elif [ "$$(id -u)" = 0 ] && command -v apt-get >/dev/null; then \
-		echo "installing Debian's sollya for the fpminimax comparison ..."; \
-		DEBIAN_FRONTEND=noninteractive apt-get install -y -q sollya >/dev/null 2>&1 \
-		|| (apt-get update -q >/dev/null 2>&1 && DEBIAN_FRONTEND=noninteractive apt-get install -y -q sollya >/dev/null 2>&1) \
-		|| echo "sollya could not be installed: the fpminimax comparison is skipped"; \
-	else \
-		echo "no sollya and no apt-get as root: the fpminimax comparison is skipped"; \
-	fi
+	@for tool in sollya gappa; do \
+		if command -v $$tool >/dev/null; then \
+			echo "$$tool found: the tests compare with it"; \
+		elif [ "$$(id -u)" = 0 ] && command -v apt-get >/dev/null; then \
+			echo "installing Debian's $$tool for the tests' comparisons ..."; \
+			DEBIAN_FRONTEND=noninteractive apt-get install -y -q $$tool >/dev/null 2>&1 \
+			|| (apt-get update -q >/dev/null 2>&1 && DEBIAN_FRONTEND=noninteractive apt-get install -y -q $$tool >/dev/null 2>&1) \
+			|| echo "$$tool could not be installed: the comparisons with it are skipped"; \
+		else \
+			echo "no $$tool and no apt-get as root: the comparisons with it are skipped"; \
+		fi; \
+	done
 	touch $(SOLLYA_READY)
 
 # Best effort: Chromium (Debian's chromium), which Playwright drives to test the report.html pages

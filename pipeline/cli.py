@@ -391,17 +391,17 @@ def _derive_library(args, out: Path) -> int:
     if args.function is not None:
         raise DeriveError("--function goes with one file (a library derives every function of its files)")
     start = time.perf_counter()
+    run: dict = {}
     found = api.derive_library(args.shader, lang=args.lang, include=args.include or (), define=args.define or (),
                                var=args.var, parameter=args.parameter, metric=args.metric, floor=args.floor,
                                max_error=args.max_error, exact=args.exact, gpu=args.gpu, seconds=args.seconds,
                                max_complexity=args.max_complexity, precision=args.precision, platforms=args.platforms,
-                               scheduler=args.scheduler, workers=args.workers)
+                               scheduler=args.scheduler, workers=args.workers, run=run)
     outcomes = [o for file_outcomes in found.values() for o in file_outcomes]
     if all(o.status == "refused" for o in outcomes):
         raise DeriveError("no function of the library could be derived: "
                           + "; ".join(f"{o.name}: {o.reason}" for o in outcomes[:5]))
-    run = dict(workers=args.workers or (None if args.scheduler else os.cpu_count()), scheduler=args.scheduler,
-               seconds=round(time.perf_counter() - start, 1))
+    run.update(seconds=round(time.perf_counter() - start, 1), local=args.scheduler is None)
     languages = {p: definitions.language_of(p, args.lang) for p in found}
     written = library_outputs.write(out, found, languages, run)
     print(f"wrote {', '.join(str(p) for p in written)} and files/")
@@ -534,9 +534,10 @@ def build_parser() -> argparse.ArgumentParser:
                      help="the format the shader computes in: every form costed and executed in it (default the "
                           "target's, fp32)")
     der.add_argument("--certify", action="store_true",
-                     help="one variable: every front member's, anchor's and the exact target's largest error as "
-                          "executed taken over every input of the domain in the format (1,065,353,217 float32 "
-                          "values of [0, 1]: minutes), the fronts read off those")
+                     help="every front member's, anchor's and the exact target's largest error as executed proven "
+                          "over the whole domain (one variable: every input of the format, 1,065,353,217 float32 "
+                          "values of [0, 1], minutes; several: interval branch and bound), the fronts read off "
+                          "those, and beside them the worst a conforming driver may give")
     der.add_argument("--max-cycles", type=float, default=None, metavar="N", help="leave out forms above N cycles")
     der.add_argument("--seconds", type=float, default=None, metavar="S",
                      help="the grammar search's budget, planned as work before the search at the reference "

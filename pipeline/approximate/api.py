@@ -263,12 +263,14 @@ def derive_library(paths, *, lang: str | None = None, include=(), define=(), var
                    metric: str | None = None, floor: float | None = None, max_error: float | None = None,
                    exact: str | None = None, gpu=None, seconds: float | None = None,
                    max_complexity: int = engines.MAX_COMPLEXITY, precision: str | None = None, platforms=None,
-                   client=None, scheduler: str | None = None, workers: int | None = None, log=print) -> dict:
+                   client=None, scheduler: str | None = None, workers: int | None = None, log=print,
+                   run: dict | None = None) -> dict:
     """Every function of every shader file `paths` names (files, folders, globs:
     `engines.library.shader_files`) derived as one batch of tasks on Dask (`engines.library`): on
     `client` where given, else on the cluster `scheduler` names, else on a LocalCluster of `workers`
     processes (`engine.cluster.client`); the other settings as `derive_shader`'s. Returns {path:
-    [every Outcome of the file]}, each function's platforms' answers set."""
+    [every Outcome of the file]}, each function's platforms' answers set; `run`, where given, gets the
+    cluster's scheduler address and its workers."""
     from ..engine import paths as pipeline_paths
     from ..engine.cluster import client as cluster_client
     from .engines import library
@@ -276,12 +278,19 @@ def derive_library(paths, *, lang: str | None = None, include=(), define=(), var
     options_of, command_line, gpu, precision, named = _shader_settings(lang, include, define, var, parameter, metric,
                                                                        floor, max_error, exact, gpu, platforms,
                                                                        precision)
+    from ..symbolic import budgets
+
+    # (the options every task would refuse alike, refused once before the batch)
+    engines.checked_options(gpu, budgets.Budget(engines.DEFAULT_SECONDS if seconds is None else seconds), None,
+                            max_complexity)
     files = library.shader_files([paths] if isinstance(paths, (str, Path)) else paths)
     work = library.tasks(files, options_of)
     settings = dict(gpu=gpu, seconds=seconds, max_complexity=max_complexity, precision=precision)
     started = None
     if client is None:
         client, started = cluster_client(scheduler, None, workers)
+    if run is not None:
+        run.update(scheduler=client.scheduler.address, workers=len(client.scheduler_info()["workers"]))
     try:
         library.calibrate(client, gpu or engines.available_architectures(), log)
         found = library.derive_library(work, options_of, command_line, settings,

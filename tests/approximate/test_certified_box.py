@@ -155,3 +155,39 @@ def test_an_excluded_corner_is_left_out_and_the_budget_stops_the_search():
     excluded = cb.certify(body, ["x", "y"], expression, [x, y], [(0.0, 1.0), (0.0, 1.0)],
                           excluded=[((0.0, 0.5), (0.0, 0.5))], work=50)
     assert excluded.found <= done.found and math.isfinite(excluded.bound)
+
+
+def test_a_target_of_two_variables_is_certified_member_by_member_until_its_fronts_hold():
+    """`several_variables._certified` on planted forms of x y over [0, 1]^2: `cheap`'s planted sample
+    missed its error (1e-3 at x = y = 1); proven, it leaves the front and `dear`, which its sampled error
+    dominated, joins and is proven in a second pass; the anchor and the exact target are certified, the
+    material member is not (with the reason); each has Vulkan's worst beside it."""
+    from pipeline.approximate.engines import several_variables
+    from pipeline.approximate.forms import Form
+    from pipeline.approximate.targets import Axis, parse, reading as read
+    from pipeline.approximate.targets.target import Target
+
+    target = read.check(Target("xy", "x*y", (Axis("x", 0.0, 1.0), Axis("y", 0.0, 1.0))))
+    forms = {"cheap": "x*y*(1 + 0.001*x)", "dear": "x*y + 0.00001", "material": "x*y", "mine": "x*y*(1 - 0.01*y)",
+             "exact": "x*y"}
+    kinds = {"cheap": "found", "dear": "found", "material": "found", "mine": "anchor", "exact": "exact"}
+    everything = [Form(n, kinds[n], "grammar", parse(t, ("x", "y")), "") for n, t in forms.items()]
+    per_of = {n: (None, "material" if n == "material" else "pixel") for n in forms}
+    sampled = {"cheap": 1e-6, "dear": 1e-5, "material": 0.5, "mine": 1e-2, "exact": 1e-7}
+    errors = {n: dict(max_abs_error=e, max_rel_error=1.0, x_abs=0.5, x_rel=0.5) for n, e in sampled.items()}
+    cycles = {"rdna3": {"cheap": 5.0, "dear": 6.0, "material": 1.0, "mine": 4.0, "exact": 2.0}}
+    said = []
+    done = several_variables._certified(everything, per_of, target, "fp32", errors, cycles, ["rdna3"],
+                                        "max_abs_error", 1.0, 0.0, said.append)
+    assert done["passes"] == 2 and sorted(done["certified"]) == ["cheap", "dear", "exact", "mine"]
+    assert done["not_certified"] == {"material": "its constants are computed per material (not certified)"}
+    cheap = done["bounds"]["cheap"]
+    assert cheap["status"] == "proven" and 0.000999 <= cheap["bound"] <= 1.25 * cheap["found"]
+    assert errors["cheap"]["max_abs_error"] == cheap["bound"] and done["bounds"]["dear"]["bound"] >= 1e-5
+    assert set(done["spec"]["dear"]) == {"vulkan", "amd"} and \
+        done["spec"]["dear"]["vulkan"]["bound"] >= done["bounds"]["dear"]["found"]
+    columns = several_variables._certified_columns("cheap", done, {n: dict(max_abs_error=e) for n, e in
+                                                                   sampled.items()}, "max_abs_error")
+    assert columns["certified"] == "proven" and columns["certified_abs_error"] == cheap["bound"]
+    assert columns["certified_ratio"] == pytest.approx(cheap["bound"] / 1e-6)
+    assert columns["max_abs_error_spec"] >= cheap["found"] and "max_abs_error_spec_amd" in columns

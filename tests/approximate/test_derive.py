@@ -168,8 +168,8 @@ def schlick_runs(tmp_path_factory):
     done = subprocess.run(command, capture_output=True, text=True, env=env, timeout=600)
     assert done.returncode == 0, done.stdout + done.stderr
     half = tmp_path / "half"
-    again = subprocess.run(command[:-1] + [str(half), "--precision", "fp16"], capture_output=True, text=True, env=env,
-                           timeout=600)
+    again = subprocess.run(command[:-1] + [str(half), "--precision", "fp16", "--certify"], capture_output=True,
+                           text=True, env=env, timeout=600)
     assert again.returncode == 0, again.stdout + again.stderr
     # the same command once more, its search not kept, both cores busy with other processes while its
     # grammar is searched (the ladder: from its first line to the cost tables' line; the families
@@ -259,6 +259,17 @@ def test_pipeline_derive_on_schlick(schlick_runs):
     assert {r["precision"] for r in half_rows} == {"fp16"}
     # float16's rounding: no executed form is nearer than half its spacing at 0.5 (values near 1 round so)
     assert min(float(r["max_abs_error"]) for r in half_rows) >= 2.0 ** -12
+    # --certify: in float16 the sample was every input already, so the certified maxima are the sampled
+    # ones; every front member, anchor and the exact target certified, each with Vulkan's worst beside it
+    certification = halves["certification"]
+    assert certification["inputs"] == 15361 and certification["passes"] >= 1
+    for r in half_rows:
+        assert r["certified"] == "exhaustive", r
+        assert float(r["max_abs_error"]) == float(r["max_abs_error_sampled"])
+        if r["max_abs_error_spec"]:
+            assert float(r["max_abs_error_spec"]) >= float(r["max_abs_error"]) * (1 - 1e-9)
+    report = (half / "report.md").read_text()
+    assert "- Certified (`certified` = exhaustive in front.csv)" in report and "The worst a conforming driver" in report
     glsl16 = (half / "derive.glsl").read_text()
     assert "float16_t" in glsl16 and "GL_EXT_shader_explicit_arithmetic_types_float16" in glsl16
     with open(out / "front.csv") as f:

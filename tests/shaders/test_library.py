@@ -215,6 +215,7 @@ def test_a_worker_killed_mid_batch_leaves_a_complete_batch(tmp_path, cluster):
     (["--expr", "x*x", "--workers", "2"], "--workers goes with --shader"),
     (["--shader", str(HERE / "engine_style.glsl"), "--workers", "2"], "--scheduler and --workers go with a library"),
     (["--shader", "no_such_folder/"], "--shader no_such_folder/: no such file or folder"),
+    (["--shader", ".", "--seconds", "1"], "--seconds 1: give a number in [5, 3600]"),
 ])
 def test_a_library_s_options_out_of_place_are_one_line_and_exit_2(argv, message, tmp_path, capsys, monkeypatch):
     from pipeline.cli import main
@@ -234,3 +235,29 @@ def test_calls_is_a_positive_number():
     for bad, message in (("calls=0", "calls=0: give a number > 0"), ("calls=many", "calls = 'many': give a number")):
         with pytest.raises(definitions.ShaderError, match=message):
             intent.parse(bad, "here")
+
+
+def test_the_command_runs_a_library_on_an_existing_cluster(tmp_path, cluster):
+    """`pipeline derive --shader DIR --scheduler ADDRESS`, the real engine, on a cluster started before
+    it (the fixture's, as another process would start one): its workers derive the one function, the
+    cost table compiled once first, and library.md names the cluster and its 2 workers; the run's
+    exit is 0 and every file is written."""
+    import subprocess
+
+    from tests.helpers import cli_env
+
+    shaders = tmp_path / "shaders"
+    shaders.mkdir()
+    (shaders / "tonemap.glsl").write_text(TONEMAP.split("\n\n")[0] + "\n")
+    address = cluster.scheduler.address
+    done = subprocess.run([sys.executable, "-m", "pipeline", "derive", "--shader", str(shaders), "--scheduler", address,
+                           "--gpu", "rdna3", "--seconds", "5", "--max-complexity", "3", "--out", str(tmp_path / "out")],
+                          capture_output=True, text=True, timeout=600,
+                          env=cli_env(tmp_path, PIPELINE_DERIVE_CACHE=str(tmp_path / "derive")))
+    assert done.returncode == 0, done.stdout + done.stderr
+    assert "cost tables of 1 architecture ready" in done.stdout and "[1/1] tonemap.glsl:reinhard computed" in \
+        done.stdout
+    text = (tmp_path / "out" / "library.md").read_text()
+    assert f"on 2 Dask workers of the cluster at `{address}`" in text
+    assert {p.name for p in (tmp_path / "out").iterdir()} >= {"library.md", "library.json", "library.html",
+                                                               "library.patch", "savings.png", "files"}

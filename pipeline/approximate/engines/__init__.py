@@ -12,14 +12,15 @@ def derive(target: Target, gpu, budget, max_cycles, max_complexity: int, formula
     """The results of the engine that derives a checked `target`'s shape (`Target.shape`), every form
     costed and executed in `precision` (default the target's). Raises DeriveError for an option the
     shape does not take. `certify`: every front member's error as executed proven over the whole
-    domain (one variable: every input, `one_variable.certified`)."""
+    domain (one variable: every input, `one_variable.certified`; several: interval branch and bound,
+    `several_variables._certified`)."""
     from . import one_variable, pairs, several_variables
 
     precision = precision or target.precision
     certify = certify or target.certify
-    if certify and target.shape != ONE_VARIABLE:
-        raise DeriveError(f"{target.name}: --certify proves the errors of targets of one variable (every input of "
-                          f"the domain); a target of several variables or a pair is not certified")
+    if certify and (target.shape == PAIR or target.table is not None):
+        raise DeriveError(f"{target.name}: --certify proves errors against a target's expression; "
+                          + ("a pair of outputs" if target.shape == PAIR else "a table") + " is not certified")
     if target.shape == PAIR:
         if precision != "fp32":
             raise DeriveError(f"{target.name}: --precision {precision}: a pair of outputs is executed and costed in "
@@ -32,4 +33,4 @@ def derive(target: Target, gpu, budget, max_cycles, max_complexity: int, formula
         return one_variable.derive(target, gpu, budget, max_cycles, max_complexity, log=log, precision=precision,
                                    certify=certify)
     return several_variables.derive(target, gpu, budget, max_cycles, max_complexity, log=log,
-                                    formula_complexity=formula_complexity, precision=precision)
+                                    formula_complexity=formula_complexity, precision=precision, certify=certify)

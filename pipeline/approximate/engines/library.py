@@ -166,7 +166,7 @@ def calibrate(client, architectures, log=print) -> None:
                                                                for a in architectures], pure=False)
     wait(futures)
     done = [f.result() for f in futures if f.status == "finished"]
-    log(f"cost tables of {len(done)} architectures ready ({time.perf_counter() - start:.0f} s)")
+    log(f"cost tables of {len(done)} architecture{'s' * (len(done) != 1)} ready ({time.perf_counter() - start:.0f} s)")
 
 
 def derive_library(work: list[tuple[Path, str]], options_of, command_line: dict | None, settings: dict, cache: Path,

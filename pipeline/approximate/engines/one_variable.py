@@ -225,7 +225,11 @@ def derive(target, gpu=None, budget=None, max_cycles: float | None = None,
         def needed(current):
             on = {r["name"] for a in architectures for r in front(rows_of(a, current), error_key, floor)}
             return on | {m.name for m in anchors + [exact] if any(m.name in cycles[a] for a in architectures)}
-        certification = certified(needed, forms_by_name, target, precision, errors, error_key, log)
+        from ...isa.architectures import ARCHITECTURES
+
+        vendors = {ARCHITECTURES[a].vendor for a in architectures}
+        certification = certified(needed, forms_by_name, target, precision, errors, error_key, log, vendors)
+        certification["error_key"] = error_key
     rows, fronts, verdicts = [], {}, {}
     for a in architectures:
         table = tables.get(a, {})
@@ -284,48 +288,66 @@ def derive(target, gpu=None, budget=None, max_cycles: float | None = None,
                 forms=forms_by_name, cycles=cycles)
 
 
-def certified(needed, forms_by_name: dict, target, precision: str, errors: dict, error_key: str, log) -> dict:
+def certified(needed, forms_by_name: dict, target, precision: str, errors: dict, error_key: str, log,
+              vendors=()) -> dict:
     """Each form `needed(errors)` names executed at every input of the domain (`exhaustive.certify`),
     its errors in `errors` replaced by those maxima, until every form needed (the fronts' members read
     off the errors as they now stand, the anchors, the exact target) is certified or cannot be: a
     form's sampled error is at most its true one, so a form the certified members dominate by its
-    sampled error is dominated by its true one too. Returns dict(names certified, not_certified={name:
-    why}, how={name: emulation or lavapipe}, inputs, truth, passes, seconds)."""
-    from ..measures import exhaustive
+    sampled error is dominated by its true one too. Then each certified form's worst under Vulkan's
+    allowances and each of `vendors`' documented figures (`certified_box.spec_bounds`, over the
+    domain). Returns dict(names certified, not_certified={name: why}, how={name: emulation or
+    lavapipe}, inputs, truth, passes, spec={name: {vulkan, amd, ...: {bound, status}}}, seconds)."""
+    import time
 
-    out = dict(certified=[], not_certified={}, how={}, inputs=None, truth=None, passes=0, seconds=0.0)
-    while True:
-        names = sorted(n for n in needed(errors) if n not in out["certified"] and n not in out["not_certified"])
-        if not names:
-            return out
-        bodies = {}
-        for name in names:
-            if not math.isfinite(errors[name][error_key]):
-                out["not_certified"][name] = "not executed (its sampled error is not finite)"
-                continue
-            bodies[name] = glsl(forms_by_name[name].expression, target.variable, precision)
-        if not bodies:
-            continue
-        run = exhaustive.certify(bodies, target, precision, log)
-        for name, e in run["errors"].items():
-            errors[name] = dict(e)
-            out["certified"].append(name)
-        out["not_certified"].update(run["not_certified"])
+    from ..measures import certified_box, exhaustive
+    from .certification import box_bounds, until_certified
+
+    out = dict(how={}, inputs=None, truth=None, spec={}, seconds=0.0)
+
+    def certify_names(names):
+        run = exhaustive.certify({n: glsl(forms_by_name[n].expression, target.variable, precision) for n in names},
+                                 target, precision, log)
         out["how"].update(run["how"])
-        out.update(inputs=run["inputs"], truth=run["truth"], passes=out["passes"] + 1,
-                   seconds=round(out["seconds"] + run["seconds"], 1))
-        log(f"certified {len(run['errors'])} forms at every input ({run['seconds']:.0f} s); "
-            f"{len(run['not_certified'])} not certified")
+        out.update(inputs=run["inputs"], truth=run["truth"], seconds=round(out["seconds"] + run["seconds"], 1))
+        return {n: (run["errors"][n], None) if n in run["errors"] else (None, run["not_certified"].get(n, "not run"))
+                for n in names}
+
+    out |= until_certified(needed, errors, error_key, certify_names, log)
+    started = time.perf_counter()
+    metric = "rel" if error_key == "max_rel_error" else "abs"
+    floor = target.floor if metric == "rel" else 0.0
+    roundings = ["vulkan"] + sorted(v for v in set(vendors) if (v, precision) in _documented())
+    jobs = [(name, rounding, glsl(forms_by_name[name].expression, target.variable, precision), [target.variable],
+             target.sympy(), [target.symbol()], [target.domain], precision, metric, floor, 0.0,
+             certified_box.RATIO_ONE) for name in out["certified"] for rounding in roundings]
+    for (name, rounding), c in box_bounds(jobs).items():
+        out["spec"].setdefault(name, {})[rounding] = dict(bound=c.bound, status=c.status, reason=c.reason)
+    log(f"the worst a conforming driver may give, {len(out['certified'])} forms ({time.perf_counter() - started:.0f} s)")
+    out["seconds"] = round(out["seconds"] + time.perf_counter() - started, 1)
+    return out
+
+
+def _documented() -> set:
+    from ...isa import special_functions
+
+    return set(special_functions.VENDOR)
 
 
 def _certified_columns(name: str, certification: dict | None, sampled: dict) -> dict:
     """A row's `certified` (exhaustive, or sampled where it was not) and its sampled errors beside the
-    certified ones, with `--certify`; nothing without it."""
+    certified ones, and the worst a conforming driver may give (`max_abs_error_spec` or `_rel_`, per
+    vendor `..._spec_amd`; None where not bounded), with `--certify`; nothing without it."""
     if certification is None:
         return {}
-    return dict(certified="exhaustive" if name in certification["certified"] else "sampled",
-                max_abs_error_sampled=sampled[name]["max_abs_error"],
-                max_rel_error_sampled=sampled[name]["max_rel_error"])
+    out = dict(certified="exhaustive" if name in certification["certified"] else "sampled",
+               max_abs_error_sampled=sampled[name]["max_abs_error"],
+               max_rel_error_sampled=sampled[name]["max_rel_error"])
+    key = certification.get("error_key", "max_abs_error")
+    for vendor, c in certification["spec"].get(name, {}).items():
+        column = f"{key}_spec" if vendor == "vulkan" else f"{key}_spec_{vendor}"
+        out[column] = c["bound"] if math.isfinite(c["bound"]) else None
+    return out
 
 
 def bound_columns(rows: list[dict], forms_by_name: dict, target, f, precision: str, error_key: str) -> None:

@@ -197,9 +197,98 @@ def _headline(target: Target, architectures) -> str:
             f"{len(architectures)} architecture{'s' * (len(architectures) > 1)}")
 
 
+def _certified(everything, per_of, target: Target, precision: str, errors: dict, cycles: dict, architectures,
+               error_key: str, constant: float, floor: float, log) -> dict:
+    """`--certify` for a target of several variables (`certification.until_certified`): each member of
+    a front, each anchor and the exact target bounded by interval branch and bound over the whole box
+    (`measures.certified_box`, lavapipe's rounding), its error on the fronts the proven bound; a
+    material member (its constants computed per material) is not certified. Then each certified
+    form's worst under Vulkan's allowances and its architectures' vendors' documented figures.
+    Returns dict(certified, not_certified, passes, bounds={name: {bound, found, at, boxes, status,
+    sampled}}, spec={name: {vulkan, amd, ...: {bound, status, reason}}}, seconds)."""
+    from ...isa.architectures import ARCHITECTURES
+    from ...isa import special_functions
+    from ..measures import certified_box
+    from ..measures.fronts import front
+    from .certification import box_bounds, until_certified
+
+    started = time.perf_counter()
+    metric = target.metric
+    relative_floor = target.floor if metric == "rel" else 0.0
+    domain = [(a.lo, a.hi) for a in target.axes]
+    inputs, symbols, expression = list(target.names), target.symbols(), target.sympy()
+    bodies, why_not = {}, {}
+    for m in everything:
+        if per_of[m.name][1] != "pixel":
+            why_not[m.name] = "its constants are computed per material (not certified)"
+            continue
+        try:
+            bodies[m.name] = glsl_text(m.expression, precision)
+        except Exception as e:          # (a function the GLSL printer does not know)
+            why_not[m.name] = not_printed(e)
+    out = dict(bounds={}, spec={})
+
+    def needed(current):
+        on = {m.name for m in everything if m.kind != "found"}
+        for a in architectures:
+            by_name = cycles.get(a, {})
+            for per in ("pixel", "material"):
+                rows = [dict(name=m.name, cycles=by_name[m.name], **current[m.name]) for m in everything
+                        if m.kind == "found" and per_of[m.name][1] == per and m.name in by_name
+                        and current[m.name][error_key] < constant]
+                on |= {r["name"] for r in front(rows, error_key, floor)}
+        return on
+
+    def certify_names(names):
+        jobs = [(n, "lavapipe", bodies[n], inputs, expression, symbols, domain, precision, metric, relative_floor,
+                 errors[n][error_key], certified_box.RATIO) for n in names if n in bodies]
+        done = box_bounds(jobs)
+        result = {}
+        for n in names:
+            c = done.get((n, "lavapipe"))
+            if c is None or c.status == "not bounded":
+                result[n] = (None, why_not.get(n) or c.reason)
+                continue
+            out["bounds"][n] = dict(bound=c.bound, found=c.found, at=list(c.at), boxes=c.boxes, status=c.status,
+                                    sampled=errors[n][error_key])
+            result[n] = ({error_key: c.bound}, None)
+        return result
+
+    out |= until_certified(needed, errors, error_key, certify_names, log)
+    roundings = ["vulkan"] + sorted({ARCHITECTURES[a].vendor for a in architectures}
+                                    & {v for v, p in special_functions.VENDOR if p == precision})
+    jobs = [(n, r, bodies[n], inputs, expression, symbols, domain, precision, metric, relative_floor, 0.0,
+             certified_box.RATIO) for n in out["certified"] for r in roundings]
+    for (n, r), c in box_bounds(jobs).items():
+        out["spec"].setdefault(n, {})[r] = dict(bound=c.bound, status=c.status, reason=c.reason)
+    out["seconds"] = round(time.perf_counter() - started, 1)
+    proven = sum(b["status"] == "proven" for b in out["bounds"].values())
+    log(f"certified {len(out['certified'])} forms by branch and bound ({proven} within {certified_box.RATIO}x of the "
+        f"largest error found, the rest at the budget) in {out['seconds']:.0f} s")
+    return out
+
+
+def _certified_columns(name: str, certification: dict | None, sampled: dict, error_key: str) -> dict:
+    """A row's `certified` (proven, budget, or sampled where not certified), its proven bound
+    (`certified_abs_error` or `_rel_`), its ratio to the sampled error, the sampled error, and the
+    worst a conforming driver may give (`max_abs_error_spec` or `_rel_`, per vendor `..._spec_amd`),
+    with `--certify`; nothing without it."""
+    if certification is None:
+        return {}
+    bound = certification["bounds"].get(name)
+    short = error_key.removeprefix("max_").removesuffix("_error")
+    out = {"certified": bound["status"] if bound else "sampled", f"certified_{short}_error": bound and bound["bound"],
+           "certified_ratio": bound and (bound["bound"] / bound["sampled"] if bound["sampled"] > 0 else None),
+           f"{error_key}_sampled": sampled[name][error_key]}
+    for vendor, c in certification["spec"].get(name, {}).items():
+        column = f"{error_key}_spec" if vendor == "vulkan" else f"{error_key}_spec_{vendor}"
+        out[column] = c["bound"] if c["bound"] != float("inf") else None
+    return out
+
+
 def derive(target: Target, gpu=None, budget=None, max_cycles: float | None = None,
            max_complexity: int = 12, log=print, formula_complexity: int = 0, precision: str = "fp32",
-           search: tuple[list[dict], dict] | None = None) -> dict:
+           search: tuple[list[dict], dict] | None = None, certify: bool = False) -> dict:
     """The derivation of the module docstring for `target` on the architectures `gpu` (names;
     default every one whose compiler runs here), with `formula_complexity` > 0 the lines of the best
     templates also corrected by the symbolic regression (`corrected`); `search`: the search's
@@ -238,6 +327,11 @@ def derive(target: Target, gpu=None, budget=None, max_cycles: float | None = Non
     execution = _executed(everything, per_of, record, target, f, real, cycles, architectures, error_key, constant,
                           floor, log, precision)
     errors = execution.pop("measured")
+    sampled = {name: dict(e) for name, e in errors.items()}
+    certification = None
+    if certify:
+        certification = _certified(everything, per_of, target, precision, errors, cycles, architectures, error_key,
+                                   constant, floor, log)
 
     rows, fronts, verdicts = [], {}, {}
     for a in architectures:
@@ -260,7 +354,8 @@ def derive(target: Target, gpu=None, budget=None, max_cycles: float | None = Non
                              source=m.source, range=target.range_text(), parameter_per=per_of[m.name][1]
                              if target.parameter is not None else "",
                              max_abs_error_real=real[m.name]["max_abs_error"],
-                             max_rel_error_real=real[m.name]["max_rel_error"], precision=precision))
+                             max_rel_error_real=real[m.name]["max_rel_error"], precision=precision,
+                             **_certified_columns(m.name, certification, sampled, error_key)))
         pixel_front = [r for r in rows if r["architecture"] == a and r["name"] in fronts[a]["pixel"]]
         verdicts[a] = {m.name: dict(cycles=by_name[m.name], error=errors[m.name][error_key],
                                     **verdict(by_name[m.name], errors[m.name][error_key], pixel_front,
@@ -276,6 +371,7 @@ def derive(target: Target, gpu=None, budget=None, max_cycles: float | None = Non
                                expression=_text(m, record, target), **errors[m.name],
                                max_abs_error_real=real[m.name]["max_abs_error"],
                                max_rel_error_real=real[m.name]["max_rel_error"],
+                               **_certified_columns(m.name, certification, sampled, error_key),
                                **(dict(parameter_per=per_of[m.name][1] if target.parameter is not None else "")
                                   | record.get(m.name, {}).get("formulas", {})))
     return dict(target=dict(name=target.name, expression=target.expression, variable=target.variable,
@@ -290,6 +386,7 @@ def derive(target: Target, gpu=None, budget=None, max_cycles: float | None = Non
                 fronts={a: fr["pixel"] + [n for n in fr["material"] if n not in fr["pixel"]] for a, fr in fronts.items()},
                 fronts_by_parameter=fronts, verdicts=verdicts, rows=rows, error=error_key, constant_error=constant,
                 rounding_floor=floor, precision=precision, execution=execution, cost_tables={},
+                **({"certification": certification} if certification is not None else {}),
                 seconds=round(elapsed, 1), estimated_seconds=None,
                 members=members, forms={m.name: m for m in everything}, cycles=cycles)
 

@@ -39,6 +39,7 @@ import numpy as np
 UNIT = {"fp32": 2.0 ** -23, "fp16": 2.0 ** -10}          # the format's spacing at 1 (an ulp at v: <= UNIT |v|)
 SMALLEST = {"fp32": 2.0 ** -149, "fp16": 2.0 ** -24}     # the subnormals' spacing
 RATIO = 1.25            # proven: the largest bound left within RATIO of the largest error found
+RATIO_ONE = 1.01        # the same in one variable, where boxes are cheap
 WORK = 20_000           # boxes bounded per form at most
 DEBUG = False
 
@@ -80,8 +81,9 @@ def vulkan(precision: str) -> Rounding:
 
 
 def vendor(name: str, precision: str) -> Rounding:
-    """A vendor's documented figures where it publishes them (`special_functions.VENDOR`), Vulkan's
-    minimum elsewhere; + - * correctly rounded (the vendors' ISA guides: round to nearest even)."""
+    """A vendor's documented figures (`special_functions.VENDOR`: AMD's and NVIDIA's), Vulkan's minimum
+    for a function it does not document; + - * correctly rounded (their ISA guides: round to nearest
+    even, the instructions' default mode)."""
     from ...isa import special_functions
 
     spec = vulkan(precision)
@@ -89,7 +91,8 @@ def vendor(name: str, precision: str) -> Rounding:
     functions = dict(spec.functions) | {k: v for k, v in own.items() if k not in ("division", "sqrt")}
     return Rounding(name, 0.5, own["division"].ulps if "division" in own else spec.division,
                     own["sqrt"].ulps if "sqrt" in own else spec.sqrt, functions,
-                    "; ".join(sorted({a.source for a in own.values()})) or spec.source)
+                    "; ".join(sorted({a.source for a in own.values()}) + ["+ - *: round to nearest even, the ISA's "
+                                                                          "default mode"]) if own else spec.source)
 
 
 # --- arb helpers ---------------------------------------------------------------------------------
@@ -564,3 +567,20 @@ def _executed_error(ops, result, inputs, points: np.ndarray, exact, dtype, metri
     error = np.where(np.isfinite(error), error, 0.0)
     k = int(np.argmax(error))
     return float(error[k]), tuple(float(v) for v in points[k])
+
+
+def spec_bounds(body: str, inputs: list[str], expression, symbols, domain, precision: str, vendors=(),
+                metric: str = "abs", floor: float = 0.0, work: int = WORK, ratio: float = RATIO) -> dict:
+    """{"vulkan": the `certify` of `body` with Vulkan's minimum allowances (`vulkan`), and per vendor
+    of `vendors` that documents its own figures (`special_functions.VENDOR`: AMD, NVIDIA) with them
+    (`vendor`), each a Certified}:
+    the worst a conforming driver may give, the operations in the order written (a contracted
+    multiply-add is within the same bound)."""
+    out = {"vulkan": certify(body, inputs, expression, symbols, domain, precision, vulkan(precision), metric, floor,
+                             work=work, ratio=ratio)}
+    from ...isa import special_functions
+
+    for name in sorted({v for v in vendors if (v, precision) in special_functions.VENDOR}):
+        out[name] = certify(body, inputs, expression, symbols, domain, precision, vendor(name, precision), metric,
+                            floor, work=work, ratio=ratio)
+    return out

@@ -59,6 +59,8 @@ def certification_lines(results: dict) -> list[str]:
     if not c["certified"]:
         return ["- Certified: none (" + "; ".join(escape.markdown(f"{n}: {w}") for n, w in c["not_certified"].items())
                 + ")."]
+    if "bounds" in c:
+        return box_certification_lines(results)
     how = {h: sorted(n for n, k in c["how"].items() if k == h) for h in sorted(set(c["how"].values()))}
     out = [f"- Certified (`certified` = exhaustive in front.csv): the largest errors as executed of {len(c['certified'])} "
            f"forms ({', '.join(escape.markdown(n) for n in sorted(c['certified']))}) are the maxima over every one of "
@@ -70,6 +72,60 @@ def certification_lines(results: dict) -> list[str]:
            f"in {c['seconds']:.0f} s. The sampled maxima are beside them (`max_abs_error_sampled`, "
            "`max_rel_error_sampled`); the fronts and verdicts read the certified ones. A GPU other than lavapipe "
            "may round otherwise where Vulkan allows it."]
+    if c.get("spec"):
+        from ..measures import certified_box
+
+        vendors = sorted({v for bounds in c["spec"].values() for v in bounds if v != "vulkan"})
+        key = results["error"]
+        statuses = [b["status"] for bounds in c["spec"].values() for b in bounds.values()]
+        out += [f"- The worst a conforming driver may give (`{key}_spec`"
+                + "".join(f", `{key}_spec_{v}`" for v in vendors) + "): each certified form's operations in the order "
+                "written, each result allowed Vulkan's minimum (+ - * either neighbour, division 2.5 ulp, sqrt 4.5, "
+                "exp2 3 + 2|x| ulp, log2, inversesqrt: "
+                f"{escape.markdown(certified_box.vulkan(results['precision']).source)})"
+                + "".join(f", or {v.upper()}'s documented figures ({escape.markdown(certified_box.vendor(v, results['precision']).source)})"
+                          for v in vendors)
+                + f", proven by interval arithmetic (arb) over the domain split into boxes: {statuses.count('proven')} "
+                f"of {len(statuses)} bounds within {certified_box.RATIO_ONE}x of the largest pointwise bound found, "
+                f"{statuses.count('budget')} stopped at {certified_box.WORK:,} boxes, {statuses.count('not bounded')} "
+                "not bounded (a driver's function without a lowering here: none stated). A contracted multiply-add "
+                "stays within these bounds; a driver that reassociates operations is not covered."]
+    if c["not_certified"]:
+        out += ["- Not certified (their errors sampled): " + "; ".join(
+            escape.markdown(f"{n}: {w}") for n, w in c["not_certified"].items()) + "."]
+    return out
+
+
+def box_certification_lines(results: dict) -> list[str]:
+    """report.md's lines on a target of several variables' certified errors (`--certify`)."""
+    from ..measures import certified_box
+
+    c, key = results["certification"], results["error"]
+    short = key.removeprefix("max_").removesuffix("_error")
+    bounds = c["bounds"]
+    proven = sorted(n for n, b in bounds.items() if b["status"] == "proven")
+    budget = sorted(n for n, b in bounds.items() if b["status"] == "budget")
+    flagged = sorted(n for n, b in bounds.items() if b["sampled"] > 0 and b["bound"] > certified_box.RATIO * b["sampled"])
+    out = [f"- Certified (`certified_{short}_error` in front.csv, the error the fronts and verdicts read): each form's "
+           f"largest error as lavapipe rounds it, proven over the whole box by interval arithmetic (arb; the mean-value "
+           f"form of its error, its rounding carried through its operations) in boxes split where their bound is "
+           f"largest: {len(proven)} of {len(bounds)} proven within {certified_box.RATIO}x of the largest error found "
+           f"(each box's centre and corners executed by the emulation), {len(budget)} stopped at "
+           f"{certified_box.WORK:,} boxes with the bound reached ({', '.join(escape.markdown(n) for n in budget) or 'none'}); "
+           f"in {c['seconds']:.0f} s. `certified_ratio` is the bound over the sampled error; above "
+           f"{certified_box.RATIO}x: {', '.join(escape.markdown(n) for n in flagged) or 'none'}."]
+    for name, b in sorted(bounds.items()):
+        where = ", ".join(f"{v:.4g}" for v in b["at"])
+        out.append(f"  - {escape.markdown(name)}: {b['status']}, bound {b['bound']:.4g}, sampled {b['sampled']:.4g}, "
+                   f"largest found {b['found']:.4g}" + (f" at ({where})" if where else "") + f", {b['boxes']:,} boxes")
+    if c["spec"]:
+        vendors = sorted({v for bounds_ in c["spec"].values() for v in bounds_ if v != "vulkan"})
+        out.append(f"- The worst a conforming driver may give (`{key}_spec`" + "".join(f", `{key}_spec_{v}`" for v in vendors)
+                   + "): the same proof with each operation allowed Vulkan's minimum ("
+                   + escape.markdown(certified_box.vulkan(results["precision"]).source) + ")"
+                   + "".join(f", or {v.upper()}'s documented figures" for v in vendors)
+                   + ", the operations in the order written (a contracted multiply-add stays within it; a driver that "
+                   "reassociates is not covered).")
     if c["not_certified"]:
         out += ["- Not certified (their errors sampled): " + "; ".join(
             escape.markdown(f"{n}: {w}") for n, w in c["not_certified"].items()) + "."]
@@ -437,6 +493,38 @@ def write(out: Path, results, log=print) -> list[Path]:
 def file_names(results) -> list[str]:
     return ["front.csv", "results.json", "report.md", "report.html", "front.png", "derive.glsl", "derive.hlsl",
             "derive_twin.py"] + (["renders.png", "rendered_front.png"] if results.get("renders") else [])
+
+
+WRITTEN = ".written"      # in a derivation's folder: the digest of what it was written from (`write_kept`)
+
+
+def folder_digest(results) -> str:
+    """What a derivation's folder is written from: its results (results.json's, every form's cycles and
+    expression, its renders), the page's assets and this package's code."""
+    from ...engine import web_page
+    from ...engine.cache import digest
+
+    code = b"".join(f.read_bytes() for f in sorted(Path(__file__).parent.glob("*.py")))
+    forms = {name: str(getattr(f, "expression", f)) for name, f in (results.get("forms") or {}).items()}
+    renders = results.get("renders")
+    return digest("derive folder", json.dumps(results_json(results), sort_keys=True, default=str),
+                  json.dumps(results.get("cycles"), sort_keys=True, default=str), json.dumps(forms, sort_keys=True),
+                  repr(renders) if renders is not None else "", web_page.assets_digest(), code.hex())
+
+
+def write_kept(folder: Path, results, shown: Path) -> str:
+    """`write_into`, or where `shown` already holds every file written from the same results and code
+    (its `WRITTEN` digest: a rerun with nothing changed), those files copied into `folder`."""
+    import shutil
+
+    key = folder_digest(results)
+    kept = shown / WRITTEN
+    if kept.is_file() and kept.read_text() == key and all((shown / n).is_file() for n in file_names(results)):
+        shutil.copytree(shown, folder, dirs_exist_ok=True)
+        return "kept"
+    written = write_into(folder, results, shown)
+    (folder / WRITTEN).write_text(key)
+    return written
 
 
 def write_into(folder: Path, results, shown: Path) -> str:

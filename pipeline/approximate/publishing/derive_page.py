@@ -300,7 +300,8 @@ def data(results) -> dict:
         rows.setdefault(r["architecture"], []).append(dict(
             name=r["name"], kind=r["kind"], cycles=r["cycles"], error=r[error_key], error_real=r.get(error_key + "_real"),
             on_front=bool(r["on_front"]), expression=r["expression"], front=r.get("parameter_per") or "",
-            flip=r.get("flip_max"), certified=r.get("certified"), error_sampled=r.get(error_key + "_sampled")))
+            flip=r.get("flip_max"), certified=r.get("certified"), error_sampled=r.get(error_key + "_sampled"),
+            error_spec=r.get(error_key + "_spec")))
     if target.get("variables"):
         curves, how = _several_variable_curves(results, names), {}
     else:

@@ -80,8 +80,9 @@ def report(library: dict, library_rows: list[dict], summed: dict, run: dict, per
     counts = {s: sum(r["status"] == s for r in {(r["file"], r["function"]): r for r in library_rows}.values())
               for s in ("derived", "none cheaper", "refused")}
     lines = [f"# A shader library: {len(library)} files, {sum(counts.values())} functions", "",
-             ", ".join(f"{n} {s}" for s, n in counts.items()) + f"; on {run['workers']} Dask workers in "
-             f"{run['seconds']:.0f} s. The files are unchanged; `library.patch` replaces the derived functions' bodies.",
+             ", ".join(f"{n} {s}" for s, n in counts.items()) + f"; on {run['workers']} Dask workers"
+             + ("" if run.get("local", True) else f" of the cluster at {escape.code(str(run.get('scheduler')))}")
+             + f" in {run['seconds']:.0f} s. The files are unchanged; `library.patch` replaces the derived functions' bodies.",
              "", "## Totals per architecture", "",
              "Cycles summed over the functions, each times the calls a pixel makes of it (`calls=`, 1 by default).", "",
              "| architecture | functions | cycles before | cycles after |", "|---|---|---|---|"]
@@ -184,7 +185,7 @@ def write(out: Path, library: dict, languages: dict, run: dict, log=print) -> li
     return [out / n for n in ("library.md", "library.json", "library.html", "library.patch", "savings.png")]
 
 
-FIGURE_VERSION = "savings 1"       # (a change of the figure's drawing: written again)
+FIGURE_VERSION = "savings 2"       # (a change of the figure's drawing: written again)
 
 
 def savings_figure(path: Path, library_platform_rows: list[dict], library_rows: list[dict]) -> None:
@@ -219,7 +220,7 @@ def savings_figure(path: Path, library_platform_rows: list[dict], library_rows: 
         ax.set_yticks(list(y), labels, fontsize=8)
         ax.set_xlabel("cycles × calls" + (" (worst over the platform)" if library_platform_rows else ""))
         ax.set_title(f"{name}: {sum(before):g} → {sum(after):g} cycles", fontsize=10)
-        ax.legend(fontsize=7, loc="lower right")
+        ax.legend(fontsize=7, loc="best")
     for ax in axes[0][len(panels):]:
         ax.set_axis_off()
         ax.text(0.5, 0.5, "no function with cycles", ha="center", va="center")

@@ -122,7 +122,7 @@ def write_files(folder: Path, shown: Path, path: Path, outcomes, language: str, 
     """Every file of the module docstring into `folder` (a temporary folder being published as
     `shown`, which an error names)."""
     from ...engine import faults
-    from .derive_files import write_into
+    from .derive_files import write_kept
     from . import shader_page
 
     rows = function_rows(path, outcomes)
@@ -139,10 +139,10 @@ def write_files(folder: Path, shown: Path, path: Path, outcomes, language: str, 
     for o in outcomes:
         if o.results is not None:
             name = escape.folder_name(o.name)
-            write_into(folder / "functions" / name, o.results, shown / "functions" / name)
+            write_kept(folder / "functions" / name, o.results, shown / "functions" / name)
         for p in (p for p in o.pieces if p.results is not None):
             piece = f"{escape.folder_name(o.name)}_piece{p.index}"
-            write_into(folder / "functions" / piece, p.results, shown / "functions" / piece)
+            write_kept(folder / "functions" / piece, p.results, shown / "functions" / piece)
     with faults.writing(shown / "report.html"):
         shader_page.write(folder / "report.html", path, outcomes, language, patch)
 

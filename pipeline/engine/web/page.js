@@ -204,10 +204,15 @@
       formBox.replaceChildren(el("h3", { text: `${name} (${f.kind})` }));
       formBox.append(facts([
         ["expression", el("code", { text: f.expression })], ["source", f.source],
-        ["error as executed", row ? `${fmt(row.error)} on ${state.arch}` + (row.certified === "exhaustive"
-          ? " (certified: the largest over every input of the domain)" : row.certified === "sampled"
-          ? " (sampled: not certified)" : " (the largest of the inputs tried)") : "not on this GPU"],
+        ["error as executed", row ? `${fmt(row.error)} on ${state.arch}` + ({
+          exhaustive: " (certified: the largest over every input of the domain)",
+          proven: " (certified: a bound proven over the whole box, within 1.25x of the largest found)",
+          budget: " (certified: a bound proven over the whole box, reached at the budget of boxes)",
+          sampled: " (sampled: not certified)" }[row.certified] || " (the largest of the inputs tried)")
+          : "not on this GPU"],
         ["error as executed, sampled", row && row.certified ? fmt(row.error_sampled) : null],
+        ["the worst a conforming driver may give (Vulkan's allowances, proven)", row && row.error_spec != null
+          ? fmt(row.error_spec) : null],
         ["error of its mathematics (float64)", row ? fmt(row.error_real) : null],
         ["cycles", row ? `${fmt(row.cycles)} on ${state.arch}` : null],
       ]));
