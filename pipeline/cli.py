@@ -209,7 +209,8 @@ def _derive(args) -> int:
     try:
         found = api.derive(target, gpu=args.gpu, seconds=args.seconds, max_cycles=args.max_cycles,
                            max_complexity=args.max_complexity, formula_complexity=args.formula_complexity,
-                           precision=args.precision, plan=plan, platforms=args.platforms, certify=args.certify)
+                           precision=args.precision, plan=plan, platforms=args.platforms, certify=args.certify,
+                           contract=args.contract)
     except (CompilerMissing, ToolMissing) as e:
         print(f"error: the GPU compilers cannot run here: {e}", file=sys.stderr)
         return faults.EXIT_ENVIRONMENT
@@ -538,6 +539,10 @@ def build_parser() -> argparse.ArgumentParser:
                           "over the whole domain (one variable: every input of the format, 1,065,353,217 float32 "
                           "values of [0, 1], minutes; several: interval branch and bound), the fronts read off "
                           "those, and beside them the worst a conforming driver may give")
+    der.add_argument("--contract", default="allowed", choices=("allowed", "never"),
+                     help="never: every form costed and written with its value `precise` (GLSL and HLSL: no fused "
+                          "multiply-add, no reordering by a driver; its cycles may rise), so that the worst a "
+                          "conforming driver may give (--certify) bounds it (default allowed)")
     der.add_argument("--max-cycles", type=float, default=None, metavar="N", help="leave out forms above N cycles")
     der.add_argument("--seconds", type=float, default=None, metavar="S",
                      help="the grammar search's budget, planned as work before the search at the reference "

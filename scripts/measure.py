@@ -19,8 +19,9 @@ typed by hand. The records:
   file, and `pipeline regress` on it.
 - `grammar`: how many forms the grammars hold at the complexities docs/regress.md names.
 - `library`: `pipeline derive --shader` on the tests' library (`tests/shaders/library/`) for the
-  android and desktop platforms (docs/shaders.md): its totals, the form each function ships per
-  platform, and its `savings.png` as `docs/library_savings.png`.
+  android platform (fp16) and the desktop one (fp32), a run each (docs/shaders.md): their totals,
+  the form each function ships per platform, and one savings figure of both,
+  `docs/library_savings.png`.
 
 A record no page reads fails a test (`tests/docs/test_generated.py`): a run added here is also
 marked in a page. `python scripts/measure.py [NAME ...]` runs the named ones (default all, about 25
@@ -264,23 +265,31 @@ LIBRARY_SHOT = ROOT / "docs" / "library_savings.png"     # docs/shaders.md's pic
 
 
 def library_record(env: dict) -> dict:
-    """`pipeline derive --shader` on the tests' library (every file) for the Android and desktop
-    platforms, on a LocalCluster of this machine's cores: library.json's totals and per-platform rows,
-    and its savings.png copied to `LIBRARY_SHOT`."""
-    args = ["derive", "--shader", "tests/shaders/library", "--gpu", "android,desktop", "--seconds", "10",
-            "--out", "measure_library"]
-    seconds, _ = _pipeline(args, env)
-    out = Path(env["PIPELINE_OUTPUTS_DIR"]) / "measure_library"
-    summary = json.loads((out / "library.json").read_text())
-    LIBRARY_SHOT.write_bytes((out / "savings.png").read_bytes())
-    functions = {(r["file"], r["function"]): r["status"] for r in summary["rows"]}
-    return dict(command="pipeline " + " ".join(args[:-2]), wall_seconds=round(seconds, 1), run=summary["run"],
-                functions=len(functions), statuses={s: list(functions.values()).count(s)
-                                                    for s in sorted(set(functions.values()))},
-                totals=summary["totals"], platforms=summary["platforms"],
-                platform_rows=[{k: r[k] for k in ("function", "platform", "form", "cycles_before", "cycles_after",
-                                                  "error_after", "calls")} | dict(file=Path(r["file"]).name)
-                               for r in summary["platform_rows"]])
+    """`pipeline derive --shader` on the tests' library for each shipped platform in its own format
+    (android in fp16, desktop in fp32: two runs, as platforms of two formats are), on a LocalCluster of
+    this machine's cores: each run's command, wall time, totals and per-platform rows, and one
+    savings figure of both platforms' rows (`library_outputs.savings_figure`) as `LIBRARY_SHOT`."""
+    sys.path.insert(0, str(ROOT))
+    from pipeline.approximate.publishing import library_outputs
+
+    runs, rows = {}, []
+    for platform in ("android", "desktop"):
+        args = ["derive", "--shader", "tests/shaders/library", "--gpu", platform, "--seconds", "10",
+                "--out", f"measure_library_{platform}"]
+        seconds, _ = _pipeline(args, env)
+        summary = json.loads((Path(env["PIPELINE_OUTPUTS_DIR"]) / f"measure_library_{platform}" / "library.json")
+                             .read_text())
+        functions = {(r["file"], r["function"]): r["status"] for r in summary["rows"]}
+        runs[platform] = dict(command="pipeline " + " ".join(args[:-2]), wall_seconds=round(seconds, 1),
+                              run=summary["run"], functions=len(functions),
+                              statuses={s: list(functions.values()).count(s) for s in sorted(set(functions.values()))},
+                              platform=summary["platforms"][platform],
+                              rows=[{k: r[k] for k in ("function", "form", "cycles_before", "cycles_after",
+                                                       "error_after", "calls")} | dict(file=Path(r["file"]).name)
+                                    for r in summary["platform_rows"]])
+        rows += summary["platform_rows"]
+    library_outputs.savings_figure(LIBRARY_SHOT, rows, [])
+    return dict(runs=runs, wall_seconds=round(sum(r["wall_seconds"] for r in runs.values()), 1))
 
 
 RECORDS = {**{f"derive_{target}": None for target in DERIVE_RUNS}, "costs": costs_record, "refits": refits_record,

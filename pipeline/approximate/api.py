@@ -130,7 +130,7 @@ def derive(target=None, *, expr: str | None = None, var: str = "x=0:1", table: s
            metric: str | None = None, floor: float | None = None, seconds: float | None = None,
            max_cycles: float | None = None, max_complexity: int = engines.MAX_COMPLEXITY, parameter_range=None,
            formula_complexity: int = 0, precision: str | None = None, name: str | None = None,
-           plan=None, platforms=None, certify: bool = False, log=print) -> Derivation:
+           plan=None, platforms=None, certify: bool = False, contract: str = "allowed", log=print) -> Derivation:
     """The cheapest accurate forms of `target` (a registered name, a TOML file, a Target), of `expr`
     in `var`, or of a CSV `table`'s column `y` over `x` and `parameter` (its range `parameter_range`,
     "LO:HI", where given; with `formula_complexity` > 0 the constants' lines also corrected by the
@@ -145,7 +145,9 @@ def derive(target=None, *, expr: str | None = None, var: str = "x=0:1", table: s
     path to its results.json or plan file, or a `symbolic.budgets.Budget`); results.json's `plan`
     records the plans run. `certify` (or the target file's `certify = true`): every front member's,
     anchor's and the exact target's largest error as executed taken over every input of the domain in
-    the format (`measures.exhaustive`; one variable), the fronts read off those."""
+    the format (`measures.exhaustive`; one variable), the fronts read off those. `contract` "never":
+    every form costed and written with its value `precise` (no fused multiply-add, no reordering by a
+    driver), which makes the worst a conforming driver may give (`--certify`) a bound of it."""
     from ..symbolic import budgets
     from .targets import PRECISIONS
 
@@ -162,7 +164,7 @@ def derive(target=None, *, expr: str | None = None, var: str = "x=0:1", table: s
         raise DeriveError(str(e)) from None
     try:
         raw = engines.derive(chosen, gpu, budget, max_cycles, max_complexity, formula_complexity, precision, log,
-                             certify=certify)
+                             certify=certify, contract=contract)
     except budgets.PlanError as e:
         raise DeriveError(f"--plan: {e}") from None
     raw["plan"] = dict(seconds=budget.seconds, searches=budgets.plans_of(raw["coverage"]))

@@ -77,6 +77,18 @@ def half_literals(body: str) -> str:
     return LITERAL.sub(lambda m: f"float16_t({float(np.float16(float(m.group(1))))!r})", body)
 
 
+CONTRACT = ("allowed", "never")       # may a driver fuse a multiply and an add (`precise_body`)
+
+
+def precise_body(body: str, precision: str = "fp32") -> str:
+    """A form's GLSL statements with the value it returns declared `precise` (every operation it is
+    computed from decorated NoContraction in SPIR-V: no fused multiply-add, no reordering), as
+    `--contract never` costs and writes it."""
+    kind = "float16_t" if precision == "fp16" else "float"
+    head, _, tail = body.rpartition("return ")
+    return f"{head}precise {kind} value_ = {tail.rstrip().removesuffix(';')};\n    return value_;"
+
+
 def form_shader(names, used, body: str | None, push: str = FORM_PUSH, precision: str = "fp32") -> str:
     """A fragment shader with one input per name of `names` (location i; those a form does not read are
     never interpolated), the push constants `push` (a block's members, as "float c0; float c1;"), and a

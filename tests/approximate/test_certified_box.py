@@ -191,3 +191,35 @@ def test_a_target_of_two_variables_is_certified_member_by_member_until_its_front
     assert columns["certified"] == "proven" and columns["certified_abs_error"] == cheap["bound"]
     assert columns["certified_ratio"] == pytest.approx(cheap["bound"] / 1e-6)
     assert columns["max_abs_error_spec"] >= cheap["found"] and "max_abs_error_spec_amd" in columns
+
+
+def test_contract_never_writes_and_costs_every_form_precise(tmp_path):
+    """`--contract never`: the costed shader's value and derive.glsl's and derive.hlsl's functions are
+    `precise`, and each compiles to SPIR-V whose operations are decorated NoContraction (in float16
+    too); without it, no decoration."""
+    from pathlib import Path
+
+    from pipeline.approximate.publishing.shader_export import member_functions
+    from pipeline.isa.shaders import form_shader, precise_body
+    from pipeline.optics.spirv import optimized_disassembly
+    from pipeline.shaders import definitions, harness
+
+    def decorated(text: str) -> int:
+        return sum("NoContraction" in line for line in text.splitlines())
+
+    for precision in ("fp32", "fp16"):
+        body = precise_body("return t*t*0.3 + 0.5;", precision)
+        assert body.startswith("precise " + ("float16_t" if precision == "fp16" else "float") + " value_ = t*t*0.3")
+        assert decorated(optimized_disassembly(form_shader(["t"], ["t"], body, precision=precision))) >= 3
+    assert decorated(optimized_disassembly(form_shader(["t"], ["t"], "return t*t*0.3 + 0.5;"))) == 0
+    results = dict(target=dict(name="t", variable="x", variables=None, parameter=None), precision="fp32",
+                   contract="never", forms={"f": type("F", (), {"expression": sp.sympify("x*x*0.3 + 0.5")})()},
+                   members={"f": dict(expression="x*x*0.3 + 0.5", max_abs_error=1e-3, max_rel_error=1e-3)})
+    written = member_functions(results, "f", "f")
+    for language in ("glsl", "hlsl"):
+        assert "    precise float value_ = " in written[language] and "    return value_;" in written[language]
+        path = Path(tmp_path / f"f.{language}")
+        path.write_text(("#version 450\n" if language == "glsl" else "") + written[language] + "\n")
+        options = harness.Options(language)
+        (found,) = definitions.read(path)[1]
+        assert decorated(harness.disassembly(harness.preprocessed(path, options), found, options, path)) >= 3

@@ -42,15 +42,20 @@ START_SECONDS = 6.0
 EXECUTE_SECONDS = {"fp32": 6.0, "fp16": 2.0}     # every form executed (58 forms, 5 M inputs in fp32: 4.8 to 6.5 s)
 
 
-def _compile(forms: list[Form], architectures, log, precision: str = "fp32") -> tuple[dict, dict]:
+def _compile(forms: list[Form], architectures, log, precision: str = "fp32", contract: str = "allowed") -> tuple[dict, dict]:
     """({architecture: {form name: cycles}}, {what: why not}) of every form, by `derive`'s one
     costing (`isa.machine_code.form_cycles`: a shader reading t, net of the shader writing it, in
     `precision`, its numbers the format's); the exact target per vendor, left out where a vendor's
-    lowering lacks one of its functions."""
+    lowering lacks one of its functions. `contract` "never": each value declared `precise`
+    (`shaders.precise_body`), the cycles those of that shader."""
     from ...isa.architectures import ARCHITECTURES, vendor_groups
     from ...isa.machine_code import form_cycles
+    from ...isa.shaders import precise_body
 
-    plain = {m.name: (f"return {glsl(m.expression, 't', precision)};", ["t"]) for m in forms if m.kind != "exact"}
+    def statements(text):
+        return precise_body(f"return {text};", precision) if contract == "never" else f"return {text};"
+
+    plain = {m.name: (statements(glsl(m.expression, 't', precision)), ["t"]) for m in forms if m.kind != "exact"}
     cycles, missing, _ = (form_cycles(plain, ["t"], architectures, precision) if plain
                           else ({a: {} for a in architectures}, {}, {}))
     for a in architectures:
@@ -64,7 +69,7 @@ def _compile(forms: list[Form], architectures, log, precision: str = "fp32") -> 
             continue
         for vendor, names in vendor_groups(list(architectures)):
             try:
-                found, failed, _ = form_cycles({m.name: (f"return {text};", ["t"])}, ["t"], names, precision)
+                found, failed, _ = form_cycles({m.name: (statements(text), ["t"])}, ["t"], names, precision)
             except Exception as e:      # (no back end of this vendor runs here)
                 missing[f"exact on {vendor}"] = str(e).splitlines()[0][:200]
                 continue
@@ -105,7 +110,8 @@ def _executed(forms: list[Form], target, precision: str, real: dict, log, chosen
 
 
 def derive(target, gpu=None, budget=None, max_cycles: float | None = None,
-           max_complexity: int = MAX_COMPLEXITY, log=print, precision: str = "fp32", certify: bool = False) -> dict:
+           max_complexity: int = MAX_COMPLEXITY, log=print, precision: str = "fp32", certify: bool = False,
+           contract: str = "allowed") -> dict:
     """The derivation of the module docstring for a checked `target` on the architectures `gpu`
     (names; default every one whose compiler runs here), every form costed and executed in
     `precision` (fp32 or fp16, `executed`), the search's work planned by `budget` (a
@@ -161,7 +167,7 @@ def derive(target, gpu=None, budget=None, max_cycles: float | None = None,
     log(f"measuring {len(everything)} forms over the whole domain and compiling them for {len(architectures)} "
         "architectures")
     errors = {m.name: anchor_refits.measured(m, target, f) for m in everything}          # in float64 (the mathematics)
-    cycles, missing = _compile(everything, architectures, log, precision)
+    cycles, missing = _compile(everything, architectures, log, precision, contract)
     error_key = "max_abs_error" if target.metric == "abs" else "max_rel_error"
 
     baseline = constant_error(target, f)
@@ -188,7 +194,7 @@ def derive(target, gpu=None, budget=None, max_cycles: float | None = None,
                 m.expression = candidate.expression
                 polished.append(m)
     if polished:
-        again, _ = _compile(polished, architectures, log, precision)
+        again, _ = _compile(polished, architectures, log, precision, contract)
         for a in architectures:
             cycles[a].update(again.get(a, {}))
     log(f"polished {len(polished)} grammar front members on the whole interval")
@@ -213,7 +219,7 @@ def derive(target, gpu=None, budget=None, max_cycles: float | None = None,
             searches[m.name]["kept"] = True
             kept.append(m)
     if kept:            # (a chosen constant may cost otherwise: 1.0, 0.5, an inline constant)
-        again, _ = _compile(kept, architectures, log, precision)
+        again, _ = _compile(kept, architectures, log, precision, contract)
         for a in architectures:
             cycles[a].update(again.get(a, {}))
     log(f"kept the chosen constants of {len(kept)} forms (their error as executed lower)")
@@ -273,7 +279,7 @@ def derive(target, gpu=None, budget=None, max_cycles: float | None = None,
                 families=sorted({m.family for m in found if m.family != "grammar"}),
                 family_members=[m.name for m in found if m.family != "grammar"],
                 fronts=fronts, verdicts=verdicts, rows=rows, error=error_key,
-                constant_error=baseline, rounding_floor=floor, precision=precision, execution=run,
+                constant_error=baseline, rounding_floor=floor, precision=precision, execution=run, contract=contract,
                 **({"certification": certification} if certification is not None else {}),
                 special_functions=special_functions(rows, forms_by_name, precision), cost_tables=tables,
                 seconds=round(elapsed, 1), estimated_seconds=round(estimate, 1),

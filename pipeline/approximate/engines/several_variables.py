@@ -80,7 +80,8 @@ def glsl_text(expr, precision: str | None = None) -> str:
     return re.sub(r"\b(c\d+)\b", r"float16_t(\1)", text) if precision == "fp16" else text
 
 
-def compile_forms(forms: dict, target: Target, architectures, precision: str = "fp32") -> tuple[dict, dict]:
+def compile_forms(forms: dict, target: Target, architectures, precision: str = "fp32",
+                  contract: str = "allowed") -> tuple[dict, dict]:
     """({architecture: {name: cycles}}, {what: why not}) of `forms` ({name: (sympy, parameter_per)}),
     by `isa.machine_code.form_cycles`: a material form reads the variables, a pixel form the parameter
     too (each only those its expression holds). Both are net of the shader that reads and writes the
@@ -88,8 +89,10 @@ def compile_forms(forms: dict, target: Target, architectures, precision: str = "
     renderer fetches a texture). Netted of its parameter's read too, a form whose arithmetic hides
     that read behind its own latency would cost less per pixel than per material (pow(t, n): 6
     cycles against 12 on RDNA3, both shaders 16). In fp16 the form computes in float16 (explicit
-    16-bit types, `shaders.form_shader`)."""
+    16-bit types, `shaders.form_shader`). `contract` "never": each value `precise`
+    (`shaders.precise_body`)."""
     from ...isa.machine_code import form_cycles
+    from ...isa.shaders import precise_body
 
     names = list(target.names)
     variables = names[:len(target.variables)]
@@ -102,7 +105,8 @@ def compile_forms(forms: dict, target: Target, architectures, precision: str = "
             continue
         read = {s.name for s in expr.free_symbols}
         used = [n for n in (names if per == "pixel" else variables) if n in read] or names[:1]
-        bodies[name] = (f"return {text};", used, [n for n in used if n in variables] or used)
+        body = precise_body(f"return {text};", precision) if contract == "never" else f"return {text};"
+        bodies[name] = (body, used, [n for n in used if n in variables] or used)
     cycles, more, _ = form_cycles(bodies, names, architectures, precision)
     return cycles, missing | more
 
@@ -288,7 +292,7 @@ def _certified_columns(name: str, certification: dict | None, sampled: dict, err
 
 def derive(target: Target, gpu=None, budget=None, max_cycles: float | None = None,
            max_complexity: int = 12, log=print, formula_complexity: int = 0, precision: str = "fp32",
-           search: tuple[list[dict], dict] | None = None, certify: bool = False) -> dict:
+           search: tuple[list[dict], dict] | None = None, certify: bool = False, contract: str = "allowed") -> dict:
     """The derivation of the module docstring for `target` on the architectures `gpu` (names;
     default every one whose compiler runs here), with `formula_complexity` > 0 the lines of the best
     templates also corrected by the symbolic regression (`corrected`); `search`: the search's
@@ -320,7 +324,7 @@ def derive(target: Target, gpu=None, budget=None, max_cycles: float | None = Non
         "architectures")
     errors = {m.name: record[m.name]["errors"] if m.name in record else measure_box(m.expression, target, f)
               for m in everything}
-    cycles, missing = compile_forms(per_of, target, architectures, precision)
+    cycles, missing = compile_forms(per_of, target, architectures, precision, contract)
     constant = _constant_error(target, f)
     floor = rounding_floor(target, constant, precision)
     real = errors
@@ -385,7 +389,7 @@ def derive(target: Target, gpu=None, budget=None, max_cycles: float | None = Non
                 family_members=[m.name for m in forms if m.family != "grammar"],
                 fronts={a: fr["pixel"] + [n for n in fr["material"] if n not in fr["pixel"]] for a, fr in fronts.items()},
                 fronts_by_parameter=fronts, verdicts=verdicts, rows=rows, error=error_key, constant_error=constant,
-                rounding_floor=floor, precision=precision, execution=execution, cost_tables={},
+                rounding_floor=floor, precision=precision, execution=execution, cost_tables={}, contract=contract,
                 **({"certification": certification} if certification is not None else {}),
                 seconds=round(elapsed, 1), estimated_seconds=None,
                 members=members, forms={m.name: m for m in everything}, cycles=cycles)

@@ -49,6 +49,16 @@ def _number(v):
     return v
 
 
+CONTRACT_TEXT = {
+    "never": "Every form was costed and is written with its value `precise` (`--contract never`: its operations "
+             "decorated NoContraction, which a driver may neither fuse nor reorder), so these bounds hold for the "
+             "shader as written.",
+    "allowed": "These bounds assume the operations in the order written: a driver that fuses a multiply and an add "
+               "rounds once where they allow two, and stays within them, but one that reorders operations is not "
+               "covered; `--contract never` writes and costs every form `precise`, after which they hold.",
+}
+
+
 def certification_lines(results: dict) -> list[str]:
     """report.md's lines on what its errors are: maxima over every input (`--certify`), or of the inputs
     tried."""
@@ -88,8 +98,8 @@ def certification_lines(results: dict) -> list[str]:
                 + f", proven by interval arithmetic (arb) over the domain split into boxes: {statuses.count('proven')} "
                 f"of {len(statuses)} bounds within {certified_box.RATIO_ONE}x of the largest pointwise bound found, "
                 f"{statuses.count('budget')} stopped at {certified_box.WORK:,} boxes, {statuses.count('not bounded')} "
-                "not bounded (a driver's function without a lowering here: none stated). A contracted multiply-add "
-                "stays within these bounds; a driver that reassociates operations is not covered."]
+                "not bounded (a driver's function without a lowering here: none stated). "
+                + CONTRACT_TEXT[results.get("contract", "allowed")]]
     if c["not_certified"]:
         out += ["- Not certified (their errors sampled): " + "; ".join(
             escape.markdown(f"{n}: {w}") for n, w in c["not_certified"].items()) + "."]
@@ -124,8 +134,7 @@ def box_certification_lines(results: dict) -> list[str]:
                    + "): the same proof with each operation allowed Vulkan's minimum ("
                    + escape.markdown(certified_box.vulkan(results["precision"]).source) + ")"
                    + "".join(f", or {v.upper()}'s documented figures" for v in vendors)
-                   + ", the operations in the order written (a contracted multiply-add stays within it; a driver that "
-                   "reassociates is not covered).")
+                   + ". " + CONTRACT_TEXT[results.get("contract", "allowed")])
     if c["not_certified"]:
         out += ["- Not certified (their errors sampled): " + "; ".join(
             escape.markdown(f"{n}: {w}") for n, w in c["not_certified"].items()) + "."]

@@ -108,8 +108,10 @@ def member_functions(results, name: str, fn: str | None = None) -> dict[str, str
     out = {}
     for language, kind in (("glsl", kinds[0]), ("hlsl", kinds[1])):
         signature = ", ".join(f"{kind} {n.strip()}" for n in names.split(","))
-        out[language] = "\n".join([f"// {escape.comment(doc)}", f"{kind} {fn}({signature})", "{",
-                                   f"    return {shader_text(expression, names, language, precision)};", "}"])
+        value = shader_text(expression, names, language, precision)
+        body = ([f"    precise {kind} value_ = {value};", "    return value_;"] if results.get("contract") == "never"
+                else [f"    return {value};"])      # (`--contract never`: no fused multiply-add, no reordering)
+        out[language] = "\n".join([f"// {escape.comment(doc)}", f"{kind} {fn}({signature})", "{", *body, "}"])
     py = []
     if m.get("parameter_per") == "material":
         # the constants are the function's arguments; the twin computes them from the formulas
