@@ -142,3 +142,15 @@ def test_certify_is_refused_for_a_pair_and_read_from_a_target_file(tmp_path):
         reading.from_file(file)
     with pytest.raises(DeriveError, match="a pair of outputs is not certified"):
         engines.derive(reading.named("env_brdf"), ["rdna3"], None, None, 4, certify=True)
+
+
+@pytest.mark.parametrize("precision", ["fp32", "fp16"])
+def test_the_format_s_values_by_place_are_the_ordinals_values(precision):
+    """The fast view of non-negative places equals `executed.from_ordinals`, bit for bit, and a range
+    crossing 0 takes the general path."""
+    from pipeline.approximate.measures import executed
+
+    unsigned = np.uint32 if precision == "fp32" else np.uint16
+    for start, stop in ((0, 3000), (10_000, 15_361), (-40, 40)):
+        assert np.array_equal(exhaustive._values(start, stop, precision).view(unsigned),
+                              executed.from_ordinals(np.arange(start, stop), precision).view(unsigned))

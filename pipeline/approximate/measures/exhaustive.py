@@ -60,7 +60,7 @@ def _task(target, programs: dict, lavapipe: dict, first: int, last: int, precisi
     function = _truth(target, truth_by)
     out: dict = {}
     for start in range(first, last + 1, PIECE):
-        x = executed.from_ordinals(np.arange(start, min(start + PIECE, last + 1)), precision)
+        x = _values(start, min(start + PIECE, last + 1), precision)
         f = function(x.astype(np.float64))
         denominator = np.maximum(np.abs(f), floor)
         for name, (ops, result) in programs.items():
@@ -68,12 +68,21 @@ def _task(target, programs: dict, lavapipe: dict, first: int, last: int, precisi
             values = np.broadcast_to(values, x.shape)
             out[name] = _merge(out.get(name), execution.errors(values, x, f, floor, denominator))
     if lavapipe:
-        x = executed.from_ordinals(np.arange(first, last + 1), precision)
+        x = _values(first, last + 1, precision)
         (done,) = execution.execute_sets([(lavapipe, x, function(x.astype(np.float64)), floor)], precision,
                                          target.variable)
         for name, outcome in done.items():
             out[name] = outcome if isinstance(outcome, dict) else str(outcome)
     return out
+
+
+def _values(start: int, stop: int, precision: str) -> np.ndarray:
+    """The format's values at places start..stop-1 (`executed.from_ordinals`; where none is negative,
+    each value's bits are its place: a view of the integers)."""
+    if start >= 0:
+        integers = np.arange(start, stop, dtype=np.uint32 if precision == "fp32" else np.uint16)
+        return integers.view(executed.DTYPES[precision])
+    return executed.from_ordinals(np.arange(start, stop), precision)
 
 
 def _truth(target, truth_by: str):
