@@ -274,11 +274,10 @@ def library_record(env: dict) -> dict:
 
     runs, rows = {}, []
     for platform in ("android", "desktop"):
-        args = ["derive", "--shader", "tests/shaders/library", "--gpu", platform, "--seconds", "10",
-                "--out", f"measure_library_{platform}"]
+        out = Path(env["PIPELINE_OUTPUTS_DIR"]) / f"measure_library_{platform}"
+        args = ["derive", "--shader", "tests/shaders/library", "--gpu", platform, "--seconds", "10", "--out", str(out)]
         seconds, _ = _pipeline(args, env)
-        summary = json.loads((Path(env["PIPELINE_OUTPUTS_DIR"]) / f"measure_library_{platform}" / "library.json")
-                             .read_text())
+        summary = json.loads((out / "library.json").read_text())
         functions = {(r["file"], r["function"]): r["status"] for r in summary["rows"]}
         runs[platform] = dict(command="pipeline " + " ".join(args[:-2]), wall_seconds=round(seconds, 1),
                               run=summary["run"], functions=len(functions),
