@@ -45,17 +45,18 @@ def until_certified(needed, errors: dict, error_key: str, certify_names, log=pri
 def _one(arguments: tuple):
     from ..measures import certified_box
 
-    name, rounding, body, inputs, expression, symbols, domain, precision, metric, floor, found, ratio = arguments
+    name, rounding, body, inputs, expression, symbols, domain, precision, metric, floor, found, ratio, same = arguments
     chosen = certified_box.LAVAPIPE if rounding == "lavapipe" else certified_box.vulkan(precision) \
         if rounding == "vulkan" else certified_box.vendor(rounding, precision)
     return name, rounding, certified_box.certify(body, inputs, expression, symbols, domain, precision, chosen, metric,
-                                                 floor, found=found, ratio=ratio)
+                                                 floor, found=found, ratio=ratio, same=same)
 
 
 def box_bounds(jobs: list[tuple], processes: int | None = None) -> dict:
     """{(name, rounding): Certified} of every job (name, rounding: lavapipe, vulkan or a vendor, the
     form's GLSL body, its inputs, the target's sympy expression and symbols, the domain, precision,
-    metric, floor, the largest error sampled, the ratio that proves) on one process per core."""
+    metric, floor, the largest error sampled, the ratio that proves, whether the form is the target's
+    own expression) on one process per core."""
     processes = min(processes or os.cpu_count() or 1, len(jobs))
     if processes <= 1:
         return {(n, r): c for n, r, c in map(_one, jobs)}

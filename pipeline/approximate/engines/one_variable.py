@@ -326,7 +326,7 @@ def certified(needed, forms_by_name: dict, target, precision: str, errors: dict,
     roundings = ["vulkan"] + sorted(v for v in set(vendors) if (v, precision) in _documented())
     jobs = [(name, rounding, glsl(forms_by_name[name].expression, target.variable, precision), [target.variable],
              target.sympy(), [target.symbol()], [target.domain], precision, metric, floor, 0.0,
-             certified_box.RATIO_ONE) for name in out["certified"] for rounding in roundings]
+             certified_box.RATIO_ONE, name == "exact") for name in out["certified"] for rounding in roundings]
     for (name, rounding), c in box_bounds(jobs).items():
         out["spec"].setdefault(name, {})[rounding] = dict(bound=c.bound, status=c.status, reason=c.reason)
     log(f"the worst a conforming driver may give, {len(out['certified'])} forms ({time.perf_counter() - started:.0f} s)")

@@ -245,7 +245,7 @@ def _certified(everything, per_of, target: Target, precision: str, errors: dict,
 
     def certify_names(names):
         jobs = [(n, "lavapipe", bodies[n], inputs, expression, symbols, domain, precision, metric, relative_floor,
-                 errors[n][error_key], certified_box.RATIO) for n in names if n in bodies]
+                 errors[n][error_key], certified_box.RATIO, n == "exact") for n in names if n in bodies]
         done = box_bounds(jobs)
         result = {}
         for n in names:
@@ -262,7 +262,7 @@ def _certified(everything, per_of, target: Target, precision: str, errors: dict,
     roundings = ["vulkan"] + sorted({ARCHITECTURES[a].vendor for a in architectures}
                                     & {v for v, p in special_functions.VENDOR if p == precision})
     jobs = [(n, r, bodies[n], inputs, expression, symbols, domain, precision, metric, relative_floor, 0.0,
-             certified_box.RATIO) for n in out["certified"] for r in roundings]
+             certified_box.RATIO, n == "exact") for n in out["certified"] for r in roundings]
     for (n, r), c in box_bounds(jobs).items():
         out["spec"].setdefault(n, {})[r] = dict(bound=c.bound, status=c.status, reason=c.reason)
     out["seconds"] = round(time.perf_counter() - started, 1)

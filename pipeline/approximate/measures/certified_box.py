@@ -40,7 +40,7 @@ UNIT = {"fp32": 2.0 ** -23, "fp16": 2.0 ** -10}          # the format's spacing 
 SMALLEST = {"fp32": 2.0 ** -149, "fp16": 2.0 ** -24}     # the subnormals' spacing
 RATIO = 1.25            # proven: the largest bound left within RATIO of the largest error found
 RATIO_ONE = 1.01        # the same in one variable, where boxes are cheap
-WORK = 20_000           # boxes bounded per form at most
+WORK = 4_000            # boxes bounded per form at most
 DEBUG = False
 
 
@@ -254,7 +254,7 @@ def _function(kind: str, a: list[Value], precision: str, rounding: Rounding, der
         low = lo(x.v)
         if low < 0 and hi(x.v) < 0:
             raise NotBounded("sqrt of a negative enclosure")
-        inside = x.v if low >= 0 else hull(0.0, hi(x.v))
+        inside = x.v if low >= 0 else x.v.nonnegative_part()     # (a ball may reach below 0 where its value cannot)
         v = inside.sqrt()
         g = None
         if x.g is not None and low > 0:
@@ -363,12 +363,11 @@ def target_pass(expression, symbols, box, derivatives: bool = True):
                 n = int(power)
                 value = b ** n if n >= 0 else 1 / (b ** (-n))
                 return value, [n * (b ** (n - 1) if n >= 1 else 1 / b ** (1 - n)) * p for p in gb]
-            if power == sp.Rational(1, 2):
-                value = b.sqrt()
-                return value, [p / (2 * value) for p in gb]
-            if power == sp.Rational(-1, 2):
-                value = 1 / b.sqrt()
-                return value, [-p / (2 * b * b.sqrt()) for p in gb]
+            if power in (sp.Rational(1, 2), sp.Rational(-1, 2)):
+                root = (b if lo(b) >= 0 else b.nonnegative_part()).sqrt()
+                if power > 0:
+                    return root, [p / (2 * root) for p in gb]
+                return 1 / root, [-p / (2 * b * root) for p in gb]
             q, gq = walk(power)
             value = (q * b.log()).exp()
             return value, [value * (hq * b.log() + q * hb / b) for hb, hq in zip(gb, gq)]
@@ -399,10 +398,25 @@ def box_bound(ops, result, inputs, target_expression, symbols, box, precision: s
 
 
 def bound_and_sides(ops, result, inputs, target_expression, symbols, box, precision: str, rounding: Rounding,
-                    metric: str = "abs", floor: float = 0.0) -> tuple[float, list[float] | None]:
+                    metric: str = "abs", floor: float = 0.0, same: bool = False) -> tuple[float, list[float] | None]:
     """(`box_bound`, what each side adds to it where the mean-value form bounded it: the slope's
-    magnitude times the side's width, the side to split; None where the plain enclosure did)."""
+    magnitude times the side's width, the side to split; None where the plain enclosure did). `same`:
+    the form computes the target's own expression (the exact row), its real error 0, its rounding
+    error alone bounded."""
     from flint import arb
+
+    if same:
+        balls = [hull(a, b) for a, b in box]
+        try:
+            whole = form_pass(ops, result, balls, inputs, precision, rounding, derivatives=False)
+            f, _ = target_pass(target_expression, symbols, balls, derivatives=False)
+        except (NotBounded, ZeroDivisionError, ValueError):
+            return math.inf, None
+        least = max(least_magnitude(f), floor) if metric == "rel" else 1.0
+        if least <= 0 or not math.isfinite(whole.d):
+            return math.inf, None
+        return _up(whole.d / math.nextafter(least, 0.0)) if metric == "rel" else whole.d, \
+            [b - a for a, b in box]
 
     balls = [hull(a, b) for a, b in box]
     try:
@@ -463,11 +477,12 @@ class Certified:
 
 def certify(body: str, inputs: list[str], target_expression, symbols, domain, precision: str = "fp32",
             rounding: Rounding = LAVAPIPE, metric: str = "abs", floor: float = 0.0, found: float = 0.0,
-            at: tuple = (), excluded=(), work: int = WORK, ratio: float = RATIO) -> Certified:
+            at: tuple = (), excluded=(), work: int = WORK, ratio: float = RATIO, same: bool = False) -> Certified:
     """The branch and bound of the module docstring for the form `body` (GLSL in `inputs`) against
     the target (a sympy expression in `symbols`, in the inputs' order) over `domain` ((lo, hi) per
     input), the largest error sampled so far `found` (at `at`) its starting lower bound. `excluded`:
-    boxes of the domain left out (a singular corner the target excludes), each ((lo, hi), ...)."""
+    boxes of the domain left out (a singular corner the target excludes), each ((lo, hi), ...). `same`:
+    the form is the target's own expression (`bound_and_sides`)."""
     from ...isa import execution
 
     try:
@@ -497,13 +512,13 @@ def certify(body: str, inputs: list[str], target_expression, symbols, domain, pr
             seen, point = _executed_error(ops, result, inputs, _points(box, dtype), exact, dtype, metric, floor)
         else:           # (what the allowance permits at the centre: the most a conforming driver may err there)
             point = tuple(_points(box, dtype)[0])
-            seen = box_bound(ops, result, inputs, target_expression, symbols, tuple((c, c) for c in point), precision,
-                             rounding, metric, floor)
+            seen = bound_and_sides(ops, result, inputs, target_expression, symbols, tuple((c, c) for c in point),
+                                   precision, rounding, metric, floor, same)[0]
             seen = seen if math.isfinite(seen) else 0.0
         if seen > best:
             best, where = seen, point
         bound, sides = bound_and_sides(ops, result, inputs, target_expression, symbols, box, precision, rounding,
-                                       metric, floor)
+                                       metric, floor, same)
         heapq.heappush(heap, (-bound, boxes, box, sides))
 
     push(tuple(tuple(map(float, d)) for d in domain))
@@ -570,17 +585,18 @@ def _executed_error(ops, result, inputs, points: np.ndarray, exact, dtype, metri
 
 
 def spec_bounds(body: str, inputs: list[str], expression, symbols, domain, precision: str, vendors=(),
-                metric: str = "abs", floor: float = 0.0, work: int = WORK, ratio: float = RATIO) -> dict:
+                metric: str = "abs", floor: float = 0.0, work: int = WORK, ratio: float = RATIO,
+                same: bool = False) -> dict:
     """{"vulkan": the `certify` of `body` with Vulkan's minimum allowances (`vulkan`), and per vendor
     of `vendors` that documents its own figures (`special_functions.VENDOR`: AMD, NVIDIA) with them
     (`vendor`), each a Certified}:
     the worst a conforming driver may give, the operations in the order written (a contracted
     multiply-add is within the same bound)."""
     out = {"vulkan": certify(body, inputs, expression, symbols, domain, precision, vulkan(precision), metric, floor,
-                             work=work, ratio=ratio)}
+                             work=work, ratio=ratio, same=same)}
     from ...isa import special_functions
 
     for name in sorted({v for v in vendors if (v, precision) in special_functions.VENDOR}):
         out[name] = certify(body, inputs, expression, symbols, domain, precision, vendor(name, precision), metric,
-                            floor, work=work, ratio=ratio)
+                            floor, work=work, ratio=ratio, same=same)
     return out
