@@ -383,7 +383,7 @@ def target_pass(expression, symbols, box, derivatives: bool = True):
             return value_of(v), [slope_of(v) * p for p in g]
         raise Unsupported(f"the target's {e.func.__name__} is not bounded")
 
-    value, g = walk(sp.sympify(expression))
+    value, g = walk(expression)
     return value, (g if derivatives else None)
 
 
