@@ -146,23 +146,32 @@ def error_peaks(expression, target: Target, f) -> list[np.ndarray]:
     return [np.asarray(where, dtype=np.float64)] if np.isfinite(value) else []
 
 
+def front_members(everything, per_of, cycles: dict, architectures, errors: dict, error_key: str, constant: float,
+                  floor: float) -> set:
+    """The found forms on some architecture's front, per pixel or per material, read off `errors`
+    (those below the best constant's error)."""
+    from ..measures.fronts import front
+
+    out = set()
+    for a in architectures:
+        by_name = cycles.get(a, {})
+        for per in ("pixel", "material"):
+            rows = [dict(name=m.name, cycles=by_name[m.name], **errors[m.name]) for m in everything
+                    if m.kind == "found" and per_of[m.name][1] == per and m.name in by_name
+                    and errors[m.name][error_key] < constant]
+            out |= {r["name"] for r in front(rows, error_key, floor)}
+    return out
+
+
 def _executed(everything, per_of, record, target, f, real, cycles, architectures, error_key, constant, floor,
               log, precision: str = "fp32") -> dict:
     """Every form executed in float32 (`executed_box`) at the box's grid and where the float64 error
     of each member of a float64 front, each anchor and the target itself peaks: dict(measured={name:
     its executed errors, NaN where not executed}, how, inputs, not_executed, peaks, seconds)."""
     from ..measures import executed_box
-    from ..measures.fronts import front
 
     started = time.perf_counter()
-    provisional = set()
-    for a in architectures:
-        by_name = cycles.get(a, {})
-        for per in ("pixel", "material"):
-            rows = [dict(name=m.name, cycles=by_name[m.name], **real[m.name]) for m in everything
-                    if m.kind == "found" and per_of[m.name][1] == per and m.name in by_name
-                    and real[m.name][error_key] < constant]
-            provisional |= {r["name"] for r in front(rows, error_key, floor)}
+    provisional = front_members(everything, per_of, cycles, architectures, real, error_key, constant, floor)
     peaks = [where for m in everything if (m.name in provisional and per_of[m.name][1] == "pixel") or m.kind != "found"
              for where in error_peaks(m.expression, target, f)]
     bodies, unprinted = {}, {}
@@ -213,7 +222,6 @@ def _certified(everything, per_of, target: Target, precision: str, errors: dict,
     from ...isa.architectures import ARCHITECTURES
     from ...isa import special_functions
     from ..measures import certified_box
-    from ..measures.fronts import front
     from .certification import box_bounds, until_certified
 
     started = time.perf_counter()
@@ -233,15 +241,8 @@ def _certified(everything, per_of, target: Target, precision: str, errors: dict,
     out = dict(bounds={}, spec={})
 
     def needed(current):
-        on = {m.name for m in everything if m.kind != "found"}
-        for a in architectures:
-            by_name = cycles.get(a, {})
-            for per in ("pixel", "material"):
-                rows = [dict(name=m.name, cycles=by_name[m.name], **current[m.name]) for m in everything
-                        if m.kind == "found" and per_of[m.name][1] == per and m.name in by_name
-                        and current[m.name][error_key] < constant]
-                on |= {r["name"] for r in front(rows, error_key, floor)}
-        return on
+        return {m.name for m in everything if m.kind != "found"} | front_members(
+            everything, per_of, cycles, architectures, current, error_key, constant, floor)
 
     def certify_names(names):
         jobs = [(n, "lavapipe", bodies[n], inputs, expression, symbols, domain, precision, metric, relative_floor,
