@@ -516,6 +516,11 @@ def test_the_page_s_rerun_command_names_the_run_as_it_was_made(target, name, pre
     again = api.resolve(args.target, args.expr, args.var, name=args.name)
     assert (again.name, again.expression, again.variable, list(again.domain)) == (
         target["name"], target["expression"], target["variable"], target["domain"])
+    # a certified run, and one whose forms were written precise, rerun as such (read back by the parser)
+    flagged = derive_page.rerun_command(dict(target=target, architectures=["rdna3"], precision=precision,
+                                             certification={}, contract="never"))
+    args = build_parser().parse_args(shlex.split(flagged)[1:])
+    assert flagged.endswith("--certify --contract never") and args.certify and args.contract == "never"
 
 
 def test_a_run_without_anchors_says_why_it_has_no_verdict():

@@ -354,7 +354,8 @@ def data(results) -> dict:
 
 def rerun_command(results) -> str:
     """The command that reruns the run: its registered target by name, an expression's by --expr and
-    --var (and --name where the run was named otherwise), its architectures and its precision; where
+    --var (and --name where the run was named otherwise), its architectures, its precision, --certify
+    and --contract never where it ran with them; where
     it recorded its plans, its largest complexity and `--plan results.json` (the same front again)."""
     from ..targets import registry
 
@@ -371,6 +372,10 @@ def rerun_command(results) -> str:
     command += ["--gpu", ",".join(results["architectures"])]
     if precision != "fp32":
         command += ["--precision", precision]
+    if results.get("certification") is not None:
+        command += ["--certify"]
+    if results.get("contract") == "never":
+        command += ["--contract", "never"]
     from ..engines.options import MAX_COMPLEXITY
 
     plans = list(((results.get("plan") or {}).get("searches") or {}).values())
