@@ -332,8 +332,11 @@ STAGES: tuple[Stage, ...] = (
     _stage("half_precision", "beyond", POWER + ("render.exponents",),
            ("linear_coefficient.slope_used", "linear_coefficient.intercept_used"), {
         "rows": "per n, lobe and route for 1 - cos x: distinct float16 values over the visible highlight, and "
-                "the largest absolute error against float64, executed, and by numpy's per-operation emulation [list]",
+                "the largest absolute error against float64, executed, and by numpy's per-operation emulation; "
+                "the largest at every float16 input in [0, 1] against the float64 lobe at that input "
+                "(max_abs_error_every_input, every_input_at the input; and the emulation's) [list]",
         "samples": "angles sampled per n [count]",
+        "every_input": "the float16 values of [0, 1], each executed per lobe and n [count]",
         "executed_by": "what computed the lobes in float16: lavapipe, or the emulation and why [text]",
     }, tools=("lavapipe",)),
     _stage("shader_cost", "beyond", POWER, (), {

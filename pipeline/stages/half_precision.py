@@ -20,7 +20,10 @@ in, and `executed_by` says so; beside each executed row, that emulation's number
 that a difference the driver makes is seen.
 
 Reported per n and route: the number of distinct values the lobe takes over the highlight (fewer
-means visible bands) and the largest absolute error against the float64 lobe (peak 1).
+means visible bands) and the largest absolute error against the float64 lobe (peak 1). Beside it the
+exhaustive maximum: each lobe executed at every float16 of its input in [0, 1] (`EVERY_INPUT`, t or
+u: 15,361 values) against the same lobe in float64 at that input, its constants n and k float64's:
+the most float16 arithmetic and constants cost any input, with the input where it lies.
 """
 
 import numpy as np
@@ -30,6 +33,7 @@ from ..optics.float16 import float16_power, power_expression, routes, vectors
 SAMPLES = 20000
 VISIBLE = 1.0 / 255.0
 T_ROUTE, U_ROUTE = "1 - N.H", "dot(c, c) / (1 + N.H), c = N x H"
+EVERY_INPUT = np.arange(0, int(np.float16(1.0).view(np.uint16)) + 1, dtype=np.uint16).view(np.float16)   # [0, 1]
 
 
 def bodies(n: float, k: float, power: int) -> dict[tuple[str, str], str]:
@@ -59,10 +63,19 @@ def emulated(n: float, k: float, t, u, power: int) -> dict[tuple[str, str], np.n
     }
 
 
+def exact_of_input(n: float, k: float, v: np.ndarray, power: int) -> dict[tuple[str, str], np.ndarray]:
+    """Each lobe in float64 at the input values v (t for the first route, u for the second)."""
+    v = np.asarray(v, np.float64)
+    return {("f_b", T_ROUTE): np.clip(v, 0, 1) ** n, ("f_b", U_ROUTE): (1.0 - v) ** n,
+            ("f_Q2", T_ROUTE): np.maximum(k * v + (1.0 - k), 0.0) ** power,
+            ("f_Q2", U_ROUTE): np.maximum(1.0 - k * v, 0.0) ** power}
+
+
 def half_lobes(exponents, ks, seed: int = 0, power: int = 2) -> tuple[list[dict], str]:
-    """(rows (n, lobe, route, distinct values, max absolute error, and the emulation's), what executed
-    them) at each exponent n with its f_Q2 coefficient k (f_Qm at power m; the rows keep the registry
-    key f_Q2): every lobe of every n in one run of lavapipe."""
+    """(rows (n, lobe, route, distinct values, max absolute error, and the emulation's; the largest
+    error at every float16 input, where, and the emulation's), what executed them) at each exponent n
+    with its f_Q2 coefficient k (f_Qm at power m; the rows keep the registry key f_Q2): every lobe of
+    every n in one run of lavapipe."""
     from ..isa import execution
 
     cases = []
@@ -73,8 +86,9 @@ def half_lobes(exponents, ks, seed: int = 0, power: int = 2) -> tuple[list[dict]
     forms = {f"n{i}_{lobe}_{'t' if route == T_ROUTE else 'u'}": body
              for i, (n, k, *_) in enumerate(cases) for (lobe, route), body in bodies(n, k, power).items()}
     why = execution.available()
-    done = execution.execute_forms(forms, inputs, "fp16") if why is None else {}
-    failed = [str(v) for v in done.values() if isinstance(v, execution.ExecutionError)]
+    done, every = execution.execute_sets([(forms, inputs, None, 0.0), (forms, EVERY_INPUT, None, 0.0)], "fp16") \
+        if why is None else ({}, {})
+    failed = [str(v) for results in (done, every) for v in results.values() if isinstance(v, execution.ExecutionError)]
     executed_by = ("lavapipe (Mesa's Vulkan driver on the CPU), float16 with explicit 16-bit types" if why is None
                    and not failed else "numpy's per-operation float16 emulation, pow in float32 and rounded ("
                    + (why or failed[0]) + ")")
@@ -82,6 +96,8 @@ def half_lobes(exponents, ks, seed: int = 0, power: int = 2) -> tuple[list[dict]
     for i, (n, k, x, t, u) in enumerate(cases):
         exact = {"f_b": np.cos(x) ** n, "f_Q2": np.maximum(1.0 - k * (1.0 - np.cos(x)), 0.0) ** power}
         numpy_values = emulated(n, k, t, u, power)
+        every_emulated = emulated(n, k, EVERY_INPUT, EVERY_INPUT, power)
+        every_exact = exact_of_input(n, k, EVERY_INPUT, power)
         for (lobe, route), emulation in numpy_values.items():
             start = offset + (0 if route == T_ROUTE else t.size)
             key = f"n{i}_{lobe}_{'t' if route == T_ROUTE else 'u'}"
@@ -90,8 +106,16 @@ def half_lobes(exponents, ks, seed: int = 0, power: int = 2) -> tuple[list[dict]
             def error(values):
                 return float(np.max(np.abs(values.astype(np.float64) - exact[lobe])))
 
+            def largest(values):
+                e = np.abs(np.asarray(values, np.float64) - every_exact[(lobe, route)])
+                return float(e.max()), float(EVERY_INPUT[int(np.argmax(e))])
+
+            all_v = every[key] if key in every and not failed else every_emulated[(lobe, route)]
+            (worst, at), (worst_emulated, _) = largest(all_v), largest(every_emulated[(lobe, route)])
             rows.append(dict(n=n, lobe=lobe, route=route, distinct=int(len(np.unique(v))), max_abs_error=error(v),
-                             distinct_emulated=int(len(np.unique(emulation))), max_abs_error_emulated=error(emulation)))
+                             distinct_emulated=int(len(np.unique(emulation))), max_abs_error_emulated=error(emulation),
+                             max_abs_error_every_input=worst, every_input_at=at,
+                             max_abs_error_every_input_emulated=worst_emulated))
         offset += t.size + u.size
     return rows, executed_by
 
@@ -100,4 +124,4 @@ def run(config, inputs, memo):
     a, b = inputs["linear_coefficient.slope_used"], inputs["linear_coefficient.intercept_used"]
     exponents = [float(n) for n in config["render.exponents"]]
     rows, executed_by = half_lobes(exponents, [a * n + b for n in exponents], power=config["lobe.power"])
-    return dict(rows=rows, samples=SAMPLES, executed_by=executed_by)
+    return dict(rows=rows, samples=SAMPLES, every_input=int(EVERY_INPUT.size), executed_by=executed_by)

@@ -72,3 +72,40 @@ def test_half_precision_rows_equal_a_direct_float16_evaluation(paper_run, paper_
     assert rows[(1000.0, "f_Q2", "1 - N.H")]["distinct"] < 20
     good = rows[(1000.0, "f_Q2", "dot(c, c) / (1 + N.H), c = N x H")]
     assert good["max_abs_error"] < 0.02 and good["distinct"] > 1000
+
+
+def test_every_float16_input_s_largest_error_equals_a_direct_loop(paper_run, paper_config):
+    """The exhaustive column: at each rendered n, each lobe at every float16 of [0, 1] (15,361 values,
+    built here from the bit patterns 0x0000 .. 0x3C00) in a direct float16 evaluation against the
+    float64 lobe at the same input: the emulation's maximum equals it (1e-15), the executed quadratic's
+    too (lavapipe rounds its arithmetic alike), the executed pow within float16's spacing near 1; the
+    input where it lies is one of the values; at n = 1000, with t itself exact, k t + (1 - k) still
+    costs over 1 % of the peak (its terms near 448 are 0.25 apart in float16) and 1 - k u less: the
+    larger part of the sampled route's error (above 1) is t's own rounding, not the lobe's arithmetic."""
+    h = paper_run["half_precision"]
+    every = np.arange(0, 0x3C01, dtype=np.uint16).view(np.float16)
+    assert h["every_input"] == every.size == 15361 and every[-1] == 1.0
+    rows = {(r["n"], r["lobe"], r["route"]): r for r in h["rows"]}
+    slope, intercept = (paper_run["linear_coefficient"][f] for f in ("slope_used", "intercept_used"))
+    t_route, u_route = "1 - N.H", "dot(c, c) / (1 + N.H), c = N x H"
+    for n in [float(n) for n in paper_config["render.exponents"]]:
+        k = slope * n + intercept
+        k16, v = half(k), every.astype(np.float64)
+        values = {("f_b", t_route): half(np.power(every.astype(np.float32), np.float32(n))),
+                  ("f_b", u_route): half(np.power(half(1 - every).astype(np.float32), np.float32(n))),
+                  ("f_Q2", t_route): half(np.maximum(half(half(k16 * every) + half(1 - k16)), half(0)) ** 2),
+                  ("f_Q2", u_route): half(np.maximum(half(1 - half(k16 * every)), half(0)) ** 2)}
+        exact = {("f_b", t_route): v ** n, ("f_b", u_route): (1 - v) ** n,
+                 ("f_Q2", t_route): np.maximum(k * v + 1 - k, 0) ** 2, ("f_Q2", u_route): np.maximum(1 - k * v, 0) ** 2}
+        for key, direct in values.items():
+            worst = float(np.max(np.abs(direct.astype(np.float64) - exact[key])))
+            row = rows[(n, *key)]
+            assert abs(row["max_abs_error_every_input_emulated"] - worst) <= 1e-15, (n, key, row, worst)
+            assert row["every_input_at"] in set(v.tolist())
+            if key[0] == "f_Q2":
+                assert abs(row["max_abs_error_every_input"] - worst) <= 1e-15, (n, key, row, worst)
+            else:
+                assert abs(row["max_abs_error_every_input"] - worst) < 2.0 ** -10, (n, key, row, worst)
+    t_row, u_row = rows[(1000.0, "f_Q2", t_route)], rows[(1000.0, "f_Q2", u_route)]
+    assert 0.01 < t_row["max_abs_error_every_input"] < 1.0 < t_row["max_abs_error"]
+    assert u_row["max_abs_error_every_input"] < t_row["max_abs_error_every_input"]

@@ -328,7 +328,8 @@ def certified(needed, forms_by_name: dict, target, precision: str, errors: dict,
              target.sympy(), [target.symbol()], [target.domain], precision, metric, floor, 0.0,
              certified_box.RATIO_ONE, name == "exact") for name in out["certified"] for rounding in roundings]
     for (name, rounding), c in box_bounds(jobs).items():
-        out["spec"].setdefault(name, {})[rounding] = dict(bound=c.bound, status=c.status, reason=c.reason)
+        out["spec"].setdefault(name, {})[rounding] = dict(bound=c.bound, status=c.status, reason=c.reason,
+                                                          method=c.method)
     log(f"the worst a conforming driver may give, {len(out['certified'])} forms ({time.perf_counter() - started:.0f} s)")
     out["seconds"] = round(out["seconds"] + time.perf_counter() - started, 1)
     return out

@@ -255,7 +255,7 @@ def _certified(everything, per_of, target: Target, precision: str, errors: dict,
                 result[n] = (None, why_not.get(n) or c.reason)
                 continue
             out["bounds"][n] = dict(bound=c.bound, found=c.found, at=list(c.at), boxes=c.boxes, status=c.status,
-                                    sampled=errors[n][error_key])
+                                    sampled=errors[n][error_key], method=c.method)
             result[n] = ({error_key: c.bound}, None)
         return result
 
@@ -265,7 +265,7 @@ def _certified(everything, per_of, target: Target, precision: str, errors: dict,
     jobs = [(n, r, bodies[n], inputs, expression, symbols, domain, precision, metric, relative_floor, 0.0,
              certified_box.RATIO, n == "exact") for n in out["certified"] for r in roundings]
     for (n, r), c in box_bounds(jobs).items():
-        out["spec"].setdefault(n, {})[r] = dict(bound=c.bound, status=c.status, reason=c.reason)
+        out["spec"].setdefault(n, {})[r] = dict(bound=c.bound, status=c.status, reason=c.reason, method=c.method)
     out["seconds"] = round(time.perf_counter() - started, 1)
     proven = sum(b["status"] == "proven" for b in out["bounds"].values())
     log(f"certified {len(out['certified'])} forms by branch and bound ({proven} within {certified_box.RATIO}x of the "

@@ -464,8 +464,8 @@ def bound_and_sides(ops, result, inputs, target_expression, symbols, box, precis
 class Certified:
     """A form's certified error: `bound` (proven over the box where `status` is "proven" or
     "budget"), the largest error found (`found`, where: `at`), the boxes bounded (`boxes`),
-    `status`: proven (bound <= RATIO found), budget (WORK boxes bounded first), or not bounded (why in
-    `reason`)."""
+    `status`: proven (bound <= RATIO found), budget (the work's boxes bounded first), or not bounded (why
+    in `reason`); `method`: arb (this module's balls) or intervals (`certified_arrays`)."""
 
     bound: float
     found: float
@@ -473,17 +473,23 @@ class Certified:
     boxes: int
     status: str
     reason: str = ""
+    method: str = "arb"
 
 
 def certify(body: str, inputs: list[str], target_expression, symbols, domain, precision: str = "fp32",
             rounding: Rounding = LAVAPIPE, metric: str = "abs", floor: float = 0.0, found: float = 0.0,
-            at: tuple = (), excluded=(), work: int = WORK, ratio: float = RATIO, same: bool = False) -> Certified:
+            at: tuple = (), excluded=(), work: int | None = None, ratio: float = RATIO,
+            same: bool = False, method: str | None = None) -> Certified:
     """The branch and bound of the module docstring for the form `body` (GLSL in `inputs`) against
     the target (a sympy expression in `symbols`, in the inputs' order) over `domain` ((lo, hi) per
     input), the largest error sampled so far `found` (at `at`) its starting lower bound. `excluded`:
     boxes of the domain left out (a singular corner the target excludes), each ((lo, hi), ...). `same`:
-    the form is the target's own expression (`bound_and_sides`)."""
+    the form is the target's own expression (`bound_and_sides`). A form and target of + - * /, sqrt,
+    min, max, clamp, abs and selections alone go to `certified_arrays` (the same proof on arrays of
+    boxes, `certified_arrays.WORK` of them at most) unless `method` is "arb"; `work` (boxes) defaults to
+    the method's."""
     from ...isa import execution
+    from . import certified_arrays
 
     try:
         ops, result = execution.emulation_program(body, precision, list(inputs))
@@ -497,6 +503,11 @@ def certify(body: str, inputs: list[str], target_expression, symbols, domain, pr
         return Certified(math.inf, found, at, 0, "not bounded", str(e))
     except (NotBounded, ZeroDivisionError, ValueError):
         pass
+    if method in (None, "intervals") and certified_arrays.supported(ops, target_expression):
+        return certified_arrays.certify(ops, result, list(inputs), target_expression, symbols, domain, precision,
+                                        rounding, metric, floor, found, at, excluded,
+                                        certified_arrays.WORK if work is None else work, ratio, same)
+    work = WORK if work is None else work
     exact = _numpy_target(target_expression, symbols)
     dtype = np.float32 if precision == "fp32" else np.float16
     heap: list = []
@@ -585,7 +596,7 @@ def _executed_error(ops, result, inputs, points: np.ndarray, exact, dtype, metri
 
 
 def spec_bounds(body: str, inputs: list[str], expression, symbols, domain, precision: str, vendors=(),
-                metric: str = "abs", floor: float = 0.0, work: int = WORK, ratio: float = RATIO,
+                metric: str = "abs", floor: float = 0.0, work: int | None = None, ratio: float = RATIO,
                 same: bool = False) -> dict:
     """{"vulkan": the `certify` of `body` with Vulkan's minimum allowances (`vulkan`), and per vendor
     of `vendors` that documents its own figures (`special_functions.VENDOR`: AMD, NVIDIA) with them

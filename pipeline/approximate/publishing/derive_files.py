@@ -95,15 +95,30 @@ def certification_lines(results: dict) -> list[str]:
                 f"{escape.markdown(certified_box.vulkan(results['precision']).source)})"
                 + "".join(f", or {v.upper()}'s documented figures ({escape.markdown(certified_box.vendor(v, results['precision']).source)})"
                           for v in vendors)
-                + f", proven by interval arithmetic (arb) over the domain split into boxes: {statuses.count('proven')} "
+                + f", proven by interval arithmetic ({methods_text(b for bounds in c['spec'].values() for b in bounds.values())}) "
+                f"over the domain split into boxes: {statuses.count('proven')} "
                 f"of {len(statuses)} bounds within {certified_box.RATIO_ONE}x of the largest pointwise bound found, "
-                f"{statuses.count('budget')} stopped at {certified_box.WORK:,} boxes, {statuses.count('not bounded')} "
+                f"{statuses.count('budget')} stopped at their budget, {statuses.count('not bounded')} "
                 "not bounded (a driver's function without a lowering here: none stated). "
                 + CONTRACT_TEXT[results.get("contract", "allowed")]]
     if c["not_certified"]:
         out += ["- Not certified (their errors sampled): " + "; ".join(
             escape.markdown(f"{n}: {w}") for n, w in c["not_certified"].items()) + "."]
     return out
+
+
+def methods_text(bounds) -> str:
+    """Which interval arithmetic proved the bounds, and each method's budget of boxes a form."""
+    from ..measures import certified_arrays, certified_box
+
+    methods = [b.get("method", "arb") for b in bounds if b.get("status") != "not bounded"]
+    parts = []
+    if "intervals" in methods:
+        parts.append(f"float64 intervals with outward rounding for {methods.count('intervals')} "
+                     f"(at most {certified_arrays.WORK:,} boxes a form)")
+    if "arb" in methods:
+        parts.append(f"arb's balls for {methods.count('arb')} (at most {certified_box.WORK:,} boxes a form)")
+    return ", ".join(parts) or "none bounded"
 
 
 def box_certification_lines(results: dict) -> list[str]:
@@ -116,14 +131,21 @@ def box_certification_lines(results: dict) -> list[str]:
     proven = sorted(n for n, b in bounds.items() if b["status"] == "proven")
     budget = sorted(n for n, b in bounds.items() if b["status"] == "budget")
     flagged = sorted(n for n, b in bounds.items() if b["sampled"] > 0 and b["bound"] > certified_box.RATIO * b["sampled"])
+    missed = sorted((n for n, b in bounds.items() if b["sampled"] > 0 and b["found"] > b["sampled"]),
+                    key=lambda n: -bounds[n]["found"] / bounds[n]["sampled"])
+    missed_text = ", ".join(f"{escape.markdown(n)} ({bounds[n]['found'] / bounds[n]['sampled']:.3g}x)"
+                            for n in missed) or "nowhere"
     out = [f"- Certified (`certified_{short}_error` in front.csv, the error the fronts and verdicts read): each form's "
-           f"largest error as lavapipe rounds it, proven over the whole box by interval arithmetic (arb; the mean-value "
-           f"form of its error, its rounding carried through its operations) in boxes split where their bound is "
-           f"largest: {len(proven)} of {len(bounds)} proven within {certified_box.RATIO}x of the largest error found "
-           f"(each box's centre and corners executed by the emulation), {len(budget)} stopped at "
-           f"{certified_box.WORK:,} boxes with the bound reached ({', '.join(escape.markdown(n) for n in budget) or 'none'}); "
-           f"in {c['seconds']:.0f} s. `certified_ratio` is the bound over the sampled error; above "
-           f"{certified_box.RATIO}x: {', '.join(escape.markdown(n) for n in flagged) or 'none'}."]
+           f"largest error as lavapipe rounds it, proven over the whole box by interval arithmetic ("
+           f"{methods_text(bounds.values())}; the mean-value form of its error, its rounding carried through its "
+           f"operations) in boxes split where their bound is largest: {len(proven)} of {len(bounds)} proven within "
+           f"{certified_box.RATIO}x of the largest error found (each box's centre and corners executed by the emulation), "
+           f"{len(budget)} stopped at their budget with the bound reached "
+           f"({', '.join(escape.markdown(n) for n in budget) or 'none'}); in {c['seconds']:.0f} s. `certified_ratio` is "
+           f"the bound over the sampled error; above {certified_box.RATIO}x: "
+           f"{', '.join(escape.markdown(n) for n in flagged) or 'none'}. Where the sampling missed the largest error "
+           f"(the largest found above the sampled one): "
+           f"{missed_text}."]
     for name, b in sorted(bounds.items()):
         where = ", ".join(f"{v:.4g}" for v in b["at"])
         out.append(f"  - {escape.markdown(name)}: {b['status']}, bound {b['bound']:.4g}, sampled {b['sampled']:.4g}, "
