@@ -255,3 +255,36 @@ def test_the_report_flags_bounds_above_1_25x_and_where_the_sampling_missed_by_pl
     loud = lines(0.2, 0.16)
     assert "above 1.25x: planted." in loud and "sampled one): planted (1.6x)." in loud
     assert "planted: proven, bound 0.2, sampled 0.1, largest found 0.16 at (0.5, 0.25)" in loud
+
+
+@pytest.mark.parametrize("precision, power", [("fp32", 5.0), ("fp16", 5.0), ("fp16", 64.0)])
+def test_pow_under_vulkan_s_allowance_bounds_a_driver_that_errs_its_most_at_each_step(precision, power):
+    """pow(x, n) on [0, 1] under Vulkan's allowance (inherited from exp2(n log2 x)): the bound is at
+    least the error of a driver whose log2, product and exp2 each err by the most they may, in the
+    direction that moves the result furthest (either way), at 20,000 points; and the pointwise bound
+    found is within 1.01x of the proven one where proven. log2's allowance is 3 ulp of its result, or
+    its absolute figure in [0.5, 2]; exp2's (a + b |v|) ulp; the product either neighbour."""
+    t = sp.symbols("x", real=True)
+    spec = cb.vulkan(precision)
+    unit = {"fp32": 2.0 ** -23, "fp16": 2.0 ** -10}[precision]
+    done = cb.certify(f"pow(x, {power!r})", ["x"], t ** int(power), [t], [(0.0, 1.0)], precision, spec, ratio=1.01)
+    assert done.status in ("proven", "budget") and math.isfinite(done.bound)
+    if done.status == "proven":
+        assert done.bound <= 1.01 * done.found
+    dtype = np.float32 if precision == "fp32" else np.float16
+    x_ = np.linspace(1e-3, 1.0, 20_000).astype(dtype).astype(np.float64)
+    log2, exp2 = spec.functions["log2"], spec.functions["exp2"]
+
+    def ulp(v):
+        return unit * np.abs(v) + cb.SMALLEST[precision]
+
+    worst = 0.0
+    for sign in (-1.0, 1.0):
+        exact_log = np.log2(x_)
+        inside = (x_ >= log2.lo) & (x_ <= log2.hi)
+        log_error = np.where(inside, log2.absolute, log2.ulps * ulp(exact_log))
+        product = power * (exact_log + sign * log_error)
+        product = product + sign * ulp(product)
+        result = np.exp2(product) * (1 + sign * (exp2.ulps + exp2.ulps_per_x * np.abs(product)) * unit)
+        worst = max(worst, float(np.max(np.abs(result - x_ ** power))))
+    assert worst <= done.bound, (worst, done)

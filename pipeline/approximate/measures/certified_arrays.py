@@ -23,7 +23,7 @@ import math
 
 import numpy as np
 
-from .certified_box import LAVAPIPE, SMALLEST, UNIT, Certified, NotBounded, Rounding, Unsupported
+from .rounding import LAVAPIPE, SMALLEST, UNIT, Certified, NotBounded, Rounding, Unsupported, numpy_target
 
 WORK = 400_000      # boxes bounded per form at most (the same plan on every machine)
 BATCH = 2_048       # boxes split per round
@@ -417,10 +417,8 @@ def certify(ops, result, inputs: list[str], expression, symbols, domain, precisi
             rounding: Rounding = LAVAPIPE, metric: str = "abs", floor: float = 0.0, found: float = 0.0,
             at: tuple = (), excluded=(), work: int = WORK, ratio: float = 1.25, same: bool = False) -> Certified:
     """`certified_box.certify` for a form and target `supported` here (module docstring)."""
-    from .certified_box import _numpy_target
-
     dtype = np.float32 if precision == "fp32" else np.float16
-    exact = _numpy_target(expression, symbols)
+    exact = numpy_target(expression, symbols)
     best, where = float(found), tuple(at)
     closed = 0.0
     count = 0

@@ -36,63 +36,13 @@ import math
 
 import numpy as np
 
-UNIT = {"fp32": 2.0 ** -23, "fp16": 2.0 ** -10}          # the format's spacing at 1 (an ulp at v: <= UNIT |v|)
-SMALLEST = {"fp32": 2.0 ** -149, "fp16": 2.0 ** -24}     # the subnormals' spacing
+from .rounding import (LAVAPIPE, SMALLEST, UNIT, Certified, NotBounded, Rounding, Unsupported, numpy_target,  # noqa: F401
+                       vendor, vulkan)
+
 RATIO = 1.25            # proven: the largest bound left within RATIO of the largest error found
 RATIO_ONE = 1.01        # the same in one variable, where boxes are cheap
 WORK = 4_000            # boxes bounded per form at most
 DEBUG = False
-
-
-class NotBounded(ValueError):
-    """An operation not bounded on a box (a divisor reaching 0 there), one line."""
-
-
-class Unsupported(NotBounded):
-    """A form with an operation its `Rounding` does not bound anywhere (one line naming it)."""
-
-
-@dataclasses.dataclass(frozen=True)
-class Rounding:
-    """What each operation's computed result may err at its exact value, in units in the last place
-    of the result: `basic` for + - * (0.5: correctly rounded; 1: either neighbour), `division`,
-    `sqrt`; a driver's own functions by `functions` ({exp2, log2, inversesqrt, ...: an
-    `isa.special_functions.Accuracy`}; a function not there is not bounded). `source` says whose."""
-
-    name: str
-    basic: float
-    division: float
-    sqrt: float
-    functions: dict = dataclasses.field(default_factory=dict)
-    source: str = ""
-
-
-LAVAPIPE = Rounding("lavapipe", 0.5, 0.5, 0.5, {}, "IEEE 754 round to nearest (lavapipe: every + - * / and sqrt "
-                                                   "correctly rounded)")
-
-
-def vulkan(precision: str) -> Rounding:
-    """Vulkan's minimum for a conforming driver: + - * to either neighbour (no RoundingModeRTE), division
-    2.5 ulp, sqrt 4.5 (inherited from 1 / inversesqrt), the functions `special_functions.MINIMUM`'s."""
-    from ...isa import special_functions
-
-    table = special_functions.MINIMUM[precision]
-    return Rounding("Vulkan", 1.0, table["division"].ulps, table["sqrt"].ulps, dict(table), special_functions.VULKAN)
-
-
-def vendor(name: str, precision: str) -> Rounding:
-    """A vendor's documented figures (`special_functions.VENDOR`: AMD's and NVIDIA's), Vulkan's minimum
-    for a function it does not document; + - * correctly rounded (their ISA guides: round to nearest
-    even, the instructions' default mode)."""
-    from ...isa import special_functions
-
-    spec = vulkan(precision)
-    own = special_functions.VENDOR.get((name, precision), {})
-    functions = dict(spec.functions) | {k: v for k, v in own.items() if k not in ("division", "sqrt")}
-    return Rounding(name, 0.5, own["division"].ulps if "division" in own else spec.division,
-                    own["sqrt"].ulps if "sqrt" in own else spec.sqrt, functions,
-                    "; ".join(sorted({a.source for a in own.values()}) + ["+ - *: round to nearest even, the ISA's "
-                                                                          "default mode"]) if own else spec.source)
 
 
 # --- arb helpers ---------------------------------------------------------------------------------
@@ -142,6 +92,7 @@ class Value:
     v: object
     g: list | None
     d: float
+    least: float | None = None      # an input's exact least value over the box (a ball's lower end may lie below it)
 
 
 def _ulp(v, precision: str, ulps: float) -> float:
@@ -154,10 +105,10 @@ def _up(x: float) -> float:
 
 
 def form_pass(ops, result: str, box, inputs: list[str], precision: str, rounding: Rounding,
-              derivatives: bool = True) -> Value:
-    """The form's operations over `box` (one arb per name of `inputs`): its exact value, derivatives
-    and rounding bound (module docstring). Raises NotBounded for an operation `rounding` does not
-    bound."""
+              derivatives: bool = True, least: list[float] | None = None) -> Value:
+    """The form's operations over `box` (one arb per name of `inputs`; `least` each input's least
+    value, where known exactly): its exact value, derivatives and rounding bound (module docstring).
+    Raises NotBounded for an operation `rounding` does not bound."""
     count = len(inputs)
     zero = [_arb(0)] * count
     values: dict[str, Value] = {}
@@ -170,7 +121,7 @@ def form_pass(ops, result: str, box, inputs: list[str], precision: str, rounding
         if op.kind == "input":
             i = inputs.index(op.op)
             values[op.name] = Value(box[i], [_arb(1) if j == i else _arb(0) for j in range(count)] if derivatives
-                                    else None, 0.0)
+                                    else None, 0.0, least[i] if least is not None else None)
         elif op.kind == "constant":          # (the format's value, as the shader holds it)
             exact = float(np.float16(op.value) if precision == "fp16" or op.width == 16 else np.float32(op.value))
             values[op.name] = Value(_arb(exact), list(zero) if derivatives else None, 0.0)
@@ -286,9 +237,43 @@ def _function(kind: str, a: list[Value], precision: str, rounding: Rounding, der
                          rounding, derivatives)
     name = {"Exp2": "exp2", "Log2": "log2", "InverseSqrt": "inversesqrt", "Sin": "sin", "Cos": "cos",
             "Exp": "exp", "Log": "log", "Acos": "acos", "Asin": "asin", "Atan": "atan", "Pow": "pow"}.get(kind)
+    if name == "pow" and {"exp2", "log2"} <= set(rounding.functions):
+        return _power(a[0], a[1], precision, rounding)
     if name is None or name not in rounding.functions or name == "pow":
         raise Unsupported(f"uses {kind}, which {rounding.name} does not bound")
     return _special(name, a[0], precision, rounding.functions[name])
+
+
+def _power(x: Value, y: Value, precision: str, rounding: Rounding) -> Value:
+    """pow(x, y) as Vulkan states its precision, inherited from exp2(y log2 x): log2, a product and
+    exp2, each within its allowance; not bounded where the computed base may fall below 0 (undefined
+    there). Where x may reach 0 (y > 0 over the box): both the exact and the
+    computed value lie in [0, top], top the largest exp2 may return for the largest y log2 x it may
+    be given, v (exp2's allowance 2^v (a + b|v|) ulp grows toward v_top while 2^v |v| does where
+    v < -1 / ln 2), so their difference is at most top; a box where v_top is not below that is not
+    bounded (split further)."""
+    if lo(x.v) - x.d > 0:
+        logarithm = _special("log2", x, precision, rounding.functions["log2"])
+        product = _arithmetic("FMul", [y, logarithm], precision, rounding, x.g is not None)
+        return _special("exp2", product, precision, rounding.functions["exp2"])
+    if (x.least if x.least is not None else lo(x.v) - x.d) < 0:
+        raise NotBounded("pow's base may be computed below 0 on the box (its result undefined there)")
+    least_y = lo(y.v) - y.d
+    largest_x = hi(x.v) + x.d
+    if least_y <= 0 or largest_x <= 0:
+        raise NotBounded("pow of a base reaching 0 with an exponent not above 0 on the box")
+    at_top = _special("log2", Value(_arb(largest_x), None, 0.0), precision, rounding.functions["log2"])
+    largest_log = hi(at_top.v) + at_top.d
+    if largest_log >= 0:
+        raise NotBounded("pow's base reaches 0 and 1 on the box")
+    v_top = least_y * largest_log
+    v_top = v_top + abs(v_top) * rounding.basic * UNIT[precision] + SMALLEST[precision]
+    if v_top >= -1.0 / math.log(2.0):
+        raise NotBounded("pow's base reaches 0 on a box too wide")
+    exp2 = rounding.functions["exp2"]
+    top = _up(2.0 ** v_top * (1 + (exp2.ulps + exp2.ulps_per_x * abs(v_top)) * UNIT[precision])
+              + exp2.absolute + SMALLEST[precision])
+    return Value(hull(0.0, top), None, top)
 
 
 def _special(name: str, x: Value, precision: str, accuracy) -> Value:
@@ -408,7 +393,8 @@ def bound_and_sides(ops, result, inputs, target_expression, symbols, box, precis
     if same:
         balls = [hull(a, b) for a, b in box]
         try:
-            whole = form_pass(ops, result, balls, inputs, precision, rounding, derivatives=False)
+            whole = form_pass(ops, result, balls, inputs, precision, rounding, derivatives=False,
+                              least=[a for a, _ in box])
             f, _ = target_pass(target_expression, symbols, balls, derivatives=False)
         except (NotBounded, ZeroDivisionError, ValueError):
             return math.inf, None
@@ -420,7 +406,7 @@ def bound_and_sides(ops, result, inputs, target_expression, symbols, box, precis
 
     balls = [hull(a, b) for a, b in box]
     try:
-        whole = form_pass(ops, result, balls, inputs, precision, rounding)
+        whole = form_pass(ops, result, balls, inputs, precision, rounding, least=[a for a, _ in box])
         f, gf = target_pass(target_expression, symbols, balls)
     except (NotBounded, ZeroDivisionError, ValueError):
         return math.inf, None
@@ -437,7 +423,7 @@ def bound_and_sides(ops, result, inputs, target_expression, symbols, box, precis
         middle = [0.5 * a + 0.5 * b for a, b in box]
         centre = [arb(c) for c in middle]
         try:
-            at = form_pass(ops, result, centre, inputs, precision, rounding, derivatives=False)
+            at = form_pass(ops, result, centre, inputs, precision, rounding, derivatives=False, least=middle)
             fc, _ = target_pass(target_expression, symbols, centre, derivatives=False)
         except (NotBounded, ZeroDivisionError, ValueError):
             at = None
@@ -458,22 +444,6 @@ def bound_and_sides(ops, result, inputs, target_expression, symbols, box, precis
         return math.inf, None
     rounding_part = whole.d / math.nextafter(least, 0.0) if relative else whole.d
     return _up(magnitude(error) + _up(rounding_part)), sides
-
-
-@dataclasses.dataclass
-class Certified:
-    """A form's certified error: `bound` (proven over the box where `status` is "proven" or
-    "budget"), the largest error found (`found`, where: `at`), the boxes bounded (`boxes`),
-    `status`: proven (bound <= RATIO found), budget (the work's boxes bounded first), or not bounded (why
-    in `reason`); `method`: arb (this module's balls) or intervals (`certified_arrays`)."""
-
-    bound: float
-    found: float
-    at: tuple
-    boxes: int
-    status: str
-    reason: str = ""
-    method: str = "arb"
 
 
 def certify(body: str, inputs: list[str], target_expression, symbols, domain, precision: str = "fp32",
@@ -508,7 +478,7 @@ def certify(body: str, inputs: list[str], target_expression, symbols, domain, pr
                                         rounding, metric, floor, found, at, excluded,
                                         certified_arrays.WORK if work is None else work, ratio, same)
     work = WORK if work is None else work
-    exact = _numpy_target(target_expression, symbols)
+    exact = numpy_target(target_expression, symbols)
     dtype = np.float32 if precision == "fp32" else np.float16
     heap: list = []
     boxes = 0
@@ -532,6 +502,14 @@ def certify(body: str, inputs: list[str], target_expression, symbols, domain, pr
                                        metric, floor, same)
         heapq.heappush(heap, (-bound, boxes, box, sides))
 
+    def _corners_bound(box) -> float:
+        """The largest error at the box's corners: executed (lavapipe's rounding), or each corner's
+        own bound (an allowance), inf where one is not bounded."""
+        if rounding == LAVAPIPE:
+            return _executed_error(ops, result, inputs, _points(box, dtype), exact, dtype, metric, floor)[0]
+        return max(bound_and_sides(ops, result, inputs, target_expression, symbols, tuple((c, c) for c in corner),
+                                   precision, rounding, metric, floor, same)[0] for corner in _points(box, dtype)[1:])
+
     push(tuple(tuple(map(float, d)) for d in domain))
     while heap:
         top = -heap[0][0]
@@ -541,6 +519,9 @@ def certify(body: str, inputs: list[str], target_expression, symbols, domain, pr
             if DEBUG:
                 for item in heapq.nsmallest(8, heap):
                     print(-item[0], item[2], item[3])
+            if not math.isfinite(top):        # (a box no split bounded: say why)
+                return Certified(math.inf, best, where, boxes, "not bounded", _why_not(
+                    ops, result, inputs, heap[0][2], precision, rounding))
             return Certified(top, best, where, boxes, "budget")
         _, _, box, sides = heapq.heappop(heap)
         # the widest side, measured relative to its distance from 0 where it does not reach it (a side
@@ -552,20 +533,30 @@ def certify(body: str, inputs: list[str], target_expression, symbols, domain, pr
         i = int(np.argmax(widths))
         a, b = box[i]
         middle = float(dtype(math.sqrt(a * b) if a > 0 and b > 4 * a else 0.5 * (a + b)))
-        if not (a < middle < b):         # (one value of the format wide: the centre's error is the box's)
+        if not (a < middle < b):
             middle = 0.5 * (a + b)
-            if not (a < middle < b):
-                heapq.heappush(heap, (-best, boxes, box, None))
+            if not (a < middle < b):    # (two neighbouring floats wide: its inputs are its corners, found)
+                own = _corners_bound(box)
+                if not math.isfinite(own):
+                    return Certified(math.inf, best, where, boxes, "not bounded", _why_not(
+                        ops, result, inputs, box, precision, rounding))
+                if own > best:
+                    best, where = own, tuple(_points(box, dtype)[1])
+                heapq.heappush(heap, (-own, boxes, box, None))
                 continue
         push(box[:i] + ((a, middle),) + box[i + 1:])
         push(box[:i] + ((middle, b),) + box[i + 1:])
     return Certified(best, best, where, boxes, "proven")
 
 
-def _numpy_target(expression, symbols):
-    import sympy as sp
-
-    return sp.lambdify(symbols, expression, "numpy")
+def _why_not(ops, result, inputs, box, precision: str, rounding: Rounding) -> str:
+    """Why the form is not bounded on `box`, one line."""
+    try:
+        form_pass(ops, result, [hull(a, b) for a, b in box], list(inputs), precision, rounding, derivatives=False,
+                  least=[a for a, _ in box])
+    except NotBounded as e:
+        return f"{e} (at {', '.join(f'[{a:.4g}, {b:.4g}]' for a, b in box)})"
+    return f"its error is not finite at {', '.join(f'[{a:.4g}, {b:.4g}]' for a, b in box)}"
 
 
 def _points(box, dtype) -> np.ndarray:

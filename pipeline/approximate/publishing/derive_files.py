@@ -91,7 +91,7 @@ def certification_lines(results: dict) -> list[str]:
         out += [f"- The worst a conforming driver may give (`{key}_spec`"
                 + "".join(f", `{key}_spec_{v}`" for v in vendors) + "): each certified form's operations in the order "
                 "written, each result allowed Vulkan's minimum (+ - * either neighbour, division 2.5 ulp, sqrt 4.5, "
-                "exp2 3 + 2|x| ulp, log2, inversesqrt: "
+                "exp2 3 + 2|x| ulp, log2, inversesqrt, pow as exp2(y log2 x): "
                 f"{escape.markdown(certified_box.vulkan(results['precision']).source)})"
                 + "".join(f", or {v.upper()}'s documented figures ({escape.markdown(certified_box.vendor(v, results['precision']).source)})"
                           for v in vendors)
