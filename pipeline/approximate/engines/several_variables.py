@@ -262,7 +262,8 @@ def _certified(everything, per_of, target: Target, precision: str, errors: dict,
     out |= until_certified(needed, errors, error_key, certify_names, log)
     roundings = ["vulkan"] + sorted({ARCHITECTURES[a].vendor for a in architectures}
                                     & {v for v, p in special_functions.VENDOR if p == precision})
-    jobs = [(n, r, bodies[n], inputs, expression, symbols, domain, precision, metric, relative_floor, 0.0,
+    jobs = [(n, r, bodies[n], inputs, expression, symbols, domain, precision, metric, relative_floor,
+             out["bounds"][n]["found"] if r == "vulkan" else 0.0,     # (lavapipe is a conforming driver)
              certified_box.RATIO, n == "exact") for n in out["certified"] for r in roundings]
     for (n, r), c in box_bounds(jobs).items():
         out["spec"].setdefault(n, {})[r] = dict(bound=c.bound, status=c.status, reason=c.reason, method=c.method)
