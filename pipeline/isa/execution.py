@@ -286,16 +286,17 @@ def emulate(body: str, inputs, precision: str = "fp32", variable: str = "x") -> 
     return np.asarray(lowering.evaluate(ops, result, arrays, {}, dtype), dtype=dtype).reshape(shape)
 
 
-def emulation_program(body: str, precision: str, names: list[str]) -> tuple[list, str]:
+def emulation_program(body: str, precision: str, names: list[str], driver: bool = False) -> tuple[list, str]:
     """(the operations, the result's id) `emulate` evaluates for the form `body` in the inputs
-    `names`, in the format (`lowering.operations` of its optimized fragment shader)."""
+    `names`, in the format (`lowering.operations` of its optimized fragment shader; `driver`: a
+    driver's own acos, asin and atan kept as functions, for a bound by their allowances)."""
     from ..optics.spirv import optimized_disassembly
     from . import lowering
     from .shaders import form_shader, LITERAL
 
     if precision == "fp16":      # (the nearest float16 of each literal, exact in the float32 shader)
         body = LITERAL.sub(lambda m: repr(float(np.float16(float(m.group(1))))), body)
-    return lowering.operations(optimized_disassembly(form_shader(names, names, f"return {body};", "")))
+    return lowering.operations(optimized_disassembly(form_shader(names, names, f"return {body};", "")), driver=driver)
 
 
 # The operations whose emulation (numpy, per operation in the format) equals lavapipe's result bit

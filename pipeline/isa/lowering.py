@@ -34,6 +34,9 @@ FUNCTIONS = {
     "FClamp": lambda x, lo, hi: np.minimum(np.maximum(x, lo), hi), "NClamp": lambda x, lo, hi: np.minimum(np.maximum(x, lo), hi),
     "Fma": lambda a, b, c: a * b + c,
 }
+# Functions a driver computes by its own lowering, known to the emulation (numpy's twins, which are not
+# any driver's) and to the certification's allowances, not to the back ends (`operations(..., driver=True)`).
+DRIVER_FUNCTIONS = {"Acos": np.arccos, "Asin": np.arcsin, "Atan": np.arctan}
 
 
 class LoweringError(ValueError):
@@ -70,10 +73,10 @@ def _function(disassembly: str) -> list[str]:
     return [line.strip() for line in lines[start + 1:end]]
 
 
-def operations(disassembly: str) -> tuple[list[Op], str]:
+def operations(disassembly: str, driver: bool = False) -> tuple[list[Op], str]:
     """(the operations of `main`, the id of the value written to the output), from the text of
-    `spirv-dis` of an optimized fragment shader. Raises LoweringError naming an operation it does
-    not know."""
+    `spirv-dis` of an optimized fragment shader (`driver`: `DRIVER_FUNCTIONS` too). Raises
+    LoweringError naming an operation it does not know."""
     constants = _constants(disassembly)
     halves = set(re.findall(r"(%\S+) = OpTypeFloat 16", disassembly))
     half_constants = {m.group(1): float.fromhex(m.group(3)) if "0x" in m.group(3) else float(m.group(3))
@@ -115,7 +118,7 @@ def operations(disassembly: str) -> tuple[list[Op], str]:
             ops.append(Op(name, "arithmetic", ARITHMETIC[opcode], tuple(use(a) for a in rest[1:]), width=width))
         elif opcode == "OpExtInst":
             function = rest[2]
-            if function not in FUNCTIONS:
+            if function not in FUNCTIONS and not (driver and function in DRIVER_FUNCTIONS):
                 raise LoweringError(f"no lowering for the GLSL.std.450 function {function}")
             ops.append(Op(name, "function", function, tuple(use(a) for a in rest[3:]), width=width))
         elif opcode in COMPARISONS:
@@ -165,7 +168,7 @@ def evaluate(ops: list[Op], result: str, inputs: dict[str, np.ndarray], uniforms
                 values[op.name] = {"FAdd": lambda: a[0] + a[1], "FSub": lambda: a[0] - a[1], "FMul": lambda: a[0] * a[1],
                                    "FDiv": lambda: a[0] / a[1], "FNegate": lambda: -a[0]}[op.op]()
             elif op.kind == "function":
-                values[op.name] = FUNCTIONS[op.op](*a)
+                values[op.name] = (FUNCTIONS | DRIVER_FUNCTIONS)[op.op](*a)
             elif op.kind == "compare":
                 values[op.name] = {"gt": np.greater, "ge": np.greater_equal, "lt": np.less, "le": np.less_equal,
                                    "eq": np.equal, "ne": np.not_equal}[op.op](a[0], a[1])

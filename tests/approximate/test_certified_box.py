@@ -153,6 +153,13 @@ def test_the_roundings_are_the_documented_figures_and_an_unbounded_function_says
                       rounding=spec)
     # (exp2's allowance at x = 1: 3 + 2 ulp of 2, 1.19e-6; the bound proven within 1.25x of it)
     assert done.status == "proven" and 5 * 2 * 2.0 ** -23 <= done.bound <= 1.25 * 5 * 2 * 2.0 ** -23 * (1 + 1e-6)
+    # a driver's own acos: Vulkan's 4096 ulp, at most 4096 ulp of pi / 2 (up to 2^-22 relative: the ulp
+    # bound is |v| 2^-23); lavapipe's own is not bounded (its lowering is Mesa's, not modelled here)
+    t = sp.symbols("t", real=True)
+    done = cb.certify("acos(t)", ["t"], sp.acos(t), [t], [(0.0, 1.0)], rounding=spec, ratio=1.01, same=True)
+    assert done.status == "proven" and 4096 * 2.0 ** -23 * 1.5 < done.bound <= 4096 * 2.0 ** -23 * math.pi / 2 * 1.001
+    done = cb.certify("acos(t)", ["t"], sp.acos(t), [t], [(0.0, 1.0)], same=True)
+    assert done.status == "not bounded" and "Acos" in done.reason and "lavapipe" in done.reason
 
 
 def test_an_excluded_corner_is_left_out_and_the_budget_stops_the_search():
@@ -257,22 +264,30 @@ def test_the_report_flags_bounds_above_1_25x_and_where_the_sampling_missed_by_pl
     assert "planted: proven, bound 0.2, sampled 0.1, largest found 0.16 at (0.5, 0.25)" in loud
 
 
-@pytest.mark.parametrize("precision, power", [("fp32", 5.0), ("fp16", 5.0), ("fp16", 64.0)])
-def test_pow_under_vulkan_s_allowance_bounds_a_driver_that_errs_its_most_at_each_step(precision, power):
+@pytest.mark.parametrize("precision, power, base", [("fp32", 5.0, "x"), ("fp16", 5.0, "x"), ("fp16", 64.0, "x"),
+                                                    ("fp32", 5.0, "1.0 - x")])
+def test_pow_under_vulkan_s_allowance_bounds_a_driver_that_errs_its_most_at_each_step(precision, power, base):
     """pow(x, n) on [0, 1] under Vulkan's allowance (inherited from exp2(n log2 x)): the bound is at
     least the error of a driver whose log2, product and exp2 each err by the most they may, in the
     direction that moves the result furthest (either way), at 20,000 points; and the pointwise bound
     found is within 1.01x of the proven one where proven. log2's allowance is 3 ulp of its result, or
-    its absolute figure in [0.5, 2]; exp2's (a + b |v|) ulp; the product either neighbour."""
+    its absolute figure in [0.5, 2]; exp2's (a + b |v|) ulp; the product either neighbour. With the
+    base 1 - x (exact where x >= 0.5, by Sterbenz's lemma, so never below 0) it is bounded too."""
     t = sp.symbols("x", real=True)
     spec = cb.vulkan(precision)
     unit = {"fp32": 2.0 ** -23, "fp16": 2.0 ** -10}[precision]
-    done = cb.certify(f"pow(x, {power!r})", ["x"], t ** int(power), [t], [(0.0, 1.0)], precision, spec, ratio=1.01)
+    exact = t ** int(power) if base == "x" else (1 - t) ** int(power)
+    done = cb.certify(f"pow({base}, {power!r})", ["x"], exact, [t], [(0.0, 1.0)], precision, spec, ratio=1.01)
     assert done.status in ("proven", "budget") and math.isfinite(done.bound)
     if done.status == "proven":
         assert done.bound <= 1.01 * done.found
     dtype = np.float32 if precision == "fp32" else np.float16
-    x_ = np.linspace(1e-3, 1.0, 20_000).astype(dtype).astype(np.float64)
+    inputs = np.linspace(0.0, 0.999, 20_000).astype(dtype)
+    if base == "x":
+        inputs = inputs[inputs > 0]
+        x_, truth = inputs.astype(np.float64), inputs.astype(np.float64) ** power
+    else:                   # (1 - x in the format: exact where x >= 0.5, rounded once below)
+        x_, truth = (dtype(1.0) - inputs).astype(np.float64), (1.0 - inputs.astype(np.float64)) ** power
     log2, exp2 = spec.functions["log2"], spec.functions["exp2"]
 
     def ulp(v):
@@ -286,5 +301,5 @@ def test_pow_under_vulkan_s_allowance_bounds_a_driver_that_errs_its_most_at_each
         product = power * (exact_log + sign * log_error)
         product = product + sign * ulp(product)
         result = np.exp2(product) * (1 + sign * (exp2.ulps + exp2.ulps_per_x * np.abs(product)) * unit)
-        worst = max(worst, float(np.max(np.abs(result - x_ ** power))))
+        worst = max(worst, float(np.max(np.abs(result - truth))))
     assert worst <= done.bound, (worst, done)

@@ -92,7 +92,9 @@ class Value:
     v: object
     g: list | None
     d: float
-    least: float | None = None      # an input's exact least value over the box (a ball's lower end may lie below it)
+    least: float | None = None      # a float at most the exact value wherever known without a ball's slack
+                                    # (an input's box end; a difference Sterbenz's lemma makes exact)
+    most: float | None = None       # the same from above
 
 
 def _ulp(v, precision: str, ulps: float) -> float:
@@ -105,10 +107,10 @@ def _up(x: float) -> float:
 
 
 def form_pass(ops, result: str, box, inputs: list[str], precision: str, rounding: Rounding,
-              derivatives: bool = True, least: list[float] | None = None) -> Value:
-    """The form's operations over `box` (one arb per name of `inputs`; `least` each input's least
-    value, where known exactly): its exact value, derivatives and rounding bound (module docstring).
-    Raises NotBounded for an operation `rounding` does not bound."""
+              derivatives: bool = True, least: list[float] | None = None, most: list[float] | None = None) -> Value:
+    """The form's operations over `box` (one arb per name of `inputs`; `least` and `most` each
+    input's least and largest value, where known exactly): its exact value, derivatives and rounding
+    bound (module docstring). Raises NotBounded for an operation `rounding` does not bound."""
     count = len(inputs)
     zero = [_arb(0)] * count
     values: dict[str, Value] = {}
@@ -121,10 +123,11 @@ def form_pass(ops, result: str, box, inputs: list[str], precision: str, rounding
         if op.kind == "input":
             i = inputs.index(op.op)
             values[op.name] = Value(box[i], [_arb(1) if j == i else _arb(0) for j in range(count)] if derivatives
-                                    else None, 0.0, least[i] if least is not None else None)
+                                    else None, 0.0, least[i] if least is not None else None,
+                                    most[i] if most is not None else None)
         elif op.kind == "constant":          # (the format's value, as the shader holds it)
             exact = float(np.float16(op.value) if precision == "fp16" or op.width == 16 else np.float32(op.value))
-            values[op.name] = Value(_arb(exact), list(zero) if derivatives else None, 0.0)
+            values[op.name] = Value(_arb(exact), list(zero) if derivatives else None, 0.0, exact, exact)
         elif op.kind == "convert":
             values[op.name] = a[0]
         elif op.kind == "arithmetic":
@@ -180,6 +183,9 @@ def _arithmetic(kind: str, a: list[Value], precision: str, rounding: Rounding, d
         sign = 1 if kind == "FAdd" else -1
         v = x.v + y.v if sign > 0 else x.v - y.v
         g = [p + sign * q for p, q in zip(x.g, y.g)] if x.g is not None and y.g is not None else None
+        if kind == "FSub" and _sterbenz(x, y):      # (exact: either rounding returns it)
+            low, high = _difference(x.least, y.most, -math.inf), _difference(x.most, y.least, math.inf)
+            return Value(v, g, 0.0, low, high)
         d = _up(x.d + y.d)
         return Value(v, g, _up(d + _ulp(v + hull(-d, d), precision, rounding.basic)))
     if kind == "FMul":
@@ -197,6 +203,25 @@ def _arithmetic(kind: str, a: list[Value], precision: str, rounding: Rounding, d
         d = _up((x.d + magnitude(v) * y.d) / math.nextafter(least, 0.0))
         return Value(v, g, _up(d + _ulp(v + hull(-d, d), precision, rounding.division)))
     raise Unsupported(f"{kind} is not bounded")
+
+
+def _sterbenz(x: Value, y: Value) -> bool:
+    """Whether x - y is exact for every pair of the format's values in x and y (Sterbenz's lemma:
+    y / 2 <= x <= 2 y), both computed exactly and their ranges known."""
+    if x.d or y.d or None in (x.least, x.most, y.least, y.most):
+        return False
+    return y.least > 0 and y.most / 2 <= x.least and x.most <= 2 * y.least
+
+
+def _difference(a: float, b: float, toward: float) -> float:
+    """a - b rounded toward `toward` (-inf: a float at most it; inf: at least)."""
+    from fractions import Fraction
+
+    near = a - b
+    exact = Fraction(a) - Fraction(b)
+    if (toward < 0 and Fraction(near) > exact) or (toward > 0 and Fraction(near) < exact):
+        near = math.nextafter(near, toward)
+    return near
 
 
 def _function(kind: str, a: list[Value], precision: str, rounding: Rounding, derivatives: bool) -> Value:
@@ -289,13 +314,28 @@ def _special(name: str, x: Value, precision: str, accuracy) -> Value:
              "inversesqrt": lambda t: -1 / (2 * t * t.sqrt()), "sin": lambda t: t.cos(), "cos": lambda t: -t.sin(),
              "acos": lambda t: -1 / (1 - t * t).sqrt(), "asin": lambda t: 1 / (1 - t * t).sqrt(),
              "atan": lambda t: 1 / (1 + t * t)}[name]
-    v = exact(x.v)
-    steepest = slope(wide)
-    if not (finite(v) and finite(steepest)):
+    if name in ("acos", "asin"):     # (monotone on [-1, 1]: from the argument's ends, a ball's slack past 1 kept out)
+        low = max(lo(x.v), x.least) if x.least is not None else lo(x.v)
+        high = min(hi(x.v), x.most) if x.most is not None else hi(x.v)
+        if low - x.d < -1 or high + x.d > 1:
+            raise NotBounded(f"{name}'s argument may leave [-1, 1] on the box")
+        ends = [exact(arb(low)), exact(arb(high))]
+        v = hull(min(lo(e) for e in ends), max(hi(e) for e in ends))
+        ends = [exact(arb(low - x.d)), exact(arb(high + x.d))]
+        value = hull(min(lo(e) for e in ends), max(hi(e) for e in ends))
+        wide = hull(low - x.d, high + x.d)
+    else:
+        v, value = exact(x.v), exact(wide)
+    if not (finite(v) and finite(value)):
         raise NotBounded(f"{name} is not bounded on the box (its argument reaches where it is not finite)")
-    g = [p * slope(x.v) for p in x.g] if x.g is not None else None
-    propagated = _up(magnitude(steepest) * x.d)
-    value = exact(wide)
+    propagated = 0.0
+    if x.d:         # (an argument computed with an error: its slope over the widened argument carries it)
+        steepest = slope(wide)
+        if not finite(steepest):
+            raise NotBounded(f"{name} is not bounded on the box (its slope is not finite where its argument may be)")
+        propagated = _up(magnitude(steepest) * x.d)
+    inner = slope(x.v)
+    g = [p * inner for p in x.g] if x.g is not None and finite(inner) else None
     argument = magnitude(wide)
     allowed = 0.0
     if accuracy.absolute and lo(wide) <= accuracy.hi and hi(wide) >= accuracy.lo:
@@ -394,7 +434,7 @@ def bound_and_sides(ops, result, inputs, target_expression, symbols, box, precis
         balls = [hull(a, b) for a, b in box]
         try:
             whole = form_pass(ops, result, balls, inputs, precision, rounding, derivatives=False,
-                              least=[a for a, _ in box])
+                              least=[a for a, _ in box], most=[b for _, b in box])
             f, _ = target_pass(target_expression, symbols, balls, derivatives=False)
         except (NotBounded, ZeroDivisionError, ValueError):
             return math.inf, None
@@ -406,7 +446,8 @@ def bound_and_sides(ops, result, inputs, target_expression, symbols, box, precis
 
     balls = [hull(a, b) for a, b in box]
     try:
-        whole = form_pass(ops, result, balls, inputs, precision, rounding, least=[a for a, _ in box])
+        whole = form_pass(ops, result, balls, inputs, precision, rounding, least=[a for a, _ in box],
+                          most=[b for _, b in box])
         f, gf = target_pass(target_expression, symbols, balls)
     except (NotBounded, ZeroDivisionError, ValueError):
         return math.inf, None
@@ -423,7 +464,8 @@ def bound_and_sides(ops, result, inputs, target_expression, symbols, box, precis
         middle = [0.5 * a + 0.5 * b for a, b in box]
         centre = [arb(c) for c in middle]
         try:
-            at = form_pass(ops, result, centre, inputs, precision, rounding, derivatives=False, least=middle)
+            at = form_pass(ops, result, centre, inputs, precision, rounding, derivatives=False, least=middle,
+                           most=middle)
             fc, _ = target_pass(target_expression, symbols, centre, derivatives=False)
         except (NotBounded, ZeroDivisionError, ValueError):
             at = None
@@ -462,7 +504,7 @@ def certify(body: str, inputs: list[str], target_expression, symbols, domain, pr
     from . import certified_arrays
 
     try:
-        ops, result = execution.emulation_program(body, precision, list(inputs))
+        ops, result = execution.emulation_program(body, precision, list(inputs), driver=True)
     except Exception as e:          # (an operation the lowering does not know)
         return Certified(math.inf, found, at, 0, "not bounded", str(e).splitlines()[0][:160])
     try:
@@ -553,7 +595,7 @@ def _why_not(ops, result, inputs, box, precision: str, rounding: Rounding) -> st
     """Why the form is not bounded on `box`, one line."""
     try:
         form_pass(ops, result, [hull(a, b) for a, b in box], list(inputs), precision, rounding, derivatives=False,
-                  least=[a for a, _ in box])
+                  least=[a for a, _ in box], most=[b for _, b in box])
     except NotBounded as e:
         return f"{e} (at {', '.join(f'[{a:.4g}, {b:.4g}]' for a, b in box)})"
     return f"its error is not finite at {', '.join(f'[{a:.4g}, {b:.4g}]' for a, b in box)}"
