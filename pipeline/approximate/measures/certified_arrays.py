@@ -290,8 +290,11 @@ def _function(kind: str, a: list[Value], precision: str, rounding: Rounding, der
 
 
 def target_pass(expression, symbols, box: list[Interval], derivatives: bool = True):
-    """(the target's value over each box, its partial derivatives), the sympy tree walked in intervals."""
+    """(the target's value over each box, its partial derivatives), the sympy tree walked in intervals
+    (`target_tree.forward`)."""
     import sympy as sp
+
+    from .target_tree import forward
 
     count, shape = len(symbols), box[0].lo.shape
     zero = np.zeros(shape)
@@ -300,48 +303,41 @@ def target_pass(expression, symbols, box: list[Interval], derivatives: bool = Tr
         c = Interval.point(zero + value)
         return c if exact else Interval(down(c.lo), up(c.hi))
 
-    def walk(e):
-        if e.is_Symbol:
-            i = symbols.index(e)
-            return box[i], [Interval.point(zero + (j == i)) for j in range(count)]
+    def variable(e):
+        i = symbols.index(e)
+        return box[i], [Interval.point(zero + (j == i)) for j in range(count)]
+
+    def number(e):
         if e.is_Rational:
             p, q = int(e.p), int(e.q)
-            value = p / q
-            exact = q & (q - 1) == 0 and abs(p) < 2 ** 53
-            return constant(value, exact), [Interval.point(zero)] * count
-        if e.is_Float:
-            return constant(float(e), True), [Interval.point(zero)] * count
-        if e.is_Add:
-            value, g = walk(e.args[0])
-            for t in e.args[1:]:
-                v, h = walk(t)
-                value, g = value + v, [p + q for p, q in zip(g, h)]
-            return value, g
-        if e.is_Mul:
-            value, g = walk(e.args[0])
-            for t in e.args[1:]:
-                v, h = walk(t)
-                value, g = value * v, [p * v + value * q for p, q in zip(g, h)]
-            return value, g
-        if e.is_Pow:
-            base, power = e.args
-            b, gb = walk(base)
-            if power.is_Integer:
-                n = int(power)
-                value = _power(b, abs(n))
-                slope = _power(b, abs(n) - 1) * float(abs(n))
-                if n < 0:
-                    value = Interval.point(zero + 1.0) / value
-                    slope = -(slope * value * value)
-                return value, [slope * p for p in gb]
-            root = b.sqrt()
-            if power == sp.Rational(1, 2):
-                return root, [p / (root + root) for p in gb]
+            value = constant(p / q, q & (q - 1) == 0 and abs(p) < 2 ** 53)
+        elif e.is_Float:
+            value = constant(float(e), True)
+        else:
+            raise Unsupported(f"the target's {e} is not bounded by {__name__}")
+        return value, [Interval.point(zero)] * count
+
+    def power(b, gb, exponent, walk):
+        if exponent.is_Integer:
+            n = int(exponent)
+            value = _power(b, abs(n))
+            slope = _power(b, abs(n) - 1) * float(abs(n))
+            if n < 0:
+                value = Interval.point(zero + 1.0) / value
+                slope = -(slope * value * value)
+            return value, [slope * p for p in gb]
+        root = b.sqrt()
+        if exponent == sp.Rational(1, 2):
+            return root, [p / (root + root) for p in gb]
+        if exponent == sp.Rational(-1, 2):
             inverse = Interval.point(zero + 1.0) / root
             return inverse, [-(p * inverse / (b + b)) for p in gb]
+        raise Unsupported(f"the target's power {exponent} is not bounded by {__name__}")
+
+    def function(e, v, g):
         raise Unsupported(f"the target's {e.func.__name__} is not bounded by {__name__}")
 
-    value, g = walk(expression)
+    value, g = forward(expression, variable, number, power, function)
     return value, (g if derivatives else None)
 
 

@@ -353,62 +353,55 @@ def target_pass(expression, symbols, box, derivatives: bool = True):
     import sympy as sp
     from flint import arb
 
+    from .target_tree import forward
+
     count = len(symbols)
 
-    def walk(e):
-        if e.is_Symbol:
-            i = symbols.index(e)
-            return box[i], [arb(1) if j == i else arb(0) for j in range(count)]
-        if e.is_Number:
-            if e.is_Rational:
-                value = arb(int(e.p)) / arb(int(e.q))
-            else:
-                value = arb(float(e))
-            return value, [arb(0)] * count
-        if e is sp.pi:
-            return arb.pi(), [arb(0)] * count
-        if e is sp.E:
-            return arb(1).exp(), [arb(0)] * count
-        if e.is_Add:
-            value, g = walk(e.args[0])
-            for t in e.args[1:]:
-                v, h = walk(t)
-                value, g = value + v, [p + q for p, q in zip(g, h)]
-            return value, g
-        if e.is_Mul:
-            value, g = walk(e.args[0])
-            for t in e.args[1:]:
-                v, h = walk(t)
-                value, g = value * v, [p * v + value * q for p, q in zip(g, h)]
-            return value, g
-        if e.is_Pow:
-            base, power = e.args
-            b, gb = walk(base)
-            if power.is_Integer:
-                n = int(power)
-                value = b ** n if n >= 0 else 1 / (b ** (-n))
-                return value, [n * (b ** (n - 1) if n >= 1 else 1 / b ** (1 - n)) * p for p in gb]
-            if power in (sp.Rational(1, 2), sp.Rational(-1, 2)):
-                root = (b if lo(b) >= 0 else b.nonnegative_part()).sqrt()
-                if power > 0:
-                    return root, [p / (2 * root) for p in gb]
-                return 1 / root, [-p / (2 * b * root) for p in gb]
-            q, gq = walk(power)
-            value = (q * b.log()).exp()
-            return value, [value * (hq * b.log() + q * hb / b) for hb, hq in zip(gb, gq)]
-        functions = {sp.exp: (lambda t: t.exp(), lambda t: t.exp()), sp.log: (lambda t: t.log(), lambda t: 1 / t),
-                     sp.sin: (lambda t: t.sin(), lambda t: t.cos()), sp.cos: (lambda t: t.cos(), lambda t: -t.sin()),
-                     sp.acos: (lambda t: t.acos(), lambda t: -1 / (1 - t * t).sqrt()),
-                     sp.asin: (lambda t: t.asin(), lambda t: 1 / (1 - t * t).sqrt()),
-                     sp.atan: (lambda t: t.atan(), lambda t: 1 / (1 + t * t)),
-                     sp.tan: (lambda t: t.tan(), lambda t: 1 / (t.cos() * t.cos()))}
-        if e.func in functions:
-            value_of, slope_of = functions[e.func]
-            v, g = walk(e.args[0])
-            return value_of(v), [slope_of(v) * p for p in g]
-        raise Unsupported(f"the target's {e.func.__name__} is not bounded")
+    def variable(e):
+        i = symbols.index(e)
+        return box[i], [arb(1) if j == i else arb(0) for j in range(count)]
 
-    value, g = walk(expression)
+    def number(e):
+        if e is sp.pi:
+            value = arb.pi()
+        elif e is sp.E:
+            value = arb(1).exp()
+        elif e.is_Rational:
+            value = arb(int(e.p)) / arb(int(e.q))
+        elif e.is_Number:
+            value = arb(float(e))
+        else:
+            raise Unsupported(f"the target's {e} is not bounded")
+        return value, [arb(0)] * count
+
+    def power(b, gb, exponent, walk):
+        if exponent.is_Integer:
+            n = int(exponent)
+            value = b ** n if n >= 0 else 1 / (b ** (-n))
+            return value, [n * (b ** (n - 1) if n >= 1 else 1 / b ** (1 - n)) * p for p in gb]
+        if exponent in (sp.Rational(1, 2), sp.Rational(-1, 2)):
+            root = (b if lo(b) >= 0 else b.nonnegative_part()).sqrt()
+            if exponent > 0:
+                return root, [p / (2 * root) for p in gb]
+            return 1 / root, [-p / (2 * b * root) for p in gb]
+        q, gq = walk(exponent)
+        value = (q * b.log()).exp()
+        return value, [value * (hq * b.log() + q * hb / b) for hb, hq in zip(gb, gq)]
+
+    functions = {sp.exp: (lambda t: t.exp(), lambda t: t.exp()), sp.log: (lambda t: t.log(), lambda t: 1 / t),
+                 sp.sin: (lambda t: t.sin(), lambda t: t.cos()), sp.cos: (lambda t: t.cos(), lambda t: -t.sin()),
+                 sp.acos: (lambda t: t.acos(), lambda t: -1 / (1 - t * t).sqrt()),
+                 sp.asin: (lambda t: t.asin(), lambda t: 1 / (1 - t * t).sqrt()),
+                 sp.atan: (lambda t: t.atan(), lambda t: 1 / (1 + t * t)),
+                 sp.tan: (lambda t: t.tan(), lambda t: 1 / (t.cos() * t.cos()))}
+
+    def function(e, v, g):
+        if e.func not in functions or len(e.args) != 1:
+            raise Unsupported(f"the target's {e.func.__name__} is not bounded")
+        value_of, slope_of = functions[e.func]
+        return value_of(v), [slope_of(v) * p for p in g]
+
+    value, g = forward(expression, variable, number, power, function)
     return value, (g if derivatives else None)
 
 
